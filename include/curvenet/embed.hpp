@@ -1,0 +1,95 @@
+#pragma once
+/// \file embed.hpp
+/// Embedding a Curvenet in a mesh: sample the profiles, place them on the
+/// surface, cut the mesh along them, and partition it into regions.
+
+#include "curvenet/rig.hpp"
+#include "curvenet/surface_mesh.hpp"
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace curvenet {
+
+struct EmbedOptions {
+  /// Samples per mean edge length of the target mesh (the thesis's rho):
+  /// a profile of length L gets n = max(2, ceil(density * L / h)) samples.
+  double density = 5.0;
+  /// Overrides the rig's coverage when set.
+  std::optional<Coverage> coverage;
+  /// Called with a stage name and the fraction done, for progress display.
+  std::function<void(std::string_view stage, double fraction)> progress;
+};
+
+/// One region of the partition. Its identity does not depend on the mesh:
+/// the sorted set of (profile id, side) pairs on its boundary, where side is
+/// 'L' when the region lies left of the profile's direction (seen from
+/// outside the surface) and 'R' when it lies right of it.
+struct RegionInfo {
+  std::vector<std::pair<std::string, char>> boundary;
+  int faces = 0;    ///< cut-mesh faces
+  double area = 0;  ///< surface area
+  int colour = 0;   ///< preview colour index; adjacent regions differ
+  [[nodiscard]] std::string key() const; ///< "a:L|b:R", or "" for no boundary
+};
+
+struct EmbedReport {
+  bool ok = false;
+  Coverage coverage = Coverage::Full;  ///< the mode used (never Auto)
+  int logical_nodes = 0;
+  int profiles = 0;
+  int components = 0;        ///< connected components of the net (C)
+  int mesh_components = 0;   ///< connected components of the mesh
+  int closed_components = 0; ///< closed ones among them (K)
+  int regions = 0;
+  std::optional<int> expected_regions; ///< empty on a surface of higher genus
+  int mapped_faces = 0;      ///< cut-mesh faces that belong to a region
+  int unmapped_faces = 0;    ///< cut-mesh faces in no region and not outside
+  int outside_faces = 0;     ///< local coverage: faces outside the net
+  int physical_nodes = 0;    ///< node vertices in the cut mesh
+  int cut_vertices = 0;
+  int cut_faces = 0;
+  int input_vertices = 0;
+  int input_faces = 0;
+  int samples = 0;           ///< profile samples placed on the surface
+  int crossings = 0;         ///< edge crossings and vertex hits cut into the mesh
+  std::vector<std::pair<std::string, double>> timings_ms; ///< one entry per stage
+  std::vector<std::string> problems; ///< why ok is false, one line each
+  std::vector<std::string> notes;    ///< repairs and remarks
+  std::vector<RegionInfo> region_list;
+};
+
+/// The result of embedding one rig in one mesh. Cheap to copy (shared).
+class Embedding {
+public:
+  struct Impl;
+  explicit Embedding(std::shared_ptr<const Impl> impl);
+
+  [[nodiscard]] const EmbedReport& report() const;
+  /// The report as JSON text (see docs/cli.md for the keys).
+  [[nodiscard]] std::string report_json() const;
+  /// The cut mesh as OBJ: polygons, plus one `l` polyline per CutChain.
+  [[nodiscard]] std::string cut_mesh_obj() const;
+  /// The cut mesh as ASCII PLY with one colour per face, graph-coloured by region.
+  [[nodiscard]] std::string regions_ply() const;
+  /// Region index of each cut-mesh face: -1 outside a local net.
+  [[nodiscard]] const std::vector<int>& face_regions() const;
+  [[nodiscard]] const Impl& impl() const { return *impl_; }
+
+private:
+  std::shared_ptr<const Impl> impl_;
+};
+
+/// Embeds `rig` in `mesh`.
+/// \throw EmbedError when a profile cannot be placed on the surface, or when
+///   two profiles cross away from a node (the message names both).
+/// \note A completed embedding whose region count is wrong is not an error:
+///   its report has ok == false and lists the problems.
+Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options = {});
+
+} // namespace curvenet

@@ -1,0 +1,42 @@
+#pragma once
+/// \file io.hpp
+/// Reading and writing meshes and rig files. Every reader validates its input
+/// and throws InputError naming the file and the element at fault. Every
+/// writer writes to a temporary file and renames it, so a failed write never
+/// leaves a partial file behind.
+
+#include "curvenet/rig.hpp"
+#include "curvenet/surface_mesh.hpp"
+
+#include <string>
+
+namespace curvenet {
+
+/// Reads OBJ (tinyobjloader), glTF/GLB (tinygltf), and PLY, OFF or FBX
+/// (assimp), then validates and welds it (make_surface_mesh).
+/// \throw InputError for an unreadable file or an invalid mesh.
+SurfaceMesh load_mesh(const std::string& path);
+
+/// Reads the polygons of a mesh file without validating them.
+/// \throw InputError for an unreadable file.
+RawMesh read_raw_mesh(const std::string& path);
+
+/// Reads and validates a rig file (`*.cnrig.json`).
+/// \throw InputError with the JSON path of the fault, e.g. `/nodes/4/id`.
+Rig read_rig(const std::string& path);
+/// Parses a rig from JSON text; `source` names it in messages.
+Rig parse_rig(const std::string& text, const std::string& source);
+/// Serialises a rig as JSON text, in the format that read_rig reads.
+std::string rig_to_json(const Rig& rig);
+/// Writes a rig file atomically.
+void write_rig(const Rig& rig, const std::string& path);
+
+/// Writes `contents` to `path` through a temporary file and a rename.
+/// \throw Error when the file cannot be written.
+void write_file_atomic(const std::string& path, const std::string& contents);
+
+/// Writes a polygon mesh as OBJ with 17 significant digits.
+std::string mesh_to_obj(const std::vector<Vec3>& positions, const std::vector<int>& face_offsets,
+                        const std::vector<int>& face_vertices);
+
+} // namespace curvenet

@@ -1,0 +1,29 @@
+#pragma once
+// The one place for numerical tolerances. Each is relative and is scaled by
+// the model's bounding-box diagonal, so a hand in metres and a tube in
+// centimetres behave the same. Combinatorial decisions never use these: they
+// use the exact predicates in predicates.hpp.
+
+namespace curvenet::detail {
+
+struct Tolerances {
+  /// A node closer than this to a mesh vertex or edge is placed on it, so that
+  /// no sliver face of near-zero area is cut next to it.
+  static constexpr double node_snap_rel = 1e-7;
+  /// Walking the surface between two samples stops with an error when the
+  /// path grows longer than this many times the straight distance plus a few
+  /// mean edge lengths (the walk has left the intended part of the surface).
+  static constexpr double walk_length_factor = 8.0;
+  static constexpr double walk_length_edges = 4.0;
+
+  double diagonal = 1.0;
+  [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
+
+  static Tolerances for_model(double bbox_diagonal) {
+    Tolerances t;
+    t.diagonal = bbox_diagonal > 0 ? bbox_diagonal : 1.0;
+    return t;
+  }
+};
+
+} // namespace curvenet::detail

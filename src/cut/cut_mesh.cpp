@@ -1,0 +1,309 @@
+#include "cut/cut_mesh.hpp"
+
+#include "core/predicates.hpp"
+#include "curvenet/errors.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <map>
+#include <unordered_map>
+
+namespace curvenet::detail {
+
+Halfedge CutMesh::new_edge(Vertex a, Vertex b, int edge_origin) {
+  const int h = num_halfedges();
+  to_.push_back(b);
+  to_.push_back(a);
+  next_.resize(h + 2);
+  prev_.resize(h + 2);
+  face_.resize(h + 2);
+  tag_.resize(h + 2);
+  edge_origin_.push_back(edge_origin);
+  return Halfedge(h);
+}
+
+CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
+  CutMesh m;
+  const int nv = mesh.num_vertices();
+  m.position_ = mesh.positions;
+  m.vertex_origin_.resize(nv);
+  for (int v = 0; v < nv; ++v) m.vertex_origin_[v] = {VertexOrigin::Kind::Input, v, 0};
+  m.vertex_halfedge_.assign(nv, Halfedge());
+  std::unordered_map<long long, int> edge_of;
+  auto key = [nv](int a, int b) { return static_cast<long long>(std::min(a, b)) * nv + std::max(a, b); };
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    auto c = mesh.face(f);
+    const int n = static_cast<int>(c.size());
+    std::vector<Halfedge> loop;
+    for (int i = 0; i < n; ++i) {
+      const int a = c[i], b = c[(i + 1) % n];
+      auto [it, fresh] = edge_of.emplace(key(a, b), m.num_edges());
+      if (fresh) m.new_edge(Vertex(a), Vertex(b), it->second);
+      Halfedge h(2 * it->second);
+      if (m.to(h) != Vertex(b)) h = twin(h);
+      if (m.face_[h.idx].is_valid()) throw TopologyError("input edge used twice in one direction");
+      m.face_[h.idx] = Face(f);
+      loop.push_back(h);
+    }
+    for (int i = 0; i < n; ++i) {
+      m.next_[loop[i].idx] = loop[(i + 1) % n];
+      m.prev_[loop[(i + 1) % n].idx] = loop[i];
+    }
+    m.face_halfedge_.push_back(loop[0]);
+    m.face_origin_.push_back(f);
+  }
+  m.frame_.resize(m.face_halfedge_.size());
+  // Boundary loops and vertex half-edges (a boundary one where there is one).
+  std::vector<Halfedge> boundary_out(nv);
+  for (int h = 0; h < m.num_halfedges(); ++h) {
+    const Vertex a = m.from(Halfedge(h));
+    if (!m.face_[h].is_valid()) boundary_out[a.idx] = Halfedge(h);
+    if (!m.vertex_halfedge_[a.idx].is_valid()) m.vertex_halfedge_[a.idx] = Halfedge(h);
+  }
+  for (int h = 0; h < m.num_halfedges(); ++h) {
+    if (m.face_[h].is_valid()) continue;
+    const Halfedge n = boundary_out[m.to(Halfedge(h)).idx];
+    m.next_[h] = n;
+    m.prev_[n.idx] = Halfedge(h);
+  }
+  for (int v = 0; v < nv; ++v)
+    if (boundary_out[v].is_valid()) m.vertex_halfedge_[v] = boundary_out[v];
+  return m;
+}
+
+void CutMesh::set_tag(Halfedge h, CurveTag t) {
+  tag_[h.idx] = t;
+  tag_[h.idx ^ 1] = CurveTag{t.profile, !t.forward};
+}
+
+std::vector<Halfedge> CutMesh::face_loop(Face f) const {
+  std::vector<Halfedge> loop;
+  const Halfedge start = face_halfedge_[f.idx];
+  Halfedge h = start;
+  do {
+    loop.push_back(h);
+    h = next(h);
+    if (static_cast<int>(loop.size()) > num_halfedges()) throw TopologyError("face loop does not close");
+  } while (h != start);
+  return loop;
+}
+
+std::vector<Halfedge> CutMesh::outgoing(Vertex v) const {
+  std::vector<Halfedge> out;
+  const Halfedge start = vertex_halfedge_[v.idx];
+  if (!start.is_valid()) return out;
+  Halfedge h = start;
+  do {
+    out.push_back(h);
+    h = next(twin(h));
+    if (static_cast<int>(out.size()) > num_halfedges()) throw TopologyError("vertex rotation does not close");
+  } while (h != start);
+  return out;
+}
+
+Eigen::Vector3d CutMesh::face_normal(Face f) const {
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  for (Halfedge h : face_loop(f)) n += position(from(h)).cross(position(to(h)));
+  return n;
+}
+
+double CutMesh::face_area(Face f) const { return 0.5 * face_normal(f).norm(); }
+
+Vertex CutMesh::split_edge(Halfedge h, const Eigen::Vector3d& pos, const VertexOrigin& origin) {
+  const Vertex v(num_vertices());
+  position_.push_back(pos);
+  vertex_origin_.push_back(origin);
+  vertex_halfedge_.emplace_back();
+  const Halfedge t = twin(h);
+  const Vertex w = to(h);
+  const Halfedge hn = next(h), tp = prev(t);
+  const Halfedge n = new_edge(v, w, edge_origin_[h.idx / 2]); // n: v -> w, twin(n): w -> v
+  const Halfedge nt = twin(n);
+  to_[h.idx] = v; // h: u -> v; t keeps to() == u and now starts at v
+  // Face of h: ... h -> n -> hn ...
+  face_[n.idx] = face_[h.idx];
+  next_[h.idx] = n; prev_[n.idx] = h;
+  next_[n.idx] = hn; prev_[hn.idx] = n;
+  // Face of t: ... tp -> nt -> t ...
+  face_[nt.idx] = face_[t.idx];
+  next_[tp.idx] = nt; prev_[nt.idx] = tp;
+  next_[nt.idx] = t; prev_[t.idx] = nt;
+  tag_[n.idx] = tag_[h.idx];
+  tag_[nt.idx] = tag_[t.idx];
+  if (vertex_halfedge_[w.idx] == t) vertex_halfedge_[w.idx] = nt;
+  vertex_halfedge_[v.idx] = is_boundary(t) ? t : n;
+  return v;
+}
+
+Vertex CutMesh::add_isolated_vertex(const Eigen::Vector3d& pos, const VertexOrigin& origin) {
+  position_.push_back(pos);
+  vertex_origin_.push_back(origin);
+  vertex_halfedge_.emplace_back();
+  return Vertex(num_vertices() - 1);
+}
+
+Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
+  const Frame& fr = frame_[f.idx];
+  const Eigen::Vector3d d = p - fr.o;
+  return {d.dot(fr.u), d.dot(fr.v)};
+}
+
+std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> chords) {
+  const std::vector<Halfedge> loop = face_loop(f);
+  {
+    // Fix the face's plane frame once; its pieces inherit it.
+    Frame& fr = frame_[f.idx];
+    if (fr.u.size() == 0 || fr.u.isZero()) {
+      Eigen::Vector3d n = face_normal(f).normalized();
+      fr.o = position(from(loop[0]));
+      Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+      fr.u = n.cross(a).normalized();
+      fr.v = n.cross(fr.u);
+    }
+  }
+  struct Spoke {
+    Vertex other;
+    Halfedge out; // invalid: the outside of the face (incoming boundary only)
+  };
+  std::map<int, std::vector<Spoke>> spokes;
+  std::vector<Halfedge> local;
+  for (Halfedge h : loop) {
+    if (spokes.count(from(h).idx) && !spokes[from(h).idx].empty() &&
+        std::any_of(spokes[from(h).idx].begin(), spokes[from(h).idx].end(), [](const Spoke& s) { return s.out.is_valid(); }))
+      throw TopologyError("subdivide_face: face " + std::to_string(f.idx) + " visits a vertex twice");
+    spokes[from(h).idx].push_back({to(h), h});
+    spokes[to(h).idx].push_back({from(h), Halfedge()});
+    local.push_back(h);
+  }
+  std::vector<Halfedge> result;
+  for (const Chord& c : chords) {
+    const Halfedge h = new_edge(c.a, c.b, -1);
+    set_tag(h, c.tag);
+    spokes[c.a.idx].push_back({c.b, h});
+    spokes[c.b.idx].push_back({c.a, twin(h)});
+    local.push_back(h);
+    local.push_back(twin(h));
+    result.push_back(h);
+  }
+  // Sort each vertex's spokes counter-clockwise by exact angle comparisons.
+  for (auto& [vi, list] : spokes) {
+    const Eigen::Vector2d c = to_face_plane(f, position_[vi]);
+    std::vector<Eigen::Vector2d> pts;
+    for (const Spoke& s : list) pts.push_back(to_face_plane(f, position(s.other)));
+    auto upper = [&](const Eigen::Vector2d& p) { return !(p.y() < c.y() || (p.y() == c.y() && p.x() < c.x())); };
+    std::vector<int> order(list.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+      const bool ua = upper(pts[a]), ub = upper(pts[b]);
+      if (ua != ub) return ua;
+      return orient2d(c, pts[a], pts[b]) > 0;
+    });
+    std::vector<Spoke> sorted;
+    for (int i : order) sorted.push_back(list[i]);
+    list = std::move(sorted);
+  }
+  // next(h) for h arriving at v from u: the spoke just clockwise of u's.
+  std::unordered_map<int, Halfedge> next_of;
+  for (Halfedge h : local) {
+    const Vertex u = from(h), v = to(h);
+    const auto& list = spokes[v.idx];
+    const bool on_loop = std::find(loop.begin(), loop.end(), h) != loop.end();
+    int at = -1;
+    for (size_t i = 0; i < list.size(); ++i)
+      if (list[i].out.is_valid() ? list[i].out == twin(h) : (on_loop && list[i].other == u)) at = static_cast<int>(i);
+    if (at < 0) throw TopologyError("subdivide_face: missing spoke");
+    const Spoke& cw = list[(at + list.size() - 1) % list.size()];
+    if (!cw.out.is_valid())
+      throw EmbedError("cut: a profile segment leaves input face " + std::to_string(face_origin_[f.idx]) +
+                       " (cut face " + std::to_string(f.idx) + ") at vertex " + std::to_string(v.idx));
+    next_of[h.idx] = cw.out;
+  }
+  // Trace the new loops.
+  std::unordered_map<int, char> seen;
+  bool first = true;
+  const int origin = face_origin_[f.idx];
+  const Frame frame = frame_[f.idx];
+  for (Halfedge start : local) {
+    if (seen[start.idx]) continue;
+    std::vector<Halfedge> piece;
+    Halfedge h = start;
+    do {
+      if (seen[h.idx]) throw EmbedError("cut: the profile segments in input face " + std::to_string(origin) + " do not form simple faces");
+      seen[h.idx] = 1;
+      piece.push_back(h);
+      h = next_of.at(h.idx);
+    } while (h != start);
+    double area2 = 0;
+    for (Halfedge g : piece) {
+      const Eigen::Vector2d p = to_face_plane(f, position(from(g))), q = to_face_plane(f, position(to(g)));
+      area2 += p.x() * q.y() - p.y() * q.x();
+    }
+    if (!(area2 > 0))
+      throw EmbedError("cut: profile segments inside input face " + std::to_string(origin) +
+                       " do not reach its boundary or cross it (a piece with no positive area)");
+    Face pf = f;
+    if (!first) {
+      pf = Face(num_faces());
+      face_halfedge_.emplace_back();
+      face_origin_.push_back(origin);
+      frame_.push_back(frame);
+    }
+    first = false;
+    face_halfedge_[pf.idx] = piece[0];
+    for (size_t i = 0; i < piece.size(); ++i) {
+      face_[piece[i].idx] = pf;
+      next_[piece[i].idx] = piece[(i + 1) % piece.size()];
+      prev_[piece[(i + 1) % piece.size()].idx] = piece[i];
+    }
+  }
+  for (const Chord& c : chords)
+    for (Vertex v : {c.a, c.b})
+      if (!vertex_halfedge_[v.idx].is_valid()) {
+        for (Halfedge h : result) {
+          if (from(h) == v) vertex_halfedge_[v.idx] = h;
+          if (to(h) == v) vertex_halfedge_[v.idx] = twin(h);
+        }
+      }
+  return result;
+}
+
+std::optional<std::string> CutMesh::validate() const {
+  const int nh = num_halfedges();
+  auto he = [](int h) { return "half-edge " + std::to_string(h); };
+  for (int h = 0; h < nh; ++h) {
+    const Halfedge H(h);
+    if (!to_[h].is_valid() || to_[h].idx >= num_vertices()) return he(h) + ": invalid target vertex";
+    if (to_[h] == to_[h ^ 1]) return he(h) + ": both ends are the same vertex";
+    if (!next_[h].is_valid() || !prev_[h].is_valid()) return he(h) + ": next or prev missing";
+    if (prev(next(H)) != H) return he(h) + ": prev(next(h)) != h";
+    if (next(prev(H)) != H) return he(h) + ": next(prev(h)) != h";
+    if (from(next(H)) != to(H)) return he(h) + ": next(h) does not start where h ends";
+    if (face(next(H)) != face(H)) return he(h) + ": next(h) lies in another face";
+    if (face(H).is_valid() && face(H).idx >= num_faces()) return he(h) + ": invalid face";
+    const CurveTag a = tag_[h], b = tag_[h ^ 1];
+    if (a.profile != b.profile || (a.is_curve() && a.forward == b.forward)) return he(h) + ": curve tag differs from its twin's";
+  }
+  std::vector<int> count(num_faces(), 0);
+  for (int h = 0; h < nh; ++h)
+    if (face_[h].is_valid()) count[face_[h].idx]++;
+  for (int f = 0; f < num_faces(); ++f) {
+    const Halfedge start = face_halfedge_[f];
+    if (!start.is_valid() || face(start) != Face(f)) return "face " + std::to_string(f) + ": its half-edge lies in another face";
+    int n = 0;
+    Halfedge h = start;
+    do {
+      if (face(h) != Face(f)) return "face " + std::to_string(f) + ": loop leaves the face";
+      h = next(h);
+      if (++n > nh) return "face " + std::to_string(f) + ": loop does not close";
+    } while (h != start);
+    if (n != count[f]) return "face " + std::to_string(f) + ": " + std::to_string(count[f] - n) + " half-edges are not on its loop";
+    if (n < 2) return "face " + std::to_string(f) + ": fewer than 2 half-edges";
+  }
+  for (int v = 0; v < num_vertices(); ++v) {
+    const Halfedge h = vertex_halfedge_[v];
+    if (h.is_valid() && from(h) != Vertex(v)) return "vertex " + std::to_string(v) + ": its half-edge starts elsewhere";
+  }
+  return std::nullopt;
+}
+
+} // namespace curvenet::detail

@@ -1,0 +1,49 @@
+#pragma once
+// Stage "cut": insert the nodes, split the crossed edges in order along each
+// edge, then split every crossed face along its profile segments. Builds one
+// CutChain per profile.
+
+#include "cut/cut_mesh.hpp"
+#include "trace/tracer.hpp"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace curvenet::detail {
+
+/// The physical representation of one profile: its ordered cut vertices and
+/// the half-edges between them, all running in the profile's direction.
+struct CutChain {
+  std::vector<Vertex> vertices;    ///< #halfedges + 1
+  std::vector<Halfedge> halfedges; ///< to(h[i]) == from(h[i+1])
+};
+
+struct CutInput {
+  std::vector<std::string> node_ids;
+  std::vector<SurfacePoint> node_points;
+  std::vector<std::string> profile_ids;
+  std::vector<int> profile_from, profile_to; ///< node indices
+  std::vector<TracedProfile> traces;
+};
+
+struct CutResult {
+  std::vector<CutChain> chains;     ///< one per profile
+  std::vector<Vertex> node_vertex;  ///< per node; invalid for a node no profile uses
+  int crossings = 0;
+};
+
+/// Cuts `mesh` (fresh from CutMesh::from_surface) along the traced profiles.
+/// `after_mutation`, when set, is called after every topological edit (tests
+/// use it to run the validator).
+/// \throw EmbedError when two profiles cross or touch away from a node, or
+///   run along the same edge, naming both profiles and the face or edge.
+CutResult cut_mesh(CutMesh& mesh, const TraceMesh& trace, const CutInput& input,
+                   const std::function<void()>& after_mutation = {});
+
+/// Checks every CutChain against the mesh: continuity, endpoints at the
+/// node vertices, tags that name the chain's profile. Returns the first
+/// fault, or nothing.
+std::optional<std::string> validate_chains(const CutMesh& mesh, const CutInput& input, const CutResult& cut);
+
+} // namespace curvenet::detail

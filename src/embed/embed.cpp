@@ -1,0 +1,264 @@
+// The embedding pipeline: sample -> project and trace -> cut -> regions.
+
+#include "curvenet/embed.hpp"
+#include "curvenet/errors.hpp"
+#include "embed/embedding_impl.hpp"
+#include "sample/sampling.hpp"
+#include "trace/tracer.hpp"
+
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <iomanip>
+#include <numeric>
+#include <sstream>
+
+namespace curvenet {
+
+using namespace detail;
+
+std::string RegionInfo::key() const {
+  std::string k;
+  for (const auto& [id, side] : boundary) {
+    if (!k.empty()) k += '|';
+    k += id + ':' + side;
+  }
+  return k;
+}
+
+Embedding::Embedding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+const EmbedReport& Embedding::report() const { return impl_->report; }
+const std::vector<int>& Embedding::face_regions() const { return impl_->regions.face_region; }
+
+namespace {
+
+class Stopwatch {
+public:
+  explicit Stopwatch(EmbedReport& r) : report_(r), start_(std::chrono::steady_clock::now()) {}
+  void lap(const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    report_.timings_ms.emplace_back(stage, std::chrono::duration<double, std::milli>(now - start_).count());
+    start_ = now;
+  }
+
+private:
+  EmbedReport& report_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+Vec3 apply(const Mat4& m, const Vec3& p) { return (m * p.homogeneous()).head<3>(); }
+
+int net_components(const Rig& rig) {
+  std::vector<int> parent(rig.nodes.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const auto& p : rig.profiles) parent[find(rig.node_index(p.from))] = find(rig.node_index(p.to));
+  int c = 0;
+  for (size_t i = 0; i < parent.size(); ++i) c += find(static_cast<int>(i)) == static_cast<int>(i);
+  return c;
+}
+
+} // namespace
+
+Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options) {
+  auto impl = std::make_shared<Embedding::Impl>();
+  EmbedReport& rep = impl->report;
+  auto progress = [&](std::string_view stage, double f) {
+    if (options.progress) options.progress(stage, f);
+  };
+  Stopwatch clock(rep);
+  const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
+  const double h = mesh.mean_edge_length();
+  rep.input_vertices = mesh.num_vertices();
+  rep.input_faces = mesh.num_faces();
+  rep.logical_nodes = static_cast<int>(rig.nodes.size());
+  rep.profiles = static_cast<int>(rig.profiles.size());
+  rep.components = net_components(rig);
+  rep.notes = mesh.notes;
+
+  std::vector<int> face_component;
+  const auto comps = mesh_components(mesh, &face_component);
+  rep.mesh_components = static_cast<int>(comps.size());
+  bool all_closed = true, higher_genus = false;
+  for (const auto& c : comps) {
+    rep.closed_components += c.closed;
+    all_closed = all_closed && c.closed;
+    higher_genus = higher_genus || (c.closed && c.genus() != 0);
+  }
+  Coverage cov = options.coverage.value_or(rig.coverage);
+  if (cov == Coverage::Auto) cov = all_closed ? Coverage::Full : Coverage::Local;
+  rep.coverage = cov;
+  const int V = rep.logical_nodes, E = rep.profiles, C = rep.components, K = rep.closed_components;
+  if (!higher_genus) rep.expected_regions = cov == Coverage::Full ? C + K - V + E : E - V + C;
+
+  // Build the surface structures.
+  impl->cut = CutMesh::from_surface(mesh);
+  TraceMesh tm(mesh, impl->cut);
+  clock.lap("bvh");
+
+  // Nodes and samples, in the mesh's object space.
+  CutInput& in = impl->input;
+  for (const auto& n : rig.nodes) {
+    in.node_ids.push_back(n.id);
+    in.node_points.push_back(place_node(tm, apply(rig.frame, n.position), tol));
+  }
+  const int np = static_cast<int>(rig.profiles.size());
+  std::vector<TraceInput> tin(np);
+  impl->sample_t.resize(np);
+  for (int p = 0; p < np; ++p) {
+    const Profile& pr = rig.profiles[p];
+    Curve curve = pr.curve;
+    for (auto& q : curve.points) q = apply(rig.frame, q);
+    const int a = rig.node_index(pr.from), b = rig.node_index(pr.to);
+    SampledProfile s = sample_profile(curve, in.node_points[a].pos, in.node_points[b].pos, h, options.density);
+    in.profile_ids.push_back(pr.id);
+    in.profile_from.push_back(a);
+    in.profile_to.push_back(b);
+    tin[p] = {pr.id, std::move(s.points), in.node_points[a], in.node_points[b], a, b};
+    impl->sample_t[p] = std::move(s.t);
+    rep.samples += static_cast<int>(tin[p].samples.size());
+  }
+  clock.lap("sample");
+  progress("trace", 0.0);
+
+  // Trace every profile (independent, so in parallel); report the first failure in profile order.
+  in.traces.resize(np);
+  std::vector<std::exception_ptr> errors(np);
+  std::atomic<int> done{0};
+  tbb::parallel_for(0, np, [&](int p) {
+    try {
+      in.traces[p] = trace_profile(tm, tin[p], h, tol);
+    } catch (...) {
+      errors[p] = std::current_exception();
+    }
+    const int d = ++done;
+    if (options.progress && d % 16 == 0) progress("trace", static_cast<double>(d) / np);
+  });
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  progress("trace", 1.0);
+  clock.lap("trace");
+
+  impl->result = cut_mesh(impl->cut, tm, in);
+  rep.crossings = impl->result.crossings;
+  clock.lap("cut");
+  if (auto fault = impl->cut.validate()) throw TopologyError("cut mesh invalid after cutting: " + *fault);
+  if (auto fault = validate_chains(impl->cut, in, impl->result)) throw TopologyError("cut chains invalid: " + *fault);
+  clock.lap("validate");
+
+  impl->regions = find_regions(impl->cut, in.profile_ids, cov, face_component);
+  clock.lap("regions");
+
+  rep.regions = static_cast<int>(impl->regions.regions.size());
+  rep.region_list = impl->regions.regions;
+  rep.cut_vertices = impl->cut.num_vertices();
+  rep.cut_faces = impl->cut.num_faces();
+  rep.outside_faces = impl->regions.outside_faces;
+  for (int r : impl->regions.face_region) rep.mapped_faces += r >= 0;
+  rep.unmapped_faces = rep.cut_faces - rep.mapped_faces - rep.outside_faces;
+  std::vector<int> nv;
+  for (Vertex v : impl->result.node_vertex)
+    if (v.is_valid()) nv.push_back(v.idx);
+  std::sort(nv.begin(), nv.end());
+  rep.physical_nodes = static_cast<int>(std::unique(nv.begin(), nv.end()) - nv.begin());
+  for (int i = 0; i < V; ++i)
+    if (!impl->result.node_vertex[i].is_valid()) rep.notes.push_back("node '" + rig.nodes[i].id + "' has no profile and is not cut into the mesh");
+  if (rep.expected_regions && rep.regions != *rep.expected_regions)
+    rep.problems.push_back("found " + std::to_string(rep.regions) + " regions, expected " + std::to_string(*rep.expected_regions));
+  if (rep.unmapped_faces != 0) rep.problems.push_back(std::to_string(rep.unmapped_faces) + " faces belong to no region");
+  if (higher_genus) rep.notes.push_back("a closed component has genus > 0: the expected region count is not determined");
+  rep.ok = rep.problems.empty();
+  return Embedding(impl);
+}
+
+std::string Embedding::report_json() const {
+  const EmbedReport& r = report();
+  nlohmann::ordered_json j;
+  j["ok"] = r.ok;
+  j["coverage"] = to_string(r.coverage);
+  j["logical_nodes"] = r.logical_nodes;
+  j["profiles"] = r.profiles;
+  j["components"] = r.components;
+  j["mesh_components"] = r.mesh_components;
+  j["closed_components"] = r.closed_components;
+  j["regions"] = r.regions;
+  j["expected_regions"] = r.expected_regions ? nlohmann::ordered_json(*r.expected_regions) : nlohmann::ordered_json(nullptr);
+  j["mapped_faces"] = r.mapped_faces;
+  j["unmapped_faces"] = r.unmapped_faces;
+  j["outside_faces"] = r.outside_faces;
+  j["physical_nodes"] = r.physical_nodes;
+  j["input"] = {{"vertices", r.input_vertices}, {"faces", r.input_faces}};
+  j["cut_mesh"] = {{"vertices", r.cut_vertices}, {"faces", r.cut_faces}};
+  j["samples"] = r.samples;
+  j["crossings"] = r.crossings;
+  nlohmann::ordered_json t = nlohmann::ordered_json::object();
+  for (const auto& [stage, ms] : r.timings_ms) t[stage] = ms;
+  j["timings_ms"] = t;
+  j["problems"] = r.problems;
+  j["notes"] = r.notes;
+  nlohmann::ordered_json regions = nlohmann::ordered_json::array();
+  for (const auto& reg : r.region_list) {
+    nlohmann::ordered_json b = nlohmann::ordered_json::array();
+    for (const auto& [id, side] : reg.boundary) b.push_back({id, std::string(1, side)});
+    regions.push_back({{"key", reg.key()}, {"boundary", b}, {"faces", reg.faces}, {"area", reg.area}, {"colour", reg.colour}});
+  }
+  j["region_list"] = regions;
+  return j.dump(2) + "\n";
+}
+
+std::string Embedding::cut_mesh_obj() const {
+  const CutMesh& m = impl_->cut;
+  std::ostringstream out;
+  out << std::setprecision(17);
+  out << "# curvenet cut mesh: " << m.num_vertices() << " vertices, " << m.num_faces() << " faces\n";
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    const Vec3& p = m.position(Vertex(v));
+    out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
+  }
+  out << "g faces\n";
+  for (int f = 0; f < m.num_faces(); ++f) {
+    out << 'f';
+    for (Halfedge h : m.face_loop(Face(f))) out << ' ' << m.from(h).idx + 1;
+    out << '\n';
+  }
+  const auto& chains = impl_->result.chains;
+  for (size_t p = 0; p < chains.size(); ++p) {
+    out << "g chain_" << impl_->input.profile_ids[p] << "\nl";
+    for (Vertex v : chains[p].vertices) out << ' ' << v.idx + 1;
+    out << '\n';
+  }
+  return out.str();
+}
+
+std::string Embedding::regions_ply() const {
+  const CutMesh& m = impl_->cut;
+  const auto& fr = impl_->regions.face_region;
+  std::ostringstream out;
+  out << std::setprecision(9);
+  out << "ply\nformat ascii 1.0\ncomment curvenet region preview: one colour per region, adjacent regions differ\n";
+  out << "element vertex " << m.num_vertices() << "\nproperty float x\nproperty float y\nproperty float z\n";
+  out << "element face " << m.num_faces() << "\nproperty list int int vertex_indices\n";
+  out << "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty int region\nend_header\n";
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    const Vec3& p = m.position(Vertex(v));
+    out << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
+  }
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto loop = m.face_loop(Face(f));
+    out << loop.size();
+    for (Halfedge h : loop) out << ' ' << m.from(h).idx;
+    const int r = fr[f];
+    const std::array<int, 3> c = r >= 0 ? palette_colour(impl_->regions.regions[r].colour) : std::array<int, 3>{128, 128, 128};
+    out << ' ' << c[0] << ' ' << c[1] << ' ' << c[2] << ' ' << r << '\n';
+  }
+  return out.str();
+}
+
+} // namespace curvenet

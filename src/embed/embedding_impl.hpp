@@ -1,0 +1,20 @@
+#pragma once
+// What an Embedding holds: the cut mesh, its CutChains and its regions. The
+// later stages (bind, transfer) read these.
+
+#include "curvenet/embed.hpp"
+#include "cut/cutter.hpp"
+#include "regions/regions.hpp"
+
+namespace curvenet {
+
+struct Embedding::Impl {
+  EmbedReport report;
+  detail::CutMesh cut;
+  detail::CutInput input;   ///< ids, node placements and traced paths
+  detail::CutResult result; ///< chains and node vertices
+  detail::RegionResult regions;
+  std::vector<std::vector<double>> sample_t; ///< per profile: normalised arc length of each sample
+};
+
+} // namespace curvenet

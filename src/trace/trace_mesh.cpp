@@ -1,0 +1,277 @@
+#include "trace/trace_mesh.hpp"
+
+#include "core/predicates.hpp"
+#include "curvenet/errors.hpp"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+namespace curvenet::detail {
+namespace {
+
+/// Closest point on triangle (a, b, c) to p, with the Voronoi region it lies in.
+struct TriClosest {
+  Vec3 point;
+  int region; // 0,1,2: vertex; 3,4,5: side 0 (a-b), 1 (b-c), 2 (c-a); 6: inside
+  double s;   // parameter along the side for edge regions
+};
+
+TriClosest closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // Real-Time Collision Detection, section 5.1.5 (Ericson), with the region kept.
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return {a, 0, 0};
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return {b, 1, 0};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double v = d1 / (d1 - d3);
+    return {a + v * ab, 3, v};
+  }
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return {c, 2, 0};
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double w = d2 / (d2 - d6);
+    return {a + w * ac, 5, 1 - w}; // side c -> a, parameter from c
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {b + w * (c - b), 4, w};
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return {a + ab * v + ac * w, 6, 0};
+}
+
+} // namespace
+
+struct TraceMesh::Bvh {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  double slack = 0;
+  ~Bvh() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+namespace {
+struct QueryData {
+  const TraceMesh* mesh;
+  Vec3 q;
+  double best = std::numeric_limits<double>::infinity();
+  int tri = -1;
+  TriClosest hit{};
+  double slack = 0;
+};
+
+bool point_query(RTCPointQueryFunctionArguments* args) {
+  auto* d = static_cast<QueryData*>(args->userPtr);
+  const int t = static_cast<int>(args->primID);
+  const auto& c = d->mesh->tri(t);
+  const TriClosest r = closest_on_triangle(d->q, d->mesh->position(c[0]), d->mesh->position(c[1]), d->mesh->position(c[2]));
+  const double dist = (r.point - d->q).norm();
+  if (dist < d->best || (dist == d->best && t < d->tri)) {
+    d->best = dist;
+    d->tri = t;
+    d->hit = r;
+    // Embree's boxes are in float: keep a little slack so no closer triangle is culled.
+    args->query->radius = static_cast<float>(dist + d->slack);
+    return true;
+  }
+  return false;
+}
+} // namespace
+
+TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh), cut_(cut) {
+  vertex_tris_.resize(mesh.num_vertices());
+  edge_tris_.resize(cut.num_edges());
+  std::map<std::pair<int, int>, std::pair<int, int>> diagonal; // (a,b) -> (tri, side), within one face
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    const std::vector<Halfedge> loop = cut.face_loop(Face(f));
+    const int n = static_cast<int>(loop.size());
+    std::vector<int> corner(n), edge(n);
+    for (int i = 0; i < n; ++i) {
+      corner[i] = cut.from(loop[i]).idx;
+      edge[i] = cut.edge_origin(loop[i]);
+    }
+    // Ear clipping in the face's plane (exact orientation tests).
+    const Vec3 normal = cut.face_normal(Face(f)).normalized();
+    const Vec3 axis = std::abs(normal.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+    const Vec3 u = normal.cross(axis).normalized(), w = normal.cross(u);
+    std::vector<Eigen::Vector2d> p2(n);
+    for (int i = 0; i < n; ++i) p2[i] = {mesh.positions[corner[i]].dot(u), mesh.positions[corner[i]].dot(w)};
+    std::vector<int> ring(n);
+    for (int i = 0; i < n; ++i) ring[i] = i;
+    std::vector<std::array<int, 3>> tris; // polygon-local corner indices
+    while (ring.size() > 3) {
+      const int m = static_cast<int>(ring.size());
+      int ear = -1;
+      for (int i = 0; i < m && ear < 0; ++i) {
+        const int a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
+        if (orient2d(p2[a], p2[b], p2[c]) <= 0) continue;
+        bool empty = true;
+        for (int j : ring) {
+          if (j == a || j == b || j == c) continue;
+          if (orient2d(p2[a], p2[b], p2[j]) >= 0 && orient2d(p2[b], p2[c], p2[j]) >= 0 && orient2d(p2[c], p2[a], p2[j]) >= 0) {
+            empty = false;
+            break;
+          }
+        }
+        if (empty) ear = i;
+      }
+      if (ear < 0) ear = 0; // a non-planar polygon with no clean ear: cut the first corner
+      tris.push_back({ring[(ear + m - 1) % m], ring[ear], ring[(ear + 1) % m]});
+      ring.erase(ring.begin() + ear);
+    }
+    tris.push_back({ring[0], ring[1], ring[2]});
+    for (const auto& lt : tris) {
+      const int t = static_cast<int>(tri_.size());
+      tri_.push_back({corner[lt[0]], corner[lt[1]], corner[lt[2]]});
+      tri_face_.push_back(f);
+      std::array<int, 3> se{};
+      for (int k = 0; k < 3; ++k) {
+        const int i = lt[k], j = lt[(k + 1) % 3];
+        se[k] = (j == (i + 1) % n) ? edge[i] : -1;
+      }
+      side_edge_.push_back(se);
+      nbr_.push_back({-1, -1, -1});
+      for (int k = 0; k < 3; ++k) {
+        vertex_tris_[tri_[t][k]].push_back(t);
+        if (se[k] >= 0) {
+          edge_tris_[se[k]].push_back(t);
+        } else {
+          const int a = tri_[t][k], b = tri_[t][(k + 1) % 3];
+          auto key = std::make_pair(std::min(a, b), std::max(a, b));
+          auto it = diagonal.find(key);
+          if (it == diagonal.end()) {
+            diagonal[key] = {t, k};
+          } else {
+            nbr_[t][k] = it->second.first;
+            nbr_[it->second.first][it->second.second] = t;
+            diagonal.erase(it);
+          }
+        }
+      }
+    }
+  }
+  for (int t = 0; t < num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int e = side_edge_[t][k];
+      if (e < 0) continue;
+      for (int o : edge_tris_[e])
+        if (o != t) nbr_[t][k] = o;
+    }
+
+  // Embree BVH over the triangles, for closest-point queries.
+  bvh_ = std::make_unique<Bvh>();
+  bvh_->device = rtcNewDevice("threads=1");
+  if (!bvh_->device) throw Error("Embree: cannot create a device");
+  bvh_->scene = rtcNewScene(bvh_->device);
+  RTCGeometry geom = rtcNewGeometry(bvh_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                         3 * sizeof(float), mesh.positions.size()));
+  double scale = 0;
+  for (size_t v = 0; v < mesh.positions.size(); ++v)
+    for (int k = 0; k < 3; ++k) {
+      vb[3 * v + k] = static_cast<float>(mesh.positions[v][k]);
+      scale = std::max(scale, std::abs(mesh.positions[v][k]));
+    }
+  bvh_->slack = 1e-6 * (scale + 1e-300);
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                            3 * sizeof(unsigned), tri_.size()));
+  for (size_t t = 0; t < tri_.size(); ++t)
+    for (int k = 0; k < 3; ++k) ib[3 * t + k] = static_cast<unsigned>(tri_[t][k]);
+  rtcSetGeometryPointQueryFunction(geom, point_query);
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(bvh_->scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(bvh_->scene);
+}
+
+TraceMesh::~TraceMesh() = default;
+
+Vec3 TraceMesh::tri_normal(int t) const {
+  const auto& c = tri_[t];
+  return (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0])).normalized();
+}
+
+std::vector<int> TraceMesh::triangles_of(const SurfacePoint& p) const {
+  switch (p.kind) {
+  case SurfacePoint::Kind::Vertex: return vertex_tris_[p.vertex];
+  case SurfacePoint::Kind::Edge: return edge_tris_[p.edge];
+  case SurfacePoint::Kind::Face: {
+    std::vector<int> out{p.tri};
+    // On a diagonal of its polygon: the triangle across it holds p too.
+    const auto& c = tri_[p.tri];
+    for (int k = 0; k < 3; ++k)
+      if (side_edge_[p.tri][k] < 0 && nbr_[p.tri][k] >= 0 &&
+          collinear3d(position(c[k]), position(c[(k + 1) % 3]), p.pos))
+        out.push_back(nbr_[p.tri][k]);
+    return out;
+  }
+  }
+  return {};
+}
+
+std::vector<int> TraceMesh::faces_of(const SurfacePoint& p) const {
+  std::vector<int> out;
+  for (int t : triangles_of(p)) out.push_back(tri_face_[t]);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
+  QueryData data{this, q};
+  data.slack = bvh_->slack;
+  RTCPointQuery query;
+  query.x = static_cast<float>(q.x());
+  query.y = static_cast<float>(q.y());
+  query.z = static_cast<float>(q.z());
+  query.time = 0.f;
+  query.radius = std::numeric_limits<float>::infinity();
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  rtcPointQuery(bvh_->scene, &query, &context, nullptr, &data);
+  if (data.tri < 0) throw EmbedError("closest point: the surface has no triangle");
+  const int t = data.tri;
+  const auto& c = tri_[t];
+  SurfacePoint sp;
+  sp.tri = t;
+  sp.pos = data.hit.point;
+  const int r = data.hit.region;
+  if (r < 3) {
+    sp.kind = SurfacePoint::Kind::Vertex;
+    sp.vertex = c[r];
+    sp.pos = position(c[r]);
+  } else if (r < 6) {
+    const int k = r - 3;
+    const int e = side_edge_[t][k];
+    if (e >= 0) {
+      sp.kind = SurfacePoint::Kind::Edge;
+      sp.edge = e;
+      const double s = data.hit.s; // from corner k to corner k+1 (side 2 measured from c)
+      sp.t = edge_ends(e)[0] == c[k] ? s : 1 - s;
+      if (!(sp.t > 0 && sp.t < 1)) {
+        sp.kind = SurfacePoint::Kind::Vertex;
+        sp.vertex = sp.t <= 0 ? edge_ends(e)[0] : edge_ends(e)[1];
+        sp.pos = position(sp.vertex);
+      } else {
+        const auto ends = edge_ends(e);
+        sp.pos = (1 - sp.t) * position(ends[0]) + sp.t * position(ends[1]);
+      }
+    }
+  }
+  return sp;
+}
+
+} // namespace curvenet::detail

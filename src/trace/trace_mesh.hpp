@@ -1,0 +1,77 @@
+#pragma once
+// The surface as the tracer sees it: the input polygons triangulated, with
+// triangle adjacency, the input edge under each triangle side (or -1 for a
+// diagonal inside a polygon), and a closest-point query (Embree BVH).
+
+#include "cut/cut_mesh.hpp"
+
+#include <array>
+#include <memory>
+#include <vector>
+
+namespace curvenet::detail {
+
+using Vec3 = Eigen::Vector3d;
+
+/// A point of the surface. Vertex and Edge points are exact: they lie on an
+/// input vertex or on an input edge (parameter t along its half-edge 2e).
+/// A Face point lies inside triangle `tri` (or on one of its diagonals).
+struct SurfacePoint {
+  enum class Kind { Vertex, Edge, Face } kind = Kind::Face;
+  int vertex = -1;
+  int edge = -1;
+  double t = 0;
+  int tri = -1;
+  Vec3 pos = Vec3::Zero();
+};
+
+class TraceMesh {
+public:
+  /// \pre `cut` is CutMesh::from_surface(mesh), not yet cut.
+  TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut);
+  ~TraceMesh();
+  TraceMesh(const TraceMesh&) = delete;
+  TraceMesh& operator=(const TraceMesh&) = delete;
+
+  [[nodiscard]] int num_triangles() const { return static_cast<int>(tri_.size()); }
+  [[nodiscard]] const std::array<int, 3>& tri(int t) const { return tri_[t]; }
+  [[nodiscard]] int tri_face(int t) const { return tri_face_[t]; }
+  /// Input edge under side k (corner k to corner k+1) of triangle t, or -1.
+  [[nodiscard]] int side_edge(int t, int k) const { return side_edge_[t][k]; }
+  /// Triangle across side k of t, or -1 on the boundary.
+  [[nodiscard]] int neighbour(int t, int k) const { return nbr_[t][k]; }
+  [[nodiscard]] const std::vector<int>& vertex_triangles(int v) const { return vertex_tris_[v]; }
+  [[nodiscard]] const std::vector<int>& edge_triangles(int e) const { return edge_tris_[e]; }
+  [[nodiscard]] const Vec3& position(int v) const { return mesh_.positions[v]; }
+  [[nodiscard]] Vec3 tri_normal(int t) const;
+  [[nodiscard]] const SurfaceMesh& mesh() const { return mesh_; }
+  [[nodiscard]] const CutMesh& cut() const { return cut_; }
+  /// The two ends of input edge e, in the direction of its half-edge 2e.
+  [[nodiscard]] std::array<int, 2> edge_ends(int e) const {
+    return {cut_.from(Halfedge(2 * e)).idx, cut_.to(Halfedge(2 * e)).idx};
+  }
+
+  /// Triangles that contain p (one for a face point, two for an edge, the
+  /// fan for a vertex; a face point on a diagonal also gets its neighbour).
+  [[nodiscard]] std::vector<int> triangles_of(const SurfacePoint& p) const;
+  /// Input faces that contain p.
+  [[nodiscard]] std::vector<int> faces_of(const SurfacePoint& p) const;
+
+  /// The closest point of the surface to q, classified exactly by the
+  /// closest-point region (a vertex, an edge, or the inside of a triangle).
+  [[nodiscard]] SurfacePoint closest_point(const Vec3& q) const;
+
+private:
+  const SurfaceMesh& mesh_;
+  const CutMesh& cut_;
+  std::vector<std::array<int, 3>> tri_;
+  std::vector<int> tri_face_;
+  std::vector<std::array<int, 3>> side_edge_;
+  std::vector<std::array<int, 3>> nbr_;
+  std::vector<std::vector<int>> vertex_tris_;
+  std::vector<std::vector<int>> edge_tris_;
+  struct Bvh;
+  std::unique_ptr<Bvh> bvh_;
+};
+
+} // namespace curvenet::detail

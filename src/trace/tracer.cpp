@@ -1,0 +1,391 @@
+#include "trace/tracer.hpp"
+
+#include "core/predicates.hpp"
+#include "curvenet/errors.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+namespace curvenet::detail {
+
+SurfacePoint place_node(const TraceMesh& mesh, const Vec3& p, const Tolerances& tol) {
+  SurfacePoint sp = mesh.closest_point(p);
+  const double snap = tol.node_snap();
+  if (sp.kind == SurfacePoint::Kind::Face) {
+    const auto& c = mesh.tri(sp.tri);
+    for (int k = 0; k < 3; ++k)
+      if ((mesh.position(c[k]) - sp.pos).norm() <= snap) {
+        SurfacePoint v;
+        v.kind = SurfacePoint::Kind::Vertex;
+        v.vertex = c[k];
+        v.tri = sp.tri;
+        v.pos = mesh.position(c[k]);
+        return v;
+      }
+    for (int k = 0; k < 3; ++k) {
+      const int e = mesh.side_edge(sp.tri, k);
+      if (e < 0) continue;
+      const auto ends = mesh.edge_ends(e);
+      const Vec3 a = mesh.position(ends[0]), b = mesh.position(ends[1]);
+      const double t = std::clamp((sp.pos - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      const Vec3 q = (1 - t) * a + t * b;
+      if ((q - sp.pos).norm() <= snap && t > 0 && t < 1) {
+        sp.kind = SurfacePoint::Kind::Edge;
+        sp.edge = e;
+        sp.t = t;
+        sp.pos = q;
+        return sp;
+      }
+    }
+  } else if (sp.kind == SurfacePoint::Kind::Edge) {
+    const auto ends = mesh.edge_ends(sp.edge);
+    for (int v : ends)
+      if ((mesh.position(v) - sp.pos).norm() <= snap) {
+        sp.kind = SurfacePoint::Kind::Vertex;
+        sp.vertex = v;
+        sp.pos = mesh.position(v);
+      }
+  }
+  return sp;
+}
+
+namespace {
+
+std::string where(const TraceMesh& m, const SurfacePoint& p) {
+  std::ostringstream s;
+  switch (p.kind) {
+  case SurfacePoint::Kind::Vertex: s << "vertex " << p.vertex; break;
+  case SurfacePoint::Kind::Edge: {
+    const auto e = m.edge_ends(p.edge);
+    s << "edge " << e[0] << "-" << e[1];
+    break;
+  }
+  case SurfacePoint::Kind::Face: s << "face " << m.tri_face(p.tri); break;
+  }
+  return s.str();
+}
+
+class Walker {
+public:
+  Walker(const TraceMesh& m, const TraceInput& in, double mean_edge, const Tolerances& tol, TracedProfile& out)
+      : m_(m), in_(in), mean_edge_(mean_edge), tol_(tol), out_(out) {}
+
+  void emit(const SurfacePoint& p, int sample) {
+    if (p.kind == SurfacePoint::Kind::Face) return;
+    auto& pts = out_.points;
+    if (!pts.empty()) {
+      const PathPoint& last = pts.back();
+      const SurfacePoint& l = last.at;
+      if (p.kind == SurfacePoint::Kind::Vertex && l.kind == SurfacePoint::Kind::Vertex && l.vertex == p.vertex) return;
+      if (p.kind == SurfacePoint::Kind::Edge && l.kind == SurfacePoint::Kind::Edge && l.edge == p.edge && last.node < 0) {
+        // Crossed the edge and came back to it before meeting anything else:
+        // the excursion is shorter than one face, keep the later point.
+        pts.back().at = p;
+        pts.back().sample = sample;
+        return;
+      }
+    }
+    pts.push_back({p, -1, sample});
+  }
+
+  Vec3 normal_at(const SurfacePoint& p) const {
+    Vec3 n = Vec3::Zero();
+    for (int t : m_.triangles_of(p)) n += m_.tri_normal(t);
+    return n;
+  }
+
+  /// Walks from a to b, emitting the edge crossings and vertex hits between.
+  void walk(const SurfacePoint& a, const SurfacePoint& b, int sample) {
+    const std::vector<int> target = m_.triangles_of(b);
+    auto in_target = [&](int t) { return std::find(target.begin(), target.end(), t) != target.end(); };
+    auto shares = [&](const SurfacePoint& p) {
+      for (int t : m_.triangles_of(p))
+        if (in_target(t)) return true;
+      return false;
+    };
+    if (shares(a)) return;
+    // Both ends on edges (or vertices) around one vertex: the path runs
+    // through that vertex. This is the exact form of a curve along edges.
+    if (a.kind != SurfacePoint::Kind::Face && b.kind != SurfacePoint::Kind::Face) {
+      auto ends_of = [&](const SurfacePoint& p) -> std::vector<int> {
+        if (p.kind == SurfacePoint::Kind::Vertex) return {p.vertex};
+        const auto e = m_.edge_ends(p.edge);
+        return {e[0], e[1]};
+      };
+      for (int u : ends_of(a))
+        for (int w : ends_of(b))
+          if (u == w) {
+            SurfacePoint v;
+            v.kind = SurfacePoint::Kind::Vertex;
+            v.vertex = u;
+            v.pos = m_.position(u);
+            emit(v, sample);
+            return;
+          }
+    }
+
+    // The cutting plane contains a, b and the mean surface normal there.
+    const Vec3 A = a.pos, B = b.pos;
+    const double len = (B - A).norm();
+    Vec3 C = A + normal_at(a).normalized() * len + normal_at(b).normalized() * len;
+    const Vec3 fallbacks[] = {A + normal_at(a).normalized() * len, A + Vec3::UnitX() * len, A + Vec3::UnitY() * len, A + Vec3::UnitZ() * len};
+    for (int i = 0; collinear3d(A, B, C) && i < 4; ++i) C = fallbacks[i];
+    const Vec3 nrm = (B - A).cross(C - A);
+    const Vec3 dir = B - A;
+    std::unordered_map<int, int> side_memo;
+    auto side = [&](int v) {
+      auto it = side_memo.find(v);
+      if (it != side_memo.end()) return it->second;
+      const int s = orient3d(A, B, C, m_.position(v));
+      side_memo.emplace(v, s);
+      return s;
+    };
+    auto sd = [&](int v) { return (m_.position(v) - A).dot(nrm); };
+    // Crossing of side k of triangle t, as a surface point on the input edge (or inside the face on a diagonal).
+    auto crossing = [&](int t, int k) {
+      const auto& c = m_.tri(t);
+      const int i = c[k], j = c[(k + 1) % 3];
+      const double si = sd(i), sj = sd(j);
+      double s = (si - sj) != 0 ? si / (si - sj) : 0.5;
+      s = std::clamp(s, 1e-12, 1 - 1e-12);
+      SurfacePoint p;
+      p.pos = (1 - s) * m_.position(i) + s * m_.position(j);
+      const int e = m_.side_edge(t, k);
+      if (e >= 0) {
+        p.kind = SurfacePoint::Kind::Edge;
+        p.edge = e;
+        p.t = m_.edge_ends(e)[0] == i ? s : 1 - s;
+      } else {
+        p.kind = SurfacePoint::Kind::Face;
+      }
+      p.tri = t;
+      return p;
+    };
+    auto enter = [&](int t, int k, int& came) {
+      const auto& c = m_.tri(t);
+      const int n = m_.neighbour(t, k);
+      if (n < 0)
+        fail(sample, "reached the boundary of the mesh at " + where(m_, crossing(t, k)));
+      const auto& d = m_.tri(n);
+      for (int q = 0; q < 3; ++q)
+        if (d[q] == c[(k + 1) % 3] && d[(q + 1) % 3] == c[k]) came = q;
+      return n;
+    };
+
+    enum class State { InTri, AtVertex };
+    State state;
+    int tri = -1, came = -1, vertex = -1, came_vertex = -1, came_tri = -1;
+    Vec3 pos = A;
+    SurfacePoint cur = a;
+    if (a.kind == SurfacePoint::Kind::Vertex) {
+      state = State::AtVertex;
+      vertex = a.vertex;
+    } else {
+      state = State::InTri;
+      tri = a.tri;
+      if (a.kind == SurfacePoint::Kind::Edge) {
+        // Start on an edge: step into whichever adjacent triangle leads toward b.
+        double best = -std::numeric_limits<double>::infinity();
+        for (int t : m_.edge_triangles(a.edge)) {
+          int k0 = -1;
+          for (int k = 0; k < 3; ++k)
+            if (m_.side_edge(t, k) == a.edge) k0 = k;
+          for (const auto& cand : exits(t, k0, side, crossing)) {
+            const double d = (cand.pos - A).dot(dir);
+            if (d > best) {
+              best = d;
+              tri = t;
+              came = k0;
+            }
+          }
+        }
+      }
+    }
+    const double max_len = Tolerances::walk_length_factor * len + Tolerances::walk_length_edges * mean_edge_;
+    double travelled = 0;
+    for (int steps = 0;; ++steps) {
+      if (state == State::InTri) {
+        if (in_target(tri)) return;
+        auto cands = exits(tri, came, side, crossing);
+        if (cands.empty() && came < 0) {
+          // The start lies on the triangle only up to rounding, and the plane
+          // misses it: leave through the corner nearest to the plane.
+          const auto& c = m_.tri(tri);
+          int k = 0;
+          for (int q = 1; q < 3; ++q)
+            if (std::abs(sd(c[q])) < std::abs(sd(c[k]))) k = q;
+          cands.push_back({-1, c[k], m_.position(c[k])});
+        }
+        if (cands.empty()) fail(sample, "the path has no way out of face " + std::to_string(m_.tri_face(tri)));
+        const Exit* best = &cands[0];
+        for (const auto& c : cands)
+          if ((c.pos - pos).dot(dir) > (best->pos - pos).dot(dir)) best = &c;
+        travelled += (best->pos - pos).norm();
+        pos = best->pos;
+        if (best->vertex >= 0) {
+          SurfacePoint v;
+          v.kind = SurfacePoint::Kind::Vertex;
+          v.vertex = best->vertex;
+          v.pos = pos;
+          emit(v, sample);
+          state = State::AtVertex;
+          vertex = best->vertex;
+          came_tri = tri;
+          came_vertex = -1;
+        } else {
+          emit(crossing(tri, best->side), sample);
+          int nc = -1;
+          const int nt = enter(tri, best->side, nc);
+          tri = nt;
+          came = nc;
+        }
+      } else {
+        SurfacePoint vp;
+        vp.kind = SurfacePoint::Kind::Vertex;
+        vp.vertex = vertex;
+        vp.pos = m_.position(vertex);
+        if (shares(vp)) return;
+        // Leave the vertex through a triangle of its fan, or along an edge.
+        struct Option { int tri = -1, side = -1, to = -1; Vec3 pos; };
+        std::vector<Option> options;
+        for (int t : m_.vertex_triangles(vertex)) {
+          const auto& c = m_.tri(t);
+          int i = 0;
+          while (c[i] != vertex) ++i;
+          const int v1 = c[(i + 1) % 3], v2 = c[(i + 2) % 3];
+          const int s1 = side(v1), s2 = side(v2);
+          if (s1 * s2 < 0 && t != came_tri) options.push_back({t, (i + 1) % 3, -1, crossing(t, (i + 1) % 3).pos});
+          if (s1 == 0 && v1 != came_vertex) options.push_back({-1, -1, v1, m_.position(v1)});
+          if (s2 == 0 && v2 != came_vertex) options.push_back({-1, -1, v2, m_.position(v2)});
+        }
+        if (options.empty()) {
+          // The plane only touches the surface here: go along the edge that
+          // points most toward b.
+          for (int t : m_.vertex_triangles(vertex))
+            for (int q : m_.tri(t))
+              if (q != vertex && q != came_vertex) options.push_back({-1, -1, q, m_.position(q)});
+        }
+        if (options.empty()) fail(sample, "the path stops at vertex " + std::to_string(vertex));
+        const Vec3 here = m_.position(vertex);
+        const Option* best = nullptr;
+        double best_score = -std::numeric_limits<double>::infinity();
+        for (const auto& o : options) {
+          const Vec3 d = o.pos - here;
+          const double score = d.norm() > 0 ? d.normalized().dot(dir.normalized()) : -2;
+          if (score > best_score) {
+            best_score = score;
+            best = &o;
+          }
+        }
+        travelled += (best->pos - here).norm();
+        pos = best->pos;
+        if (best->to >= 0) {
+          SurfacePoint v;
+          v.kind = SurfacePoint::Kind::Vertex;
+          v.vertex = best->to;
+          v.pos = pos;
+          emit(v, sample);
+          came_vertex = vertex;
+          came_tri = -1;
+          vertex = best->to;
+        } else {
+          emit(crossing(best->tri, best->side), sample);
+          int nc = -1;
+          tri = enter(best->tri, best->side, nc);
+          came = nc;
+          state = State::InTri;
+        }
+      }
+      if (travelled > max_len || steps > 4 * m_.num_triangles() + 16)
+        fail(sample, "the walk toward it went " + std::to_string(travelled / std::max(len, 1e-300)) +
+                         " times the distance between the samples without reaching " + where(m_, b) +
+                         " (the projection jumped to another part of the surface?)");
+    }
+  }
+
+private:
+  struct Exit {
+    int side = -1;   // crossing of this side
+    int vertex = -1; // or through this vertex
+    Vec3 pos;
+  };
+
+  template <class Side, class Crossing>
+  std::vector<Exit> exits(int t, int came, Side& side, Crossing& crossing) const {
+    std::vector<Exit> out;
+    const auto& c = m_.tri(t);
+    for (int k = 0; k < 3; ++k) {
+      if (k == came) continue;
+      if (side(c[k]) * side(c[(k + 1) % 3]) < 0) out.push_back({k, -1, crossing(t, k).pos});
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (side(c[k]) != 0) continue;
+      if (came >= 0 && (k == came || k == (came + 1) % 3)) continue;
+      out.push_back({-1, c[k], m_.position(c[k])});
+    }
+    return out;
+  }
+
+  [[noreturn]] void fail(int sample, const std::string& what) const {
+    throw EmbedError("trace: profile '" + in_.profile_id + "', sample " + std::to_string(sample) + ": " + what);
+  }
+
+  const TraceMesh& m_;
+  const TraceInput& in_;
+  double mean_edge_;
+  const Tolerances& tol_;
+  TracedProfile& out_;
+};
+
+} // namespace
+
+TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double mean_edge, const Tolerances& tol) {
+  TracedProfile out;
+  const int n = static_cast<int>(in.samples.size());
+  out.samples = n;
+  out.points.push_back({in.from, in.from_node, 0});
+  Walker walker(mesh, in, mean_edge, tol, out);
+  SurfacePoint prev = in.from;
+  for (int i = 1; i < n; ++i) {
+    const SurfacePoint cur = (i == n - 1) ? in.to : mesh.closest_point(in.samples[i]);
+    walker.walk(prev, cur, i);
+    if (i < n - 1) walker.emit(cur, i);
+    prev = cur;
+  }
+  // A path that comes back to a vertex it already passed made an excursion
+  // shorter than a face or two around it (rounding near a vertex): drop the
+  // excursion. A longer loop is a real self-touch, which the cut refuses.
+  {
+    auto& pts = out.points;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (pts[i].at.kind != SurfacePoint::Kind::Vertex) continue;
+      for (size_t j = pts.size() - 1; j > i + 1; --j) {
+        if (pts[j].at.kind != SurfacePoint::Kind::Vertex || pts[j].at.vertex != pts[i].at.vertex) continue;
+        if (pts[j].node >= 0 && pts[i].node >= 0) continue; // a closed loop through one node
+        double len = 0;
+        for (size_t k = i; k < j; ++k) len += (pts[k + 1].at.pos - pts[k].at.pos).norm();
+        if (len <= 2 * mean_edge) {
+          const int keep_node = pts[j].node >= 0 ? pts[j].node : pts[i].node;
+          pts.erase(pts.begin() + static_cast<long>(i) + 1, pts.begin() + static_cast<long>(j) + 1);
+          pts[i].node = keep_node;
+        }
+        break;
+      }
+    }
+  }
+  // The end node: merge with a vertex hit at the same place.
+  auto& pts = out.points;
+  if (pts.size() > 1 && in.to.kind == SurfacePoint::Kind::Vertex && pts.back().node < 0 &&
+      pts.back().at.kind == SurfacePoint::Kind::Vertex && pts.back().at.vertex == in.to.vertex)
+    pts.pop_back();
+  pts.push_back({in.to, in.to_node, n - 1});
+  // A vertex hit right after the start node at the same place is the node itself.
+  if (pts.size() > 2 && in.from.kind == SurfacePoint::Kind::Vertex && pts[1].node < 0 &&
+      pts[1].at.kind == SurfacePoint::Kind::Vertex && pts[1].at.vertex == in.from.vertex)
+    pts.erase(pts.begin() + 1);
+  return out;
+}
+
+} // namespace curvenet::detail
