@@ -16,6 +16,13 @@ struct Tolerances {
   static constexpr double walk_length_factor = 8.0;
   static constexpr double walk_length_edges = 4.0;
 
+  /// Edge crossings are kept at least this fraction of the edge's length
+  /// away from its ends. The exact predicates decide which edges a profile
+  /// crosses; this only moves the crossing point so that no cut face is a
+  /// sliver thinner than rounding error (which would make the 2D angle order
+  /// around the point meaningless).
+  static constexpr double crossing_min_param = 1e-6;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
 

@@ -233,9 +233,12 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
       piece.push_back(h);
       h = next_of.at(h.idx);
     } while (h != start);
+    // Twice the signed area, relative to the first corner (no cancellation
+    // between large coordinates when the piece is a sliver).
     double area2 = 0;
+    const Eigen::Vector2d o = to_face_plane(f, position(from(piece[0])));
     for (Halfedge g : piece) {
-      const Eigen::Vector2d p = to_face_plane(f, position(from(g))), q = to_face_plane(f, position(to(g)));
+      const Eigen::Vector2d p = to_face_plane(f, position(from(g))) - o, q = to_face_plane(f, position(to(g))) - o;
       area2 += p.x() * q.y() - p.y() * q.x();
     }
     if (!(area2 > 0))

@@ -23,9 +23,7 @@ struct EdgeSplit {
 std::vector<int> edges_of(const TraceMesh& tm, const SurfacePoint& p) {
   if (p.kind == Kind::Edge) return {p.edge};
   if (p.kind != Kind::Vertex) return {};
-  std::vector<int> out;
-  for (Halfedge h : tm.cut().outgoing(Vertex(p.vertex))) out.push_back(h.idx / 2);
-  return out;
+  return tm.vertex_edges(p.vertex);
 }
 
 /// Parameter of a point along input edge e (0 and 1 at its ends).

@@ -91,8 +91,14 @@ bool point_query(RTCPointQueryFunctionArguments* args) {
 }
 } // namespace
 
-TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh), cut_(cut) {
+TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) {
   vertex_tris_.resize(mesh.num_vertices());
+  vertex_edges_.resize(mesh.num_vertices());
+  for (int e = 0; e < cut.num_edges(); ++e) {
+    edge_ends_.push_back({cut.from(Halfedge(2 * e)).idx, cut.to(Halfedge(2 * e)).idx});
+    vertex_edges_[edge_ends_[e][0]].push_back(e);
+    vertex_edges_[edge_ends_[e][1]].push_back(e);
+  }
   edge_tris_.resize(cut.num_edges());
   std::map<std::pair<int, int>, std::pair<int, int>> diagonal; // (a,b) -> (tri, side), within one face
   for (int f = 0; f < mesh.num_faces(); ++f) {

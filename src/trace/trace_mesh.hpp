@@ -27,7 +27,8 @@ struct SurfacePoint {
 
 class TraceMesh {
 public:
-  /// \pre `cut` is CutMesh::from_surface(mesh), not yet cut.
+  /// \pre `cut` is CutMesh::from_surface(mesh), not yet cut. The trace mesh
+  /// copies what it needs: `cut` may be cut afterwards.
   TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut);
   ~TraceMesh();
   TraceMesh(const TraceMesh&) = delete;
@@ -45,11 +46,10 @@ public:
   [[nodiscard]] const Vec3& position(int v) const { return mesh_.positions[v]; }
   [[nodiscard]] Vec3 tri_normal(int t) const;
   [[nodiscard]] const SurfaceMesh& mesh() const { return mesh_; }
-  [[nodiscard]] const CutMesh& cut() const { return cut_; }
   /// The two ends of input edge e, in the direction of its half-edge 2e.
-  [[nodiscard]] std::array<int, 2> edge_ends(int e) const {
-    return {cut_.from(Halfedge(2 * e)).idx, cut_.to(Halfedge(2 * e)).idx};
-  }
+  [[nodiscard]] const std::array<int, 2>& edge_ends(int e) const { return edge_ends_[e]; }
+  /// Input edges around input vertex v.
+  [[nodiscard]] const std::vector<int>& vertex_edges(int v) const { return vertex_edges_[v]; }
 
   /// Triangles that contain p (one for a face point, two for an edge, the
   /// fan for a vertex; a face point on a diagonal also gets its neighbour).
@@ -63,7 +63,8 @@ public:
 
 private:
   const SurfaceMesh& mesh_;
-  const CutMesh& cut_;
+  std::vector<std::array<int, 2>> edge_ends_;
+  std::vector<std::vector<int>> vertex_edges_;
   std::vector<std::array<int, 3>> tri_;
   std::vector<int> tri_face_;
   std::vector<std::array<int, 3>> side_edge_;

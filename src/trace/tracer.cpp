@@ -149,7 +149,7 @@ public:
       const int i = c[k], j = c[(k + 1) % 3];
       const double si = sd(i), sj = sd(j);
       double s = (si - sj) != 0 ? si / (si - sj) : 0.5;
-      s = std::clamp(s, 1e-12, 1 - 1e-12);
+      s = std::clamp(s, Tolerances::crossing_min_param, 1 - Tolerances::crossing_min_param);
       SurfacePoint p;
       p.pos = (1 - s) * m_.position(i) + s * m_.position(j);
       const int e = m_.side_edge(t, k);
