@@ -68,6 +68,10 @@ std::string where(const TraceMesh& m, const SurfacePoint& p) {
 }
 
 class Walker {
+  struct WalkFailed : EmbedError {
+    using EmbedError::EmbedError;
+  };
+
 public:
   Walker(const TraceMesh& m, const TraceInput& in, double mean_edge, const Tolerances& tol, TracedProfile& out)
       : m_(m), in_(in), mean_edge_(mean_edge), tol_(tol), out_(out) {}
@@ -97,7 +101,35 @@ public:
   }
 
   /// Walks from a to b, emitting the edge crossings and vertex hits between.
+  /// The cutting plane holds a, b and a surface normal. On a strongly curved
+  /// part the section through one choice of normal can turn away from b; the
+  /// walk then tries the normal at a alone, the normal at b alone, and
+  /// finally walks from b back to a, before it gives up.
   void walk(const SurfacePoint& a, const SurfacePoint& b, int sample) {
+    const size_t mark = out_.points.size();
+    std::string first_error;
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      try {
+        if (attempt < 3) {
+          walk_once(a, b, sample, attempt);
+        } else {
+          std::vector<PathPoint> saved(out_.points.begin(), out_.points.end());
+          out_.points.clear();
+          walk_once(b, a, sample, 0);
+          std::vector<PathPoint> back = std::move(out_.points);
+          out_.points = std::move(saved);
+          for (auto it = back.rbegin(); it != back.rend(); ++it) emit(it->at, sample);
+        }
+        return;
+      } catch (const WalkFailed& e) {
+        if (first_error.empty()) first_error = e.what();
+        out_.points.resize(mark);
+      }
+    }
+    throw EmbedError(first_error);
+  }
+
+  void walk_once(const SurfacePoint& a, const SurfacePoint& b, int sample, int plane_mode) {
     const std::vector<int> target = m_.triangles_of(b);
     auto in_target = [&](int t) { return std::find(target.begin(), target.end(), t) != target.end(); };
     auto shares = [&](const SurfacePoint& p) {
@@ -129,7 +161,8 @@ public:
     // The cutting plane contains a, b and the mean surface normal there.
     const Vec3 A = a.pos, B = b.pos;
     const double len = (B - A).norm();
-    Vec3 C = A + normal_at(a).normalized() * len + normal_at(b).normalized() * len;
+    const Vec3 na = normal_at(a).normalized() * len, nb = normal_at(b).normalized() * len;
+    Vec3 C = A + (plane_mode == 1 ? na : plane_mode == 2 ? nb : Vec3(na + nb));
     const Vec3 fallbacks[] = {A + normal_at(a).normalized() * len, A + Vec3::UnitX() * len, A + Vec3::UnitY() * len, A + Vec3::UnitZ() * len};
     for (int i = 0; collinear3d(A, B, C) && i < 4; ++i) C = fallbacks[i];
     const Vec3 nrm = (B - A).cross(C - A);
@@ -329,7 +362,7 @@ private:
   }
 
   [[noreturn]] void fail(int sample, const std::string& what) const {
-    throw EmbedError("trace: profile '" + in_.profile_id + "', sample " + std::to_string(sample) + ": " + what);
+    throw WalkFailed("trace: profile '" + in_.profile_id + "', sample " + std::to_string(sample) + ": " + what);
   }
 
   const TraceMesh& m_;
