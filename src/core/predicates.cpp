@@ -16,10 +16,9 @@ int orient2d(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Ve
 
 int orient3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
              const Eigen::Vector3d& d) {
-  // CGAL's orientation(p,q,r,s) is POSITIVE when s lies on the positive side
-  // of the plane (p,q,r) *as seen with the kernel's convention*, which is the
-  // side opposite to (q-p)x(r-p). We flip it so +1 means the normal's side.
-  return -sign_of(CGAL::orientation(p3(a), p3(b), p3(c), p3(d)));
+  // CGAL's orientation(p,q,r,s) is POSITIVE when s lies on the side of the
+  // plane (p,q,r) that (q-p)x(r-p) points to (tested in predicates_test).
+  return sign_of(CGAL::orientation(p3(a), p3(b), p3(c), p3(d)));
 }
 
 bool collinear3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {

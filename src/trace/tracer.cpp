@@ -408,6 +408,26 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
       }
     }
   }
+  // A point in the middle of a run along one input edge adds nothing: the
+  // run goes from the point before it to the point after it on that edge.
+  {
+    auto& pts = out.points;
+    auto on_edge = [&](const SurfacePoint& p, int e) {
+      if (p.kind == SurfacePoint::Kind::Edge) return p.edge == e;
+      if (p.kind == SurfacePoint::Kind::Vertex) {
+        const auto ends = mesh.edge_ends(e);
+        return p.vertex == ends[0] || p.vertex == ends[1];
+      }
+      return false;
+    };
+    std::vector<PathPoint> kept;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const bool middle = i > 0 && i + 1 < pts.size() && pts[i].node < 0 && pts[i].at.kind == SurfacePoint::Kind::Edge &&
+                          on_edge(kept.back().at, pts[i].at.edge) && on_edge(pts[i + 1].at, pts[i].at.edge);
+      if (!middle) kept.push_back(pts[i]);
+    }
+    pts = std::move(kept);
+  }
   // The end node: merge with a vertex hit at the same place.
   auto& pts = out.points;
   if (pts.size() > 1 && in.to.kind == SurfacePoint::Kind::Vertex && pts.back().node < 0 &&

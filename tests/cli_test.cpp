@@ -1,0 +1,152 @@
+// End-to-end: the curvenet command on real data and on bad input.
+
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+
+namespace fs = std::filesystem;
+using namespace curvenet;
+
+namespace {
+
+struct CliRun {
+  int code;
+  std::string out, err;
+};
+
+CliRun run(const std::string& args, const fs::path& dir) {
+  const fs::path o = dir / "stdout.txt", e = dir / "stderr.txt";
+  const std::string cmd = std::string(CURVENET_CLI) + " " + args + " >" + o.string() + " 2>" + e.string();
+  const int status = std::system(cmd.c_str());
+  auto slurp = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(o), slurp(e)};
+}
+
+void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+const char* kRig = R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],
+  "profiles":[{"id":"p","from":"a","to":"b","points":[[0,0.5,0],[1,0.5,0]]}]})";
+const char* kQuad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+
+} // namespace
+
+TEST(Cli, HelpOnEveryCommand) {
+  const auto dir = test::temp_dir("help");
+  EXPECT_EQ(run("--help", dir).code, 0);
+  EXPECT_EQ(run("embed --help", dir).code, 0);
+  EXPECT_NE(run("embed --help", dir).out.find("--cut-mesh"), std::string::npos);
+  EXPECT_EQ(run("demo --help", dir).code, 0);
+  EXPECT_EQ(run("", dir).code, 2);
+}
+
+TEST(Cli, EmbedsTheHandAndWritesEveryOutput) {
+  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("hand");
+  const CliRun r = run(test::data("xr_tools_hand/hand_l.gltf") + " " + test::data("xr_tools_hand/example/hand_l.cnrig.json") +
+                        " --report " + (dir / "r.json").string() + " --regions " + (dir / "r.ply").string() + " --cut-mesh " +
+                        (dir / "cut.obj").string(),
+                    dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("SUCCESS"), std::string::npos);
+  EXPECT_NE(r.out.find("regions: 47\n"), std::string::npos);
+  std::ifstream in(dir / "r.json");
+  const auto j = nlohmann::json::parse(in);
+  for (const char* key : {"ok", "coverage", "logical_nodes", "profiles", "components", "regions", "expected_regions",
+                          "mapped_faces", "unmapped_faces", "physical_nodes", "cut_mesh", "timings_ms"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["regions"], 47);
+  EXPECT_EQ(j["expected_regions"], 47);
+  EXPECT_EQ(j["logical_nodes"], 64);
+  EXPECT_EQ(j["physical_nodes"], 64);
+  EXPECT_TRUE(j["timings_ms"].contains("trace"));
+  EXPECT_TRUE(j["cut_mesh"].contains("faces"));
+  std::ifstream ply(dir / "r.ply");
+  std::string first;
+  std::getline(ply, first);
+  EXPECT_EQ(first, "ply");
+  EXPECT_TRUE(fs::exists(dir / "cut.obj"));
+}
+
+TEST(Cli, BadInputFailsCleanlyWithNoOutput) {
+  const auto dir = test::temp_dir("bad");
+  write(dir / "quad.obj", kQuad);
+  write(dir / "ok.cnrig.json", kRig);
+  write(dir / "fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
+  write(dir / "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
+  write(dir / "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+  write(dir / "dup.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"a","position":[1,0,0]}],"profiles":[]})");
+  write(dir / "missing.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"q","points":[[0,0,0],[1,0,0]]}]})");
+  write(dir / "unknown.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"extra":1})");
+  write(dir / "matrix.cnrig.json", R"({"format":"curvenet-rig","version":1,"frame":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,2],"nodes":[],"profiles":[]})");
+  write(dir / "broken.cnrig.json", R"({"format":"curvenet-rig",)");
+  struct Case {
+    std::string mesh, rig, file, element;
+  };
+  const Case cases[] = {
+      {"fin.obj", "ok.cnrig.json", "fin.obj", "edge 0-1"},
+      {"nan.obj", "ok.cnrig.json", "nan.obj", "vertex 2"},
+      {"flat.obj", "ok.cnrig.json", "flat.obj", "face 0"},
+      {"nothere.obj", "ok.cnrig.json", "nothere.obj", "no such file"},
+      {"quad.obj", "dup.cnrig.json", "dup.cnrig.json", "/nodes/1/id"},
+      {"quad.obj", "missing.cnrig.json", "missing.cnrig.json", "/profiles/0/to"},
+      {"quad.obj", "unknown.cnrig.json", "unknown.cnrig.json", "/extra"},
+      {"quad.obj", "matrix.cnrig.json", "matrix.cnrig.json", "/frame"},
+      {"quad.obj", "broken.cnrig.json", "broken.cnrig.json", "malformed JSON"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.mesh + " " + c.rig);
+    const fs::path report = dir / "report.json";
+    const CliRun r = run("embed " + (dir / c.mesh).string() + " " + (dir / c.rig).string() + " --report " + report.string() +
+                          " --regions " + (dir / "regions.ply").string(),
+                      dir);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find(c.file), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(c.element), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(report));
+    EXPECT_FALSE(fs::exists(dir / "regions.ply"));
+    for (const auto& entry : fs::directory_iterator(dir)) EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos);
+  }
+  // The good pair works.
+  EXPECT_EQ(run("embed " + (dir / "quad.obj").string() + " " + (dir / "ok.cnrig.json").string(), dir).code, 0);
+}
+
+TEST(Cli, CrossingProfilesAreRefusedNamingBoth) {
+  const auto dir = test::temp_dir("cross");
+  std::string grid;
+  for (int j = 0; j <= 4; ++j)
+    for (int i = 0; i <= 4; ++i) grid += "v " + std::to_string(i) + " " + std::to_string(j) + " 0\n";
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i) {
+      const int a = j * 5 + i + 1;
+      grid += "f " + std::to_string(a) + " " + std::to_string(a + 1) + " " + std::to_string(a + 6) + " " + std::to_string(a + 5) + "\n";
+    }
+  write(dir / "grid.obj", grid);
+  write(dir / "x.cnrig.json", R"({"format":"curvenet-rig","version":1,
+    "nodes":[{"id":"a","position":[0.3,0.4,0]},{"id":"b","position":[3.7,3.4,0]},{"id":"c","position":[0.2,3.3,0]},{"id":"d","position":[3.6,0.3,0]}],
+    "profiles":[{"id":"diag1","from":"a","to":"b","points":[[0.3,0.4,0],[3.7,3.4,0]]},{"id":"diag2","from":"c","to":"d","points":[[0.2,3.3,0],[3.6,0.3,0]]}]})");
+  const CliRun r = run("embed " + (dir / "grid.obj").string() + " " + (dir / "x.cnrig.json").string() + " --report " + (dir / "r.json").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("diag1"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("diag2"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "r.json"));
+}
+
+TEST(Cli, DemoRunsOnGeneratedData) {
+  const auto dir = test::temp_dir("demo");
+  const CliRun r = run("demo --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("tube_quads: SUCCESS"), std::string::npos);
+  EXPECT_NE(r.out.find("tube_tris: SUCCESS"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "out" / "tube_quads.regions.ply"));
+}

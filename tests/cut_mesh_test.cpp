@@ -1,0 +1,110 @@
+// The half-edge cut mesh: construction, mutations, and the validator after
+// every mutation.
+
+#include "cut/cut_mesh.hpp"
+#include "curvenet/errors.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace curvenet;
+using namespace curvenet::detail;
+
+namespace {
+void expect_valid(const CutMesh& m) {
+  const auto fault = m.validate();
+  EXPECT_FALSE(fault.has_value()) << *fault;
+}
+} // namespace
+
+TEST(CutMesh, FromSurfaceKeepsIdentities) {
+  const SurfaceMesh s = make_surface_mesh(test::grid(2, 2), "grid");
+  const CutMesh m = CutMesh::from_surface(s);
+  expect_valid(m);
+  EXPECT_EQ(m.num_vertices(), 9);
+  EXPECT_EQ(m.num_faces(), 4);
+  EXPECT_EQ(m.num_edges(), 12);
+  for (int f = 0; f < 4; ++f) {
+    const auto loop = m.face_loop(Face(f));
+    ASSERT_EQ(loop.size(), 4u);
+    for (size_t i = 0; i < 4; ++i) EXPECT_EQ(m.from(loop[i]).idx, s.face(f)[i]);
+  }
+  // The centre vertex has four outgoing half-edges, a corner two.
+  EXPECT_EQ(m.outgoing(Vertex(4)).size(), 4u);
+  EXPECT_EQ(m.outgoing(Vertex(0)).size(), 2u);
+}
+
+TEST(CutMesh, SplitEdgeKeepsBothFacesClosed) {
+  const SurfaceMesh s = make_surface_mesh(test::grid(2, 1), "grid");
+  CutMesh m = CutMesh::from_surface(s);
+  // The interior edge 1-4 between the two quads.
+  Halfedge h;
+  for (int i = 0; i < m.num_halfedges(); ++i)
+    if (m.from(Halfedge(i)).idx == 1 && m.to(Halfedge(i)).idx == 4) h = Halfedge(i);
+  ASSERT_TRUE(h.is_valid());
+  const Vertex v = m.split_edge(h, {1, 0.5, 0}, {VertexOrigin::Kind::OnEdge, h.idx / 2, 0.5});
+  expect_valid(m);
+  EXPECT_EQ(m.to(h), v);
+  EXPECT_EQ(m.from(m.next(h)), v);
+  EXPECT_EQ(m.face_loop(Face(0)).size(), 5u);
+  EXPECT_EQ(m.face_loop(Face(1)).size(), 5u);
+  const Vertex w = m.split_edge(m.next(h), {1, 0.75, 0}, {VertexOrigin::Kind::OnEdge, h.idx / 2, 0.75});
+  expect_valid(m);
+  EXPECT_EQ(m.face_loop(Face(0)).size(), 6u);
+  EXPECT_EQ(m.outgoing(w).size(), 2u);
+}
+
+TEST(CutMesh, SubdivideFaceAlongAChordAcrossAPlanarQuad) {
+  const SurfaceMesh s = make_surface_mesh(test::grid(1, 1), "quad");
+  CutMesh m = CutMesh::from_surface(s);
+  // Split the bottom (0-1) and top (2-3) edges, then connect them.
+  const auto loop = m.face_loop(Face(0));
+  const Vertex a = m.split_edge(loop[0], {0.5, 0, 0}, {});
+  expect_valid(m);
+  const Vertex b = m.split_edge(m.face_loop(Face(0))[3], {0.5, 1, 0}, {});
+  expect_valid(m);
+  const Chord chord{a, b, {0, true}};
+  const auto hs = m.subdivide_face(Face(0), std::span<const Chord>(&chord, 1));
+  expect_valid(m);
+  ASSERT_EQ(hs.size(), 1u);
+  EXPECT_EQ(m.num_faces(), 2);
+  EXPECT_EQ(m.face_loop(Face(0)).size(), 4u);
+  EXPECT_EQ(m.face_loop(Face(1)).size(), 4u);
+  EXPECT_TRUE(m.tag(hs[0]).forward);
+  EXPECT_FALSE(m.tag(CutMesh::twin(hs[0])).forward);
+  EXPECT_NEAR(m.face_area(Face(0)) + m.face_area(Face(1)), 1.0, 1e-15);
+}
+
+TEST(CutMesh, InteriorVertexOfDegreeOneIsACrack) {
+  const SurfaceMesh s = make_surface_mesh(test::grid(1, 1), "quad");
+  CutMesh m = CutMesh::from_surface(s);
+  const Vertex c = m.add_isolated_vertex({0.5, 0.5, 0}, {VertexOrigin::Kind::InFace, 0, 0});
+  const Chord chord{Vertex(0), c, {0, true}};
+  m.subdivide_face(Face(0), std::span<const Chord>(&chord, 1));
+  expect_valid(m);
+  EXPECT_EQ(m.num_faces(), 1);
+  EXPECT_EQ(m.face_loop(Face(0)).size(), 6u); // the crack is walked on both sides
+}
+
+TEST(CutMesh, InteriorStarSplitsTheFaceIntoFans) {
+  const SurfaceMesh s = make_surface_mesh(test::grid(1, 1), "quad");
+  CutMesh m = CutMesh::from_surface(s);
+  const Vertex c = m.add_isolated_vertex({0.4, 0.6, 0}, {VertexOrigin::Kind::InFace, 0, 0});
+  std::vector<Chord> chords;
+  for (int v = 0; v < 4; ++v) chords.push_back({Vertex(v), c, {v, true}});
+  m.subdivide_face(Face(0), chords);
+  expect_valid(m);
+  EXPECT_EQ(m.num_faces(), 4);
+  for (int f = 0; f < 4; ++f) EXPECT_EQ(m.face_loop(Face(f)).size(), 3u);
+}
+
+TEST(CutMesh, AChordOutsideItsFaceIsRefused) {
+  // An L-shaped hexagon: the chord between the two arm tips leaves it.
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1, 1, 0}, {1, 2, 0}, {0, 2, 0}};
+  r.add_face(std::vector<int>{0, 1, 2, 3, 4, 5});
+  const SurfaceMesh s = make_surface_mesh(r, "L");
+  CutMesh m = CutMesh::from_surface(s);
+  const Chord chord{Vertex(2), Vertex(4), {0, true}};
+  EXPECT_THROW(m.subdivide_face(Face(0), std::span<const Chord>(&chord, 1)), EmbedError);
+}

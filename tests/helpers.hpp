@@ -1,0 +1,44 @@
+#pragma once
+// Small fixtures built in code, and paths to the shared data.
+
+#include "curvenet/io.hpp"
+#include "curvenet/surface_mesh.hpp"
+
+#include <filesystem>
+#include <unistd.h>
+#include <string>
+#include <vector>
+
+namespace curvenet::test {
+
+inline std::string data(const std::string& rel) { return std::string(CURVENET_DATA_DIR) + "/" + rel; }
+inline bool have_data() { return std::filesystem::exists(CURVENET_DATA_DIR); }
+
+/// An n x m grid of unit quads in the plane z = 0, from (0,0) to (n,m).
+inline RawMesh grid(int n, int m, bool triangles = false) {
+  RawMesh r;
+  for (int j = 0; j <= m; ++j)
+    for (int i = 0; i <= n; ++i) r.positions.emplace_back(i, j, 0);
+  auto id = [n](int i, int j) { return j * (n + 1) + i; };
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
+      if (triangles) {
+        r.add_face(std::vector<int>{a, b, c});
+        r.add_face(std::vector<int>{a, c, d});
+      } else {
+        r.add_face(std::vector<int>{a, b, c, d});
+      }
+    }
+  return r;
+}
+
+/// A fresh temporary folder for one test.
+inline std::filesystem::path temp_dir(const std::string& name) {
+  auto p = std::filesystem::temp_directory_path() / ("curvenet_test_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p;
+}
+
+} // namespace curvenet::test

@@ -1,0 +1,170 @@
+// Mesh input: validation, welding by position, the map back to the input.
+
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+using namespace curvenet;
+
+TEST(SurfaceMesh, GridIsOneOpenComponent) {
+  const SurfaceMesh m = make_surface_mesh(test::grid(3, 2), "grid");
+  EXPECT_EQ(m.num_vertices(), 12);
+  EXPECT_EQ(m.num_faces(), 6);
+  const auto comps = mesh_components(m);
+  ASSERT_EQ(comps.size(), 1u);
+  EXPECT_FALSE(comps[0].closed);
+  EXPECT_EQ(comps[0].euler, 1);
+  EXPECT_DOUBLE_EQ(m.mean_edge_length(), 1.0);
+}
+
+TEST(SurfaceMesh, WeldsCoincidentVerticesAndKeepsTheMapBack) {
+  // Two triangles that share an edge only by position (as at a glTF seam).
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  r.add_face(std::vector<int>{0, 1, 2});
+  r.add_face(std::vector<int>{3, 4, 5});
+  const SurfaceMesh m = make_surface_mesh(r, "seam");
+  EXPECT_EQ(m.num_vertices(), 4);
+  EXPECT_EQ(m.input_to_welded, (std::vector<int>{0, 1, 2, 1, 3, 2}));
+  EXPECT_EQ(mesh_components(m).size(), 1u);
+}
+
+TEST(SurfaceMesh, DoesNotWeldWhereTheResultWouldBeNonManifold) {
+  // Two triangles that touch at one point: welding it would make a
+  // non-manifold vertex, so it stays two vertices.
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}, {-1, 0, 0}, {0, -1, 0}};
+  r.add_face(std::vector<int>{0, 1, 2});
+  r.add_face(std::vector<int>{3, 4, 5});
+  const SurfaceMesh m = make_surface_mesh(r, "touch");
+  EXPECT_EQ(m.num_vertices(), 6);
+  EXPECT_FALSE(m.notes.empty());
+}
+
+TEST(SurfaceMesh, RefusesNonFiniteCoordinates) {
+  RawMesh r = test::grid(1, 1);
+  r.positions[2].y() = std::nan("");
+  try {
+    make_surface_mesh(r, "bad.obj");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "bad.obj");
+    EXPECT_EQ(e.element(), "vertex 2");
+  }
+}
+
+TEST(SurfaceMesh, RefusesDegenerateFaces) {
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  r.add_face(std::vector<int>{0, 1, 2});
+  EXPECT_THROW(make_surface_mesh(r, "flat"), InputError);
+  RawMesh s;
+  s.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  s.add_face(std::vector<int>{0, 1, 1});
+  EXPECT_THROW(make_surface_mesh(s, "repeat"), InputError);
+}
+
+TEST(SurfaceMesh, RefusesNonManifoldEdges) {
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
+  r.add_face(std::vector<int>{0, 1, 2});
+  r.add_face(std::vector<int>{1, 0, 3});
+  r.add_face(std::vector<int>{0, 1, 4});
+  try {
+    make_surface_mesh(r, "fin.obj");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "edge 0-1");
+    EXPECT_NE(std::string(e.what()).find("non-manifold"), std::string::npos);
+  }
+}
+
+TEST(SurfaceMesh, RefusesNonManifoldVertices) {
+  // Two triangles joined at one shared vertex index (a bow tie).
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
+  r.add_face(std::vector<int>{0, 1, 2});
+  r.add_face(std::vector<int>{0, 3, 4});
+  try {
+    make_surface_mesh(r, "bowtie.obj");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "vertex 0");
+  }
+}
+
+TEST(SurfaceMesh, RepairsInconsistentOrientationAndSaysSo) {
+  RawMesh r = test::grid(2, 1);
+  // Reverse the second quad.
+  std::reverse(r.face_vertices.begin() + 4, r.face_vertices.end());
+  const SurfaceMesh m = make_surface_mesh(r, "flip");
+  ASSERT_EQ(m.notes.size(), 1u);
+  EXPECT_NE(m.notes[0].find("reversed 1 faces"), std::string::npos);
+}
+
+TEST(SurfaceMesh, HandGltfWeldsIntoTheClosedExampleMesh) {
+  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  const SurfaceMesh m = load_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  EXPECT_EQ(m.input_to_welded.size(), 1764u);
+  EXPECT_EQ(m.num_vertices(), 1528);
+  EXPECT_EQ(m.num_faces(), 3052);
+  const auto comps = mesh_components(m);
+  ASSERT_EQ(comps.size(), 1u);
+  EXPECT_TRUE(comps[0].closed);
+  EXPECT_EQ(comps[0].genus(), 0);
+  // Same positions, in the same order, as the example's welded OBJ.
+  const SurfaceMesh w = load_mesh(test::data("xr_tools_hand/example/hand_l_welded.obj"));
+  ASSERT_EQ(w.num_vertices(), m.num_vertices());
+  // (The OBJ holds the float32 values in decimal: equal to float precision.)
+  for (int v = 0; v < m.num_vertices(); ++v) EXPECT_LT((w.positions[v] - m.positions[v]).norm(), 1e-7) << v;
+}
+
+TEST(SurfaceMesh, TorusHasGenusOne) {
+  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  const SurfaceMesh m = load_mesh(test::data("torus/torus.obj"));
+  const auto comps = mesh_components(m);
+  ASSERT_EQ(comps.size(), 1u);
+  EXPECT_TRUE(comps[0].closed);
+  EXPECT_EQ(comps[0].genus(), 1);
+}
+
+TEST(SurfaceMesh, NailsHandIsOpenOrRefusedCleanly) {
+  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  try {
+    const SurfaceMesh m = load_mesh(test::data("xr_tools_hand/Hand_Nails_L.gltf"));
+    bool any_open = false;
+    for (const auto& c : mesh_components(m)) any_open = any_open || !c.closed;
+    EXPECT_TRUE(any_open);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("Hand_Nails_L.gltf"), std::string::npos);
+  }
+}
+
+TEST(MeshIo, ReadsPlyAndOffThroughAssimp) {
+  const auto dir = test::temp_dir("plyoff");
+  {
+    std::ofstream ply(dir / "q.ply");
+    ply << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+    std::ofstream off(dir / "q.off");
+    off << "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
+  }
+  const SurfaceMesh a = load_mesh((dir / "q.ply").string());
+  EXPECT_EQ(a.num_vertices(), 4);
+  const SurfaceMesh b = load_mesh((dir / "q.off").string());
+  EXPECT_EQ(b.num_faces(), 2);
+}
+
+TEST(MeshIo, UnreadableFilesAreInputErrors) {
+  EXPECT_THROW(load_mesh("/nonexistent/mesh.obj"), InputError);
+  const auto dir = test::temp_dir("unreadable");
+  std::ofstream(dir / "x.stl") << "solid";
+  EXPECT_THROW(load_mesh((dir / "x.stl").string()), InputError);
+  std::ofstream(dir / "broken.gltf") << "{ not json";
+  EXPECT_THROW(load_mesh((dir / "broken.gltf").string()), InputError);
+}

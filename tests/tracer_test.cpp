@@ -1,0 +1,77 @@
+// Stage "project and trace": placing points on the surface and walking it.
+
+#include "trace/tracer.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace curvenet;
+using namespace curvenet::detail;
+using Kind = SurfacePoint::Kind;
+
+namespace {
+struct Fixture {
+  SurfaceMesh mesh;
+  CutMesh cut;
+  std::unique_ptr<TraceMesh> tm;
+  explicit Fixture(RawMesh raw) : mesh(make_surface_mesh(raw, "fixture")), cut(CutMesh::from_surface(mesh)) {
+    tm = std::make_unique<TraceMesh>(mesh, cut);
+  }
+  TracedProfile trace(Vec3 a, Vec3 b, int n = 40) {
+    const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
+    TraceInput in;
+    in.profile_id = "p";
+    for (int i = 0; i < n; ++i) in.samples.push_back(a + (b - a) * i / (n - 1));
+    in.from = place_node(*tm, a, tol);
+    in.to = place_node(*tm, b, tol);
+    in.from_node = 0;
+    in.to_node = 1;
+    return trace_profile(*tm, in, mesh.mean_edge_length(), tol);
+  }
+};
+} // namespace
+
+TEST(Tracer, ClosestPointIsClassifiedExactly) {
+  Fixture f(test::grid(2, 2, true));
+  const Tolerances tol = Tolerances::for_model(f.mesh.bbox_diagonal());
+  EXPECT_EQ(f.tm->closest_point({1, 1, 0.3}).kind, Kind::Vertex);
+  EXPECT_EQ(f.tm->closest_point({1, 0.5, -0.2}).kind, Kind::Edge);
+  EXPECT_EQ(f.tm->closest_point({0.8, 0.3, 0.1}).kind, Kind::Face);
+  // A node a hair away from a vertex is placed on it.
+  EXPECT_EQ(place_node(*f.tm, {1 + 1e-9, 1, 0}, tol).kind, Kind::Vertex);
+  EXPECT_EQ(place_node(*f.tm, {1.003, 1.001, 0}, tol).kind, Kind::Face);
+}
+
+TEST(Tracer, CrossingsComeOutOrderedAlongTheProfile) {
+  Fixture f(test::grid(4, 1));
+  const auto t = f.trace({0.5, 0.5, 0}, {3.5, 0.4, 0});
+  ASSERT_EQ(t.points.size(), 5u); // node, three crossings, node
+  for (int i = 1; i <= 3; ++i) {
+    ASSERT_EQ(t.points[i].at.kind, Kind::Edge);
+    EXPECT_NEAR(t.points[i].at.pos.x(), i, 1e-12);
+  }
+  EXPECT_EQ(t.points.front().node, 0);
+  EXPECT_EQ(t.points.back().node, 1);
+}
+
+TEST(Tracer, ACurveThroughAVertexHitsIt) {
+  Fixture f(test::grid(2, 2));
+  const auto t = f.trace({0.5, 0.5, 0}, {1.5, 1.5, 0});
+  ASSERT_EQ(t.points.size(), 3u);
+  EXPECT_EQ(t.points[1].at.kind, Kind::Vertex);
+  EXPECT_EQ(t.points[1].at.vertex, 4);
+}
+
+TEST(Tracer, ACurveAlongEdgesVisitsTheirVertices) {
+  Fixture f(test::grid(4, 2, true));
+  const auto t = f.trace({0, 1, 0}, {4, 1, 0});
+  // Nodes on boundary vertices 5 and 9; the path runs through 6, 7, 8 and
+  // never leaves the line y = 1.
+  std::vector<int> vertices;
+  for (const auto& p : t.points) {
+    EXPECT_EQ(p.at.pos.y(), 1.0);
+    EXPECT_NE(p.at.kind, Kind::Face);
+    if (p.at.kind == Kind::Vertex) vertices.push_back(p.at.vertex);
+  }
+  EXPECT_EQ(vertices, (std::vector<int>{5, 6, 7, 8, 9}));
+}
