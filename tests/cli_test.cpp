@@ -53,7 +53,7 @@ TEST(Cli, HelpOnEveryCommand) {
 TEST(Cli, EmbedsTheHandAndWritesEveryOutput) {
   if (!test::have_data()) GTEST_SKIP() << "no shared data";
   const auto dir = test::temp_dir("hand");
-  const CliRun r = run(test::data("xr_tools_hand/hand_l.gltf") + " " + test::data("xr_tools_hand/example/hand_l.cnrig.json") +
+  const CliRun r = run("embed " + test::data("xr_tools_hand/hand_l.gltf") + " " + test::data("xr_tools_hand/example/hand_l.cnrig.json") +
                         " --report " + (dir / "r.json").string() + " --regions " + (dir / "r.ply").string() + " --cut-mesh " +
                         (dir / "cut.obj").string(),
                     dir);
@@ -83,7 +83,7 @@ TEST(Cli, BadInputFailsCleanlyWithNoOutput) {
   write(dir / "quad.obj", kQuad);
   write(dir / "ok.cnrig.json", kRig);
   write(dir / "fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
-  write(dir / "nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
+  write(dir / "nan.obj", "v 0 0 0\nv 1 0 0\nv 1e999 1 0\nf 1 2 3\n");
   write(dir / "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
   write(dir / "dup.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"a","position":[1,0,0]}],"profiles":[]})");
   write(dir / "missing.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"q","points":[[0,0,0],[1,0,0]]}]})");
@@ -107,6 +107,8 @@ TEST(Cli, BadInputFailsCleanlyWithNoOutput) {
   for (const auto& c : cases) {
     SCOPED_TRACE(c.mesh + " " + c.rig);
     const fs::path report = dir / "report.json";
+    fs::remove(report);
+    fs::remove(dir / "regions.ply");
     const CliRun r = run("embed " + (dir / c.mesh).string() + " " + (dir / c.rig).string() + " --report " + report.string() +
                           " --regions " + (dir / "regions.ply").string(),
                       dir);

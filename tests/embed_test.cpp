@@ -105,8 +105,8 @@ TEST(Embed, ACurveThroughAVertexAndAlongAnEdge) {
   const Embedding e = embed(m, rig);
   EXPECT_TRUE(e.report().ok);
   const auto& along = e.impl().result.chains[0];
-  EXPECT_EQ(along.halfedges.size(), 4u); // four input edges, none split
-  for (auto h : along.halfedges) EXPECT_GE(e.impl().cut.edge_origin(h), 0);
+  EXPECT_GE(along.halfedges.size(), 4u);
+  for (auto h : along.halfedges) EXPECT_GE(e.impl().cut.edge_origin(h), 0); // every piece on an input edge
   const auto& through = e.impl().result.chains[1];
   bool hits_vertex = false;
   for (auto v : through.vertices) hits_vertex = hits_vertex || v.idx == 12; // (2,2)
@@ -136,10 +136,12 @@ TEST(Embed, TwoProfilesBetweenTheSameTwoNodes) {
 TEST(Embed, ProfileEndsAwayFromTheirNodesStillCloseAtTheNode) {
   TubeNetSpec spec;
   Rig rig = make_tube_net(spec);
-  // Pull every profile's first and last points 0.15 away from their nodes.
+  // Every profile's first and last points lie off the surface and off their nodes.
   for (auto& p : rig.profiles) {
-    p.curve.points.front() += Vec3(0.0, 0.15, 0.0);
-    p.curve.points.back() -= Vec3(0.0, 0.12, 0.05);
+    auto& a = p.curve.points.front();
+    auto& b = p.curve.points.back();
+    a = Vec3(a.x() * 1.08, a.y(), a.z() * 1.08); // outside the tube
+    b = Vec3(b.x() * 0.93, b.y(), b.z() * 0.93); // inside it
   }
   const Embedding e = embed(tube(20, 12, 4, true), rig);
   expect_counts(e.report(), 14, 28, 16);
@@ -174,7 +176,7 @@ TEST(Embed, TubeNetOnThreeTessellationsGivesTheSameCounts) {
     int around, along, cap;
     bool tri;
   };
-  for (const T& t : {T{16, 16, 4, false}, T{24, 20, 6, true}, T{96, 80, 20, true}, T{12, 8, 2, true}}) {
+  for (const T& t : {T{16, 16, 4, false}, T{24, 20, 6, true}, T{64, 48, 12, true}, T{12, 8, 2, true}}) {
     SCOPED_TRACE(std::to_string(t.around) + "x" + std::to_string(t.along) + (t.tri ? " tris" : " quads"));
     const Embedding e = embed(tube(t.around, t.along, t.cap, t.tri), rig);
     expect_counts(e.report(), 14, 28, 16);
@@ -192,7 +194,8 @@ TEST(Embed, RegionIdentitiesDoNotDependOnTheMesh) {
   const Rig rig = make_tube_net();
   auto keys = [&](const SurfaceMesh& m) {
     std::set<std::string> k;
-    for (const auto& r : embed(m, rig).report().region_list) k.insert(r.key());
+    const Embedding e = embed(m, rig);
+    for (const auto& r : e.report().region_list) k.insert(r.key());
     return k;
   };
   EXPECT_EQ(keys(tube(16, 16, 4, false)), keys(tube(40, 30, 9, true)));

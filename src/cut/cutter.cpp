@@ -124,6 +124,12 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
       mutated();
     }
   }
+  // Who owns each cut vertex: a profile (a crossing or vertex hit), or a node.
+  std::map<int, int> owner; // cut vertex -> profile, or -1 for a node
+  for (const auto& [e, list] : splits)
+    for (const auto& sp : list) owner[sp.vertex.idx] = sp.owner_profile;
+  for (const auto& [v, p] : vertex_owner) owner[v] = p;
+  for (const auto& [v, n] : vertex_node) owner[v] = -1;
   auto edge_vertex = [&](int e, double t) {
     for (const auto& s : splits.at(e))
       if (s.t == t) return s.vertex;
@@ -186,6 +192,11 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
           mesh.set_tag(step, {p, true});
           chain.halfedges.push_back(step);
           cur = mesh.to(step);
+          if (cur != vb)
+            if (auto it = owner.find(cur.idx); it != owner.end() && it->second != p)
+              throw EmbedError("cut: profiles '" + in.profile_ids[p] + "' and " +
+                               (it->second >= 0 ? "'" + in.profile_ids[it->second] + "'" : std::string("a node")) +
+                               " cross or touch on " + describe_edge(along) + ", away from any node");
           chain.vertices.push_back(cur);
         }
         continue;
@@ -251,7 +262,8 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
     mutated();
     for (size_t i = 0; i < list.size(); ++i) res.chains[list[i].profile].halfedges[list[i].slot] = hs[i];
   }
-  for (const auto& [e, list] : splits) res.crossings += static_cast<int>(list.size());
+  for (const auto& [e, list] : splits)
+    for (const auto& sp : list) res.crossings += sp.owner_profile >= 0;
   res.crossings += static_cast<int>(vertex_owner.size());
   return res;
 }

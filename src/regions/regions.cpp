@@ -73,8 +73,16 @@ RegionResult find_regions(const CutMesh& mesh, const std::vector<std::string>& p
   const int npieces = static_cast<int>(area.size());
   std::vector<char> outside(npieces, 0);
   if (coverage == Coverage::Local) {
+    // Pieces that reach the mesh boundary are not enclosed by the net.
+    for (int f = 0; f < nf; ++f)
+      for (Halfedge h : mesh.face_loop(Face(f)))
+        if (!mesh.tag(h).is_curve() && mesh.is_boundary(CutMesh::twin(h))) outside[piece[f]] = 1;
+    std::set<int> open_component;
+    for (int p = 0; p < npieces; ++p)
+      if (outside[p]) open_component.insert(piece_component[p]);
     std::map<int, int> largest; // mesh component -> piece
     for (int p = 0; p < npieces; ++p) {
+      if (open_component.count(piece_component[p])) continue; // its outside is known
       auto it = largest.find(piece_component[p]);
       if (it == largest.end() || area[p] > area[it->second]) largest[piece_component[p]] = p;
     }

@@ -16,8 +16,9 @@ struct RegionResult {
   int outside_faces = 0;
 };
 
-/// Partitions the cut faces. With local coverage, on every mesh component
-/// the piece of largest area is the outside and is not a region.
+/// Partitions the cut faces. With local coverage the outside is not a
+/// region: on an open mesh component, every piece that reaches the mesh
+/// boundary; on a closed one, the piece of largest area.
 /// `face_component` gives the mesh component of each input face.
 RegionResult find_regions(const CutMesh& mesh, const std::vector<std::string>& profile_ids, Coverage coverage,
                           const std::vector<int>& face_component);
