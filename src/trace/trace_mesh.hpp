@@ -51,6 +51,15 @@ public:
   /// Input edges around input vertex v.
   [[nodiscard]] const std::vector<int>& vertex_edges(int v) const { return vertex_edges_[v]; }
 
+  /// The surface point at input vertex v.
+  [[nodiscard]] SurfacePoint vertex_point(int v) const {
+    SurfacePoint p;
+    p.kind = SurfacePoint::Kind::Vertex;
+    p.vertex = v;
+    p.tri = vertex_tris_[v].empty() ? -1 : vertex_tris_[v][0];
+    p.pos = position(v);
+    return p;
+  }
   /// Triangles that contain p (one for a face point, two for an edge, the
   /// fan for a vertex; a face point on a diagonal also gets its neighbour).
   [[nodiscard]] std::vector<int> triangles_of(const SurfacePoint& p) const;

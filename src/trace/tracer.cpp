@@ -16,14 +16,7 @@ SurfacePoint place_node(const TraceMesh& mesh, const Vec3& p, const Tolerances& 
   if (sp.kind == SurfacePoint::Kind::Face) {
     const auto& c = mesh.tri(sp.tri);
     for (int k = 0; k < 3; ++k)
-      if ((mesh.position(c[k]) - sp.pos).norm() <= snap) {
-        SurfacePoint v;
-        v.kind = SurfacePoint::Kind::Vertex;
-        v.vertex = c[k];
-        v.tri = sp.tri;
-        v.pos = mesh.position(c[k]);
-        return v;
-      }
+      if ((mesh.position(c[k]) - sp.pos).norm() <= snap) return mesh.vertex_point(c[k]);
     for (int k = 0; k < 3; ++k) {
       const int e = mesh.side_edge(sp.tri, k);
       if (e < 0) continue;
@@ -42,11 +35,7 @@ SurfacePoint place_node(const TraceMesh& mesh, const Vec3& p, const Tolerances& 
   } else if (sp.kind == SurfacePoint::Kind::Edge) {
     const auto ends = mesh.edge_ends(sp.edge);
     for (int v : ends)
-      if ((mesh.position(v) - sp.pos).norm() <= snap) {
-        sp.kind = SurfacePoint::Kind::Vertex;
-        sp.vertex = v;
-        sp.pos = mesh.position(v);
-      }
+      if ((mesh.position(v) - sp.pos).norm() <= snap) return mesh.vertex_point(v);
   }
   return sp;
 }
@@ -149,11 +138,7 @@ public:
       for (int u : ends_of(a))
         for (int w : ends_of(b))
           if (u == w) {
-            SurfacePoint v;
-            v.kind = SurfacePoint::Kind::Vertex;
-            v.vertex = u;
-            v.pos = m_.position(u);
-            emit(v, sample);
+            emit(m_.vertex_point(u), sample);
             return;
           }
     }
@@ -258,11 +243,7 @@ public:
         travelled += (best->pos - pos).norm();
         pos = best->pos;
         if (best->vertex >= 0) {
-          SurfacePoint v;
-          v.kind = SurfacePoint::Kind::Vertex;
-          v.vertex = best->vertex;
-          v.pos = pos;
-          emit(v, sample);
+          emit(m_.vertex_point(best->vertex), sample);
           state = State::AtVertex;
           vertex = best->vertex;
           came_tri = tri;
@@ -275,11 +256,7 @@ public:
           came = nc;
         }
       } else {
-        SurfacePoint vp;
-        vp.kind = SurfacePoint::Kind::Vertex;
-        vp.vertex = vertex;
-        vp.pos = m_.position(vertex);
-        if (shares(vp)) return;
+        if (shares(m_.vertex_point(vertex))) return;
         // Leave the vertex through a triangle of its fan, or along an edge.
         struct Option { int tri = -1, side = -1, to = -1; Vec3 pos; };
         std::vector<Option> options;
@@ -315,11 +292,7 @@ public:
         travelled += (best->pos - here).norm();
         pos = best->pos;
         if (best->to >= 0) {
-          SurfacePoint v;
-          v.kind = SurfacePoint::Kind::Vertex;
-          v.vertex = best->to;
-          v.pos = pos;
-          emit(v, sample);
+          emit(m_.vertex_point(best->to), sample);
           came_vertex = vertex;
           came_tri = -1;
           vertex = best->to;
