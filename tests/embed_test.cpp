@@ -176,7 +176,7 @@ TEST(Embed, TubeNetOnThreeTessellationsGivesTheSameCounts) {
     int around, along, cap;
     bool tri;
   };
-  for (const T& t : {T{16, 16, 4, false}, T{24, 20, 6, true}, T{64, 48, 12, true}, T{12, 8, 2, true}}) {
+  for (const T& t : {T{16, 16, 4, false}, T{24, 20, 6, true}, T{96, 80, 20, true}, T{12, 8, 2, true}}) {
     SCOPED_TRACE(std::to_string(t.around) + "x" + std::to_string(t.along) + (t.tri ? " tris" : " quads"));
     const Embedding e = embed(tube(t.around, t.along, t.cap, t.tri), rig);
     expect_counts(e.report(), 14, 28, 16);
@@ -187,6 +187,25 @@ TEST(Embed, TubeNetOnThreeTessellationsGivesTheSameCounts) {
     EXPECT_EQ(keys.size(), 16u);
     EXPECT_TRUE(keys.count("ring0_arc01:L|side01_0:R|side01_1:L|ring1_arc01:R") ||
                 keys.count("ring0_arc01:R|ring1_arc01:L|side01_0:L|side01_1:R"));
+  }
+}
+
+TEST(Embed, TubeNetWhereNodesAndRingsSitOnVerticesAndEdges) {
+  // Node angles and ring heights that fall exactly on vertex columns and
+  // edge rows of the tessellation: profiles through vertices and along edges.
+  for (const double angle : {0.0, 30.0, 45.0}) {
+    for (const int around : {8, 12, 24}) {
+      for (const int along : {4, 20}) {
+        for (const bool tri : {false, true}) {
+          SCOPED_TRACE("angle " + std::to_string(angle) + ", " + std::to_string(around) + " x " + std::to_string(along) +
+                       (tri ? " tris" : " quads"));
+          TubeNetSpec spec;
+          spec.first_angle_deg = angle;
+          const Embedding e = embed(tube(around, along, 3, tri), make_tube_net(spec));
+          expect_counts(e.report(), 14, 28, 16);
+        }
+      }
+    }
   }
 }
 

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using namespace curvenet::detail;
 
 TEST(Predicates, Orient2dSigns) {
@@ -18,10 +20,12 @@ TEST(Predicates, Orient3dFollowsTheNormal) {
 }
 
 TEST(Predicates, ExactWhereFloatingPointIsNot) {
-  // Points that are collinear in exact arithmetic but whose naive
-  // determinant rounds to a non-zero value.
-  const Eigen::Vector2d a(0.1, 0.1), b(0.2, 0.2), c(0.3, 0.3);
-  EXPECT_EQ(orient2d(a, b, c), orient2d(a, b, c)); // deterministic
+  // A point nudged off a line by one unit in the last place: the naive
+  // determinant of these doubles rounds to zero, the exact sign does not.
+  const Eigen::Vector2d a(0.5, 0.5), b(12.0, 12.0), c(24.0, std::nextafter(24.0, 25.0));
+  EXPECT_EQ(orient2d(a, b, c), 1);
+  EXPECT_EQ(orient2d(a, b, {24.0, std::nextafter(24.0, 23.0)}), -1);
+  EXPECT_EQ(orient2d(a, b, {24.0, 24.0}), 0);
   EXPECT_EQ(orient2d({0, 0}, {1e-300, 1e-300}, {1, 1}), 0);
   EXPECT_TRUE(collinear3d({0, 0, 0}, {1, 2, 3}, {2, 4, 6}));
   EXPECT_FALSE(collinear3d({0, 0, 0}, {1, 2, 3}, {2, 4, 6.000000000001}));

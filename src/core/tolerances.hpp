@@ -16,11 +16,11 @@ struct Tolerances {
   static constexpr double walk_length_factor = 8.0;
   static constexpr double walk_length_edges = 4.0;
 
-  /// Edge crossings are kept at least this fraction of the edge's length
-  /// away from its ends. The exact predicates decide which edges a profile
-  /// crosses; this only moves the crossing point so that no cut face is a
-  /// sliver thinner than rounding error (which would make the 2D angle order
-  /// around the point meaningless).
+  /// A point on an edge within this fraction of the edge's length of one of
+  /// its ends is taken to be that end: a path that crosses an edge this close
+  /// to a vertex goes through the vertex. Without it the cut would hold
+  /// slivers too thin for the angle order around their corners to mean
+  /// anything. The path's topology stays valid either way.
   static constexpr double crossing_min_param = 1e-6;
 
   double diagonal = 1.0;

@@ -1,6 +1,7 @@
 #include "trace/trace_mesh.hpp"
 
 #include "core/predicates.hpp"
+#include "core/tolerances.hpp"
 #include "curvenet/errors.hpp"
 
 #include <embree3/rtcore.h>
@@ -13,42 +14,43 @@
 namespace curvenet::detail {
 namespace {
 
-/// Closest point on triangle (a, b, c) to p, with the Voronoi region it lies in.
+/// Closest point on triangle (a, b, c) to p, with its barycentric
+/// coordinates (exact zeros where the point is clamped to a side or corner).
 struct TriClosest {
   Vec3 point;
-  int region; // 0,1,2: vertex; 3,4,5: side 0 (a-b), 1 (b-c), 2 (c-a); 6: inside
-  double s;   // parameter along the side for edge regions
+  std::array<double, 3> bary;
 };
 
 TriClosest closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  // Real-Time Collision Detection, section 5.1.5 (Ericson), with the region kept.
+  // Real-Time Collision Detection, section 5.1.5 (Ericson), keeping the
+  // barycentric coordinates of every Voronoi region.
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return {a, 0, 0};
+  if (d1 <= 0 && d2 <= 0) return {a, {1, 0, 0}};
   const Vec3 bp = p - b;
   const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return {b, 1, 0};
+  if (d3 >= 0 && d4 <= d3) return {b, {0, 1, 0}};
   const double vc = d1 * d4 - d3 * d2;
   if (vc <= 0 && d1 >= 0 && d3 <= 0) {
     const double v = d1 / (d1 - d3);
-    return {a + v * ab, 3, v};
+    return {a + v * ab, {1 - v, v, 0}};
   }
   const Vec3 cp = p - c;
   const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return {c, 2, 0};
+  if (d6 >= 0 && d5 <= d6) return {c, {0, 0, 1}};
   const double vb = d5 * d2 - d1 * d6;
   if (vb <= 0 && d2 >= 0 && d6 <= 0) {
     const double w = d2 / (d2 - d6);
-    return {a + w * ac, 5, 1 - w}; // side c -> a, parameter from c
+    return {a + w * ac, {1 - w, 0, w}};
   }
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
     const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {b + w * (c - b), 4, w};
+    return {b + w * (c - b), {0, 1 - w, w}};
   }
   const double denom = 1.0 / (va + vb + vc);
   const double v = vb * denom, w = vc * denom;
-  return {a + ab * v + ac * w, 6, 0};
+  return {a + ab * v + ac * w, {1 - v - w, v, w}};
 }
 
 } // namespace
@@ -69,7 +71,7 @@ struct QueryData {
   Vec3 q;
   double best = std::numeric_limits<double>::infinity();
   int tri = -1;
-  TriClosest hit{};
+  TriClosest hit{Vec3::Zero(), {0, 0, 0}};
   double slack = 0;
 };
 
@@ -251,31 +253,28 @@ SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
   if (data.tri < 0) throw EmbedError("closest point: the surface has no triangle");
   const int t = data.tri;
   const auto& c = tri_[t];
+  // Classify: within Tolerances::crossing_min_param (relative) of a corner
+  // or of an input edge, the point is on it.
+  const auto& l = data.hit.bary;
+  const double d = Tolerances::crossing_min_param;
+  for (int k = 0; k < 3; ++k)
+    if (l[k] > 1 - d) return vertex_point(c[k]);
   SurfacePoint sp;
   sp.tri = t;
   sp.pos = data.hit.point;
-  const int r = data.hit.region;
-  if (r < 3) {
-    sp.kind = SurfacePoint::Kind::Vertex;
-    sp.vertex = c[r];
-    sp.pos = position(c[r]);
-  } else if (r < 6) {
-    const int k = r - 3;
+  for (int k = 0; k < 3; ++k) {
     const int e = side_edge_[t][k];
-    if (e >= 0) {
-      sp.kind = SurfacePoint::Kind::Edge;
-      sp.edge = e;
-      const double s = data.hit.s; // from corner k to corner k+1 (side 2 measured from c)
-      sp.t = edge_ends(e)[0] == c[k] ? s : 1 - s;
-      if (!(sp.t > 0 && sp.t < 1)) {
-        sp.kind = SurfacePoint::Kind::Vertex;
-        sp.vertex = sp.t <= 0 ? edge_ends(e)[0] : edge_ends(e)[1];
-        sp.pos = position(sp.vertex);
-      } else {
-        const auto ends = edge_ends(e);
-        sp.pos = (1 - sp.t) * position(ends[0]) + sp.t * position(ends[1]);
-      }
-    }
+    if (e < 0 || !(l[(k + 2) % 3] < d)) continue;
+    // On side k, from corner k to corner k+1.
+    const double s = l[(k + 1) % 3] / (l[k] + l[(k + 1) % 3]);
+    const auto& ends = edge_ends(e);
+    sp.kind = SurfacePoint::Kind::Edge;
+    sp.edge = e;
+    sp.t = ends[0] == c[k] ? s : 1 - s;
+    if (!(sp.t > d)) return vertex_point(ends[0]);
+    if (!(sp.t < 1 - d)) return vertex_point(ends[1]);
+    sp.pos = (1 - sp.t) * position(ends[0]) + sp.t * position(ends[1]);
+    return sp;
   }
   return sp;
 }

@@ -166,8 +166,11 @@ public:
       const auto& c = m_.tri(t);
       const int i = c[k], j = c[(k + 1) % 3];
       const double si = sd(i), sj = sd(j);
-      double s = (si - sj) != 0 ? si / (si - sj) : 0.5;
-      s = std::clamp(s, Tolerances::crossing_min_param, 1 - Tolerances::crossing_min_param);
+      const double s = (si - sj) != 0 ? si / (si - sj) : 0.5;
+      // A crossing this close to an end of the edge goes through that end:
+      // the path becomes a vertex hit instead of a sliver next to the vertex.
+      if (!(s > Tolerances::crossing_min_param)) return m_.vertex_point(i);
+      if (!(s < 1 - Tolerances::crossing_min_param)) return m_.vertex_point(j);
       SurfacePoint p;
       p.pos = (1 - s) * m_.position(i) + s * m_.position(j);
       const int e = m_.side_edge(t, k);
@@ -248,8 +251,14 @@ public:
           vertex = best->vertex;
           came_tri = tri;
           came_vertex = -1;
+        } else if (const SurfacePoint x = crossing(tri, best->side); x.kind == SurfacePoint::Kind::Vertex) {
+          emit(x, sample);
+          state = State::AtVertex;
+          vertex = x.vertex;
+          came_tri = tri;
+          came_vertex = -1;
         } else {
-          emit(crossing(tri, best->side), sample);
+          emit(x, sample);
           int nc = -1;
           const int nt = enter(tri, best->side, nc);
           tri = nt;
@@ -296,8 +305,13 @@ public:
           came_vertex = vertex;
           came_tri = -1;
           vertex = best->to;
+        } else if (const SurfacePoint x = crossing(best->tri, best->side); x.kind == SurfacePoint::Kind::Vertex) {
+          emit(x, sample);
+          came_vertex = vertex;
+          came_tri = best->tri;
+          vertex = x.vertex;
         } else {
-          emit(crossing(best->tri, best->side), sample);
+          emit(x, sample);
           int nc = -1;
           tri = enter(best->tri, best->side, nc);
           came = nc;
@@ -383,20 +397,29 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   }
   // A point in the middle of a run along one input edge adds nothing: the
   // run goes from the point before it to the point after it on that edge.
+  // (When the middle point is an end of the edge, the path folded back on
+  // the edge; dropping the point removes the fold.)
   {
     auto& pts = out.points;
     auto on_edge = [&](const SurfacePoint& p, int e) {
       if (p.kind == SurfacePoint::Kind::Edge) return p.edge == e;
       if (p.kind == SurfacePoint::Kind::Vertex) {
-        const auto ends = mesh.edge_ends(e);
+        const auto& ends = mesh.edge_ends(e);
         return p.vertex == ends[0] || p.vertex == ends[1];
       }
       return false;
     };
+    auto edges_through = [&](const SurfacePoint& p) -> std::vector<int> {
+      if (p.kind == SurfacePoint::Kind::Edge) return {p.edge};
+      if (p.kind == SurfacePoint::Kind::Vertex) return mesh.vertex_edges(p.vertex);
+      return {};
+    };
     std::vector<PathPoint> kept;
     for (size_t i = 0; i < pts.size(); ++i) {
-      const bool middle = i > 0 && i + 1 < pts.size() && pts[i].node < 0 && pts[i].at.kind == SurfacePoint::Kind::Edge &&
-                          on_edge(kept.back().at, pts[i].at.edge) && on_edge(pts[i + 1].at, pts[i].at.edge);
+      bool middle = false;
+      if (i > 0 && i + 1 < pts.size() && pts[i].node < 0)
+        for (int e : edges_through(pts[i].at))
+          middle = middle || (on_edge(kept.back().at, e) && on_edge(pts[i + 1].at, e));
       if (!middle) kept.push_back(pts[i]);
     }
     pts = std::move(kept);
