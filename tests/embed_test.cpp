@@ -209,6 +209,16 @@ TEST(Embed, TubeNetWhereNodesAndRingsSitOnVerticesAndEdges) {
   }
 }
 
+TEST(Embed, DenserTubeNetsFollowEuler) {
+  TubeNetSpec spec;
+  spec.ring_heights = {0.5, 1.2, 1.9, 2.6, 3.3};
+  spec.nodes_per_ring = 6;
+  const Rig rig = make_tube_net(spec);
+  // V = 5*6 + 2 = 32, E = 30 + 24 + 12 = 66, F = 2 - 32 + 66 = 36.
+  expect_counts(embed(tube(40, 30, 8, true), rig).report(), 32, 66, 36);
+  expect_counts(embed(tube(36, 28, 6, false), rig).report(), 32, 66, 36);
+}
+
 TEST(Embed, RegionIdentitiesDoNotDependOnTheMesh) {
   const Rig rig = make_tube_net();
   auto keys = [&](const SurfaceMesh& m) {

@@ -80,11 +80,13 @@ Rig make_tube_net(const TubeNetSpec& s) {
   rig.coverage = Coverage::Full;
   const double r = s.radius;
   const int np = s.points_per_profile;
-  auto angle = [&](int k) { return (s.first_angle_deg + 90.0 * k) * std::numbers::pi / 180.0; };
+  const int rings = static_cast<int>(s.ring_heights.size()), n = s.nodes_per_ring;
+  const double step = 2 * std::numbers::pi / n;
+  auto angle = [&](int k) { return s.first_angle_deg * std::numbers::pi / 180.0 + step * k; };
   auto on_side = [&](double a, double y) { return Eigen::Vector3d(r * std::cos(a), y, r * std::sin(a)); };
   auto ring_node = [](int i, int k) { return "ring" + std::to_string(i) + "_" + std::to_string(k); };
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 4; ++k) rig.nodes.push_back({ring_node(i, k), on_side(angle(k), s.ring_heights[i])});
+  for (int i = 0; i < rings; ++i)
+    for (int k = 0; k < n; ++k) rig.nodes.push_back({ring_node(i, k), on_side(angle(k), s.ring_heights[i])});
   const Eigen::Vector3d bottom = Eigen::Vector3d(0, 0, 0) + s.cap_offset;
   const Eigen::Vector3d top = Eigen::Vector3d(0, s.length, 0) + s.cap_offset;
   rig.nodes.push_back({"cap_bottom", bottom});
@@ -98,15 +100,15 @@ Rig make_tube_net(const TubeNetSpec& s) {
     rig.profiles.push_back(std::move(p));
   };
   // Ring arcs.
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 4; ++k) {
+  for (int i = 0; i < rings; ++i)
+    for (int k = 0; k < n; ++k) {
       std::vector<Eigen::Vector3d> pts;
-      for (int q = 0; q <= np; ++q) pts.push_back(on_side(angle(k) + (std::numbers::pi / 2) * q / np, s.ring_heights[i]));
-      add("ring" + std::to_string(i) + "_arc" + std::to_string(k) + std::to_string((k + 1) % 4), ring_node(i, k), ring_node(i, (k + 1) % 4), pts);
+      for (int q = 0; q <= np; ++q) pts.push_back(on_side(angle(k) + step * q / np, s.ring_heights[i]));
+      add("ring" + std::to_string(i) + "_arc" + std::to_string(k) + std::to_string((k + 1) % n), ring_node(i, k), ring_node(i, (k + 1) % n), pts);
     }
   // Along the side, between consecutive rings.
-  for (int i = 0; i < 2; ++i)
-    for (int k = 0; k < 4; ++k) {
+  for (int i = 0; i + 1 < rings; ++i)
+    for (int k = 0; k < n; ++k) {
       std::vector<Eigen::Vector3d> pts;
       for (int q = 0; q <= np; ++q)
         pts.push_back(on_side(angle(k), s.ring_heights[i] + (s.ring_heights[i + 1] - s.ring_heights[i]) * q / np));
@@ -115,15 +117,15 @@ Rig make_tube_net(const TubeNetSpec& s) {
   // Spokes: from each cap's centre across the cap, over the rim, to the nearest ring.
   for (int end = 0; end < 2; ++end) {
     const double y_cap = end == 0 ? 0.0 : s.length;
-    const double y_ring = end == 0 ? s.ring_heights[0] : s.ring_heights[2];
+    const double y_ring = end == 0 ? s.ring_heights.front() : s.ring_heights.back();
     const Eigen::Vector3d centre = end == 0 ? bottom : top;
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < n; ++k) {
       std::vector<Eigen::Vector3d> pts;
       const Eigen::Vector3d rim = on_side(angle(k), y_cap);
       for (int q = 0; q < np; ++q) pts.push_back(centre + (rim - centre) * q / np);
       for (int q = 0; q <= np; ++q) pts.push_back(on_side(angle(k), y_cap + (y_ring - y_cap) * q / np));
       add(std::string(end == 0 ? "spoke_bottom_" : "spoke_top_") + std::to_string(k), end == 0 ? "cap_bottom" : "cap_top",
-          ring_node(end == 0 ? 0 : 2, k), pts);
+          ring_node(end == 0 ? 0 : rings - 1, k), pts);
     }
   }
   // A three-joint skeleton along the axis.

@@ -23,7 +23,8 @@ RawMesh make_capped_tube(const TubeSpec& spec);
 struct TubeNetSpec {
   double radius = 1.0;
   double length = 4.0;
-  std::array<double, 3> ring_heights{0.6, 2.1, 3.4};
+  std::vector<double> ring_heights{0.6, 2.1, 3.4}; ///< at least 1, increasing
+  int nodes_per_ring = 4;
   double first_angle_deg = 30.0; ///< angle of node 0 on each ring
   Eigen::Vector3d cap_offset = Eigen::Vector3d::Zero(); ///< moves both cap nodes off the axis
   int points_per_profile = 24;
@@ -33,7 +34,8 @@ struct TubeNetSpec {
 /// profiles along the side between consecutive rings, and four spokes on
 /// each cap from a centre node to the nearest ring. V = 14, E = 28, so
 /// F = 2 - V + E = 16 regions. Profiles are polylines on the exact cylinder.
-/// Includes a three-joint skeleton along the axis.
+/// Includes a three-joint skeleton along the axis. With R rings of N nodes
+/// (spec), V = R N + 2 and E = R N + (R - 1) N + 2 N.
 Rig make_tube_net(const TubeNetSpec& spec = {});
 
 } // namespace curvenet
