@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <set>
 
 using namespace curvenet;
@@ -217,6 +218,55 @@ TEST(Embed, DenserTubeNetsFollowEuler) {
   // V = 5*6 + 2 = 32, E = 30 + 24 + 12 = 66, F = 2 - 32 + 66 = 36.
   expect_counts(embed(tube(40, 30, 8, true), rig).report(), 32, 66, 36);
   expect_counts(embed(tube(36, 28, 6, false), rig).report(), 32, 66, 36);
+}
+
+TEST(Embed, RandomTubeNetsOnRandomTessellations) {
+  // A seeded property test: whatever the alignment of net and mesh, the
+  // embedding is valid and has the Euler count.
+  std::mt19937 rng(20261122);
+  std::uniform_int_distribution<int> around(6, 40), along(2, 30), caps(2, 6), per_ring(3, 7), rings(1, 5);
+  std::uniform_real_distribution<double> angle(0.0, 90.0), offset(-0.3, 0.3);
+  for (int trial = 0; trial < 40; ++trial) {
+    TubeSpec ts;
+    ts.around = around(rng);
+    ts.along = along(rng);
+    ts.cap_rings = caps(rng);
+    ts.triangulate = trial % 2 == 1;
+    TubeNetSpec ns;
+    ns.nodes_per_ring = per_ring(rng);
+    ns.first_angle_deg = trial % 4 == 0 ? 0.0 : angle(rng);
+    const int r = rings(rng);
+    ns.ring_heights.clear();
+    for (int i = 0; i < r; ++i) ns.ring_heights.push_back(0.4 + 3.2 * (i + 0.5) / r + (trial % 3 == 0 ? 0.0 : offset(rng) / r));
+    ns.cap_offset = Vec3(offset(rng), 0, offset(rng));
+    SCOPED_TRACE("trial " + std::to_string(trial) + ": tube " + std::to_string(ts.around) + "x" + std::to_string(ts.along) + "x" +
+                 std::to_string(ts.cap_rings) + (ts.triangulate ? " tris" : " quads") + ", net " + std::to_string(r) + "x" +
+                 std::to_string(ns.nodes_per_ring) + " at " + std::to_string(ns.first_angle_deg) + " deg");
+    const Rig rig = make_tube_net(ns);
+    const int V = r * ns.nodes_per_ring + 2, E = (2 * r + 1) * ns.nodes_per_ring;
+    const Embedding e = embed(make_surface_mesh(make_capped_tube(ts), "tube"), rig);
+    expect_counts(e.report(), V, E, 2 - V + E);
+  }
+}
+
+TEST(Embed, AdjacentRegionsHaveDifferentPreviewColours) {
+  TubeNetSpec spec;
+  spec.ring_heights = {0.5, 1.5, 2.5, 3.5};
+  spec.nodes_per_ring = 5;
+  const Embedding e = embed(tube(30, 20, 5, true), make_tube_net(spec));
+  const auto& cut = e.impl().cut;
+  const auto& fr = e.face_regions();
+  const auto& regions = e.report().region_list;
+  int barriers = 0;
+  for (int h = 0; h < cut.num_halfedges(); ++h) {
+    const detail::Halfedge he(h);
+    if (!cut.tag(he).is_curve() || cut.is_boundary(he) || cut.is_boundary(detail::CutMesh::twin(he))) continue;
+    const int a = fr[cut.face(he).idx], b = fr[cut.face(detail::CutMesh::twin(he)).idx];
+    ASSERT_NE(a, b);
+    EXPECT_NE(regions[a].colour, regions[b].colour);
+    ++barriers;
+  }
+  EXPECT_GT(barriers, 0);
 }
 
 TEST(Embed, RegionIdentitiesDoNotDependOnTheMesh) {
