@@ -64,6 +64,9 @@ struct EmbedReport {
   std::vector<RegionInfo> region_list;
 };
 
+/// The report as JSON text (see docs/cli.md for the keys).
+std::string report_to_json(const EmbedReport& report);
+
 /// The result of embedding one rig in one mesh. Cheap to copy (shared).
 class Embedding {
 public:
@@ -71,8 +74,6 @@ public:
   explicit Embedding(std::shared_ptr<const Impl> impl);
 
   [[nodiscard]] const EmbedReport& report() const;
-  /// The report as JSON text (see docs/cli.md for the keys).
-  [[nodiscard]] std::string report_json() const;
   /// The cut mesh as OBJ: polygons, plus one `l` polyline per CutChain.
   [[nodiscard]] std::string cut_mesh_obj() const;
   /// The cut mesh as ASCII PLY with one colour per face, graph-coloured by region.

@@ -26,12 +26,6 @@ std::vector<int> edges_of(const TraceMesh& tm, const SurfacePoint& p) {
   return tm.vertex_edges(p.vertex);
 }
 
-/// Parameter of a point along input edge e (0 and 1 at its ends).
-double param_on(const TraceMesh& tm, int e, const SurfacePoint& p) {
-  if (p.kind == Kind::Edge) return p.t;
-  return tm.edge_ends(e)[0] == p.vertex ? 0.0 : 1.0;
-}
-
 int seg_cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, const Eigen::Vector2d& d) {
   // 1 when the closed segments ab and cd intersect, 0 otherwise.
   const int o1 = orient2d(a, b, c), o2 = orient2d(a, b, d), o3 = orient2d(c, d, a), o4 = orient2d(c, d, b);

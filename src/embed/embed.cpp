@@ -178,8 +178,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   return Embedding(impl);
 }
 
-std::string Embedding::report_json() const {
-  const EmbedReport& r = report();
+std::string report_to_json(const EmbedReport& r) {
   nlohmann::ordered_json j;
   j["ok"] = r.ok;
   j["coverage"] = to_string(r.coverage);

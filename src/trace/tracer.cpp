@@ -199,7 +199,6 @@ public:
     State state;
     int tri = -1, came = -1, vertex = -1, came_vertex = -1, came_tri = -1;
     Vec3 pos = A;
-    SurfacePoint cur = a;
     if (a.kind == SurfacePoint::Kind::Vertex) {
       state = State::AtVertex;
       vertex = a.vertex;
