@@ -62,14 +62,15 @@ int main(int argc, char** argv) {
   std::printf("%10s %10s %10s %12s %12s %8s\n", "faces", "crossings", "regions", "median_ms", "ms/kface", "ok");
   for (int around = 24;; around *= 2) {
     const SurfaceMesh mesh = bench_tube(around);
-    if (mesh.num_faces() > max_faces) break;
+    if (mesh.num_faces() > max_faces)
+      break;
     const Timing t = time_embed(mesh, rig);
     if (!t.error.empty()) {
       std::printf("%10d  embedding failed: %s\n", mesh.num_faces(), t.error.c_str());
       continue;
     }
-    std::printf("%10d %10d %10d %12.2f %12.4f %8s\n", mesh.num_faces(), t.report.crossings, t.report.regions, t.median_ms,
-                t.median_ms / (mesh.num_faces() / 1000.0), t.report.ok ? "yes" : "NO");
+    std::printf("%10d %10d %10d %12.2f %12.4f %8s\n", mesh.num_faces(), t.report.crossings, t.report.regions,
+                t.median_ms, t.median_ms / (mesh.num_faces() / 1000.0), t.report.ok ? "yes" : "NO");
     std::fflush(stdout);
   }
 
@@ -80,7 +81,8 @@ int main(int argc, char** argv) {
   for (const auto& [rings, per_ring] : std::vector<std::pair<int, int>>{{3, 4}, {6, 8}, {12, 8}, {12, 16}, {24, 16}}) {
     TubeNetSpec spec;
     spec.ring_heights.clear();
-    for (int i = 0; i < rings; ++i) spec.ring_heights.push_back(0.3 + 3.4 * i / (rings - 1));
+    for (int i = 0; i < rings; ++i)
+      spec.ring_heights.push_back(0.3 + 3.4 * i / (rings - 1));
     spec.nodes_per_ring = per_ring;
     const Rig net = make_tube_net(spec);
     const Timing t = time_embed(mesh, net);

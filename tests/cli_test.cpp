@@ -33,9 +33,12 @@ CliRun run(const std::string& args, const fs::path& dir) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(o), slurp(e)};
 }
 
-void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+void write(const fs::path& p, const std::string& text) {
+  std::ofstream(p) << text;
+}
 
-const char* kRig = R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],
+const char* kRig =
+    R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],
   "profiles":[{"id":"p","from":"a","to":"b","points":[[0,0.5,0],[1,0.5,0]]}]})";
 const char* kQuad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
 
@@ -51,12 +54,14 @@ TEST(Cli, HelpOnEveryCommand) {
 }
 
 TEST(Cli, EmbedsTheHandAndWritesEveryOutput) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   const auto dir = test::temp_dir("hand");
-  const CliRun r = run("embed " + test::data("xr_tools_hand/hand_l.gltf") + " " + test::data("xr_tools_hand/example/hand_l.cnrig.json") +
-                        " --report " + (dir / "r.json").string() + " --regions " + (dir / "r.ply").string() + " --cut-mesh " +
-                        (dir / "cut.obj").string(),
-                    dir);
+  const CliRun r =
+      run("embed " + test::data("xr_tools_hand/hand_l.gltf") + " " +
+              test::data("xr_tools_hand/example/hand_l.cnrig.json") + " --report " + (dir / "r.json").string() +
+              " --regions " + (dir / "r.ply").string() + " --cut-mesh " + (dir / "cut.obj").string(),
+          dir);
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("SUCCESS"), std::string::npos);
   EXPECT_NE(r.out.find("regions: 47\n"), std::string::npos);
@@ -85,10 +90,15 @@ TEST(Cli, BadInputFailsCleanlyWithNoOutput) {
   write(dir / "fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
   write(dir / "nan.obj", "v 0 0 0\nv 1 0 0\nv 1e999 1 0\nf 1 2 3\n");
   write(dir / "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
-  write(dir / "dup.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"a","position":[1,0,0]}],"profiles":[]})");
-  write(dir / "missing.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"q","points":[[0,0,0],[1,0,0]]}]})");
+  write(
+      dir / "dup.cnrig.json",
+      R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"a","position":[1,0,0]}],"profiles":[]})");
+  write(
+      dir / "missing.cnrig.json",
+      R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"q","points":[[0,0,0],[1,0,0]]}]})");
   write(dir / "unknown.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"extra":1})");
-  write(dir / "matrix.cnrig.json", R"({"format":"curvenet-rig","version":1,"frame":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,2],"nodes":[],"profiles":[]})");
+  write(dir / "matrix.cnrig.json",
+        R"({"format":"curvenet-rig","version":1,"frame":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,2],"nodes":[],"profiles":[]})");
   write(dir / "broken.cnrig.json", R"({"format":"curvenet-rig",)");
   struct Case {
     std::string mesh, rig, file, element;
@@ -109,15 +119,16 @@ TEST(Cli, BadInputFailsCleanlyWithNoOutput) {
     const fs::path report = dir / "report.json";
     fs::remove(report);
     fs::remove(dir / "regions.ply");
-    const CliRun r = run("embed " + (dir / c.mesh).string() + " " + (dir / c.rig).string() + " --report " + report.string() +
-                          " --regions " + (dir / "regions.ply").string(),
-                      dir);
+    const CliRun r = run("embed " + (dir / c.mesh).string() + " " + (dir / c.rig).string() + " --report " +
+                             report.string() + " --regions " + (dir / "regions.ply").string(),
+                         dir);
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find(c.file), std::string::npos) << r.err;
     EXPECT_NE(r.err.find(c.element), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(report));
     EXPECT_FALSE(fs::exists(dir / "regions.ply"));
-    for (const auto& entry : fs::directory_iterator(dir)) EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos);
+    for (const auto& entry : fs::directory_iterator(dir))
+      EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos);
   }
   // The good pair works.
   EXPECT_EQ(run("embed " + (dir / "quad.obj").string() + " " + (dir / "ok.cnrig.json").string(), dir).code, 0);
@@ -127,17 +138,21 @@ TEST(Cli, CrossingProfilesAreRefusedNamingBoth) {
   const auto dir = test::temp_dir("cross");
   std::string grid;
   for (int j = 0; j <= 4; ++j)
-    for (int i = 0; i <= 4; ++i) grid += "v " + std::to_string(i) + " " + std::to_string(j) + " 0\n";
+    for (int i = 0; i <= 4; ++i)
+      grid += "v " + std::to_string(i) + " " + std::to_string(j) + " 0\n";
   for (int j = 0; j < 4; ++j)
     for (int i = 0; i < 4; ++i) {
       const int a = j * 5 + i + 1;
-      grid += "f " + std::to_string(a) + " " + std::to_string(a + 1) + " " + std::to_string(a + 6) + " " + std::to_string(a + 5) + "\n";
+      grid += "f " + std::to_string(a) + " " + std::to_string(a + 1) + " " + std::to_string(a + 6) + " " +
+              std::to_string(a + 5) + "\n";
     }
   write(dir / "grid.obj", grid);
   write(dir / "x.cnrig.json", R"({"format":"curvenet-rig","version":1,
     "nodes":[{"id":"a","position":[0.3,0.4,0]},{"id":"b","position":[3.7,3.4,0]},{"id":"c","position":[0.2,3.3,0]},{"id":"d","position":[3.6,0.3,0]}],
     "profiles":[{"id":"diag1","from":"a","to":"b","points":[[0.3,0.4,0],[3.7,3.4,0]]},{"id":"diag2","from":"c","to":"d","points":[[0.2,3.3,0],[3.6,0.3,0]]}]})");
-  const CliRun r = run("embed " + (dir / "grid.obj").string() + " " + (dir / "x.cnrig.json").string() + " --report " + (dir / "r.json").string(), dir);
+  const CliRun r = run("embed " + (dir / "grid.obj").string() + " " + (dir / "x.cnrig.json").string() + " --report " +
+                           (dir / "r.json").string(),
+                       dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("diag1"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("diag2"), std::string::npos) << r.err;

@@ -1,8 +1,8 @@
 // The half-edge cut mesh: construction, mutations, and the validator after
 // every mutation.
 
-#include "cut/cut_mesh.hpp"
 #include "curvenet/errors.hpp"
+#include "cut/cut_mesh.hpp"
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -27,7 +27,8 @@ TEST(CutMesh, FromSurfaceKeepsIdentities) {
   for (int f = 0; f < 4; ++f) {
     const auto loop = m.face_loop(Face(f));
     ASSERT_EQ(loop.size(), 4u);
-    for (size_t i = 0; i < 4; ++i) EXPECT_EQ(m.from(loop[i]).idx, s.face(f)[i]);
+    for (size_t i = 0; i < 4; ++i)
+      EXPECT_EQ(m.from(loop[i]).idx, s.face(f)[i]);
   }
   // The centre vertex has four outgoing half-edges, a corner two.
   EXPECT_EQ(m.outgoing(Vertex(4)).size(), 4u);
@@ -40,7 +41,8 @@ TEST(CutMesh, SplitEdgeKeepsBothFacesClosed) {
   // The interior edge 1-4 between the two quads.
   Halfedge h;
   for (int i = 0; i < m.num_halfedges(); ++i)
-    if (m.from(Halfedge(i)).idx == 1 && m.to(Halfedge(i)).idx == 4) h = Halfedge(i);
+    if (m.from(Halfedge(i)).idx == 1 && m.to(Halfedge(i)).idx == 4)
+      h = Halfedge(i);
   ASSERT_TRUE(h.is_valid());
   const Vertex v = m.split_edge(h, {1, 0.5, 0}, {VertexOrigin::Kind::OnEdge, h.idx / 2, 0.5});
   expect_valid(m);
@@ -91,11 +93,13 @@ TEST(CutMesh, InteriorStarSplitsTheFaceIntoFans) {
   CutMesh m = CutMesh::from_surface(s);
   const Vertex c = m.add_isolated_vertex({0.4, 0.6, 0}, {VertexOrigin::Kind::InFace, 0, 0});
   std::vector<Chord> chords;
-  for (int v = 0; v < 4; ++v) chords.push_back({Vertex(v), c, {v, true}});
+  for (int v = 0; v < 4; ++v)
+    chords.push_back({Vertex(v), c, {v, true}});
   m.subdivide_face(Face(0), chords);
   expect_valid(m);
   EXPECT_EQ(m.num_faces(), 4);
-  for (int f = 0; f < 4; ++f) EXPECT_EQ(m.face_loop(Face(f)).size(), 3u);
+  for (int f = 0; f < 4; ++f)
+    EXPECT_EQ(m.face_loop(Face(f)).size(), 3u);
 }
 
 TEST(CutMesh, AChordOutsideItsFaceIsRefused) {

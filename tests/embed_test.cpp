@@ -32,7 +32,8 @@ Profile polyline(std::string id, std::string from, std::string to, std::vector<V
 
 std::vector<Vec3> segment(Vec3 a, Vec3 b, int n = 8) {
   std::vector<Vec3> out;
-  for (int i = 0; i <= n; ++i) out.push_back(a + (b - a) * i / n);
+  for (int i = 0; i <= n; ++i)
+    out.push_back(a + (b - a) * i / n);
   return out;
 }
 
@@ -107,10 +108,12 @@ TEST(Embed, ACurveThroughAVertexAndAlongAnEdge) {
   EXPECT_TRUE(e.report().ok);
   const auto& along = e.impl().result.chains[0];
   EXPECT_GE(along.halfedges.size(), 4u);
-  for (auto h : along.halfedges) EXPECT_GE(e.impl().cut.edge_origin(h), 0); // every piece on an input edge
+  for (auto h : along.halfedges)
+    EXPECT_GE(e.impl().cut.edge_origin(h), 0); // every piece on an input edge
   const auto& through = e.impl().result.chains[1];
   bool hits_vertex = false;
-  for (auto v : through.vertices) hits_vertex = hits_vertex || v.idx == 12; // (2,2)
+  for (auto v : through.vertices)
+    hits_vertex = hits_vertex || v.idx == 12; // (2,2)
   EXPECT_TRUE(hits_vertex);
 }
 
@@ -129,7 +132,8 @@ TEST(Embed, TwoProfilesBetweenTheSameTwoNodes) {
   const SurfaceMesh m = tube(16, 8, 3, false);
   Rig rig;
   rig.nodes = {{"a", {std::cos(0.2), 1.9, std::sin(0.2)}}, {"b", {std::cos(3.3), 1.9, std::sin(3.3)}}};
-  rig.profiles = {polyline("front", "a", "b", arc(1.9, 0.2, 3.3)), polyline("back", "b", "a", arc(1.9, 3.3, 0.2 + 2 * std::numbers::pi))};
+  rig.profiles = {polyline("front", "a", "b", arc(1.9, 0.2, 3.3)),
+                  polyline("back", "b", "a", arc(1.9, 3.3, 0.2 + 2 * std::numbers::pi))};
   const Embedding e = embed(m, rig);
   expect_counts(e.report(), 2, 2, 2);
 }
@@ -156,11 +160,14 @@ TEST(Embed, ProfileEndsAwayFromTheirNodesStillCloseAtTheNode) {
 TEST(Embed, ACrossingAwayFromANodeIsRefusedNamingBoth) {
   const SurfaceMesh m = tube(16, 8, 3, true);
   Rig rig;
-  rig.nodes = {{"r", {std::cos(0.1), 2.0, std::sin(0.1)}}, {"s", {std::cos(1.0), 1.0, std::sin(1.0)}},
+  rig.nodes = {{"r", {std::cos(0.1), 2.0, std::sin(0.1)}},
+               {"s", {std::cos(1.0), 1.0, std::sin(1.0)}},
                {"t", {std::cos(1.0), 3.0, std::sin(1.0)}}};
   std::vector<Vec3> line;
-  for (int i = 0; i <= 16; ++i) line.emplace_back(std::cos(1.0), 1.0 + 2.0 * i / 16, std::sin(1.0));
-  rig.profiles = {polyline("ring", "r", "r", arc(2.0, 0.1, 0.1 + 2 * std::numbers::pi)), polyline("line", "s", "t", line)};
+  for (int i = 0; i <= 16; ++i)
+    line.emplace_back(std::cos(1.0), 1.0 + 2.0 * i / 16, std::sin(1.0));
+  rig.profiles = {polyline("ring", "r", "r", arc(2.0, 0.1, 0.1 + 2 * std::numbers::pi)),
+                  polyline("line", "s", "t", line)};
   try {
     embed(m, rig);
     FAIL() << "the crossing was accepted";
@@ -184,7 +191,8 @@ TEST(Embed, TubeNetOnThreeTessellationsGivesTheSameCounts) {
     EXPECT_EQ(e.report().components, 1);
     // Every region is bounded by profiles, and the identities agree across meshes.
     std::set<std::string> keys;
-    for (const auto& r : e.report().region_list) keys.insert(r.key());
+    for (const auto& r : e.report().region_list)
+      keys.insert(r.key());
     EXPECT_EQ(keys.size(), 16u);
     EXPECT_TRUE(keys.count("ring0_arc01:L|side01_0:R|side01_1:L|ring1_arc01:R") ||
                 keys.count("ring0_arc01:R|ring1_arc01:L|side01_0:L|side01_1:R"));
@@ -198,8 +206,8 @@ TEST(Embed, TubeNetWhereNodesAndRingsSitOnVerticesAndEdges) {
     for (const int around : {8, 12, 24}) {
       for (const int along : {4, 20}) {
         for (const bool tri : {false, true}) {
-          SCOPED_TRACE("angle " + std::to_string(angle) + ", " + std::to_string(around) + " x " + std::to_string(along) +
-                       (tri ? " tris" : " quads"));
+          SCOPED_TRACE("angle " + std::to_string(angle) + ", " + std::to_string(around) + " x " +
+                       std::to_string(along) + (tri ? " tris" : " quads"));
           TubeNetSpec spec;
           spec.first_angle_deg = angle;
           const Embedding e = embed(tube(around, along, 3, tri), make_tube_net(spec));
@@ -237,11 +245,13 @@ TEST(Embed, RandomTubeNetsOnRandomTessellations) {
     ns.first_angle_deg = trial % 4 == 0 ? 0.0 : angle(rng);
     const int r = rings(rng);
     ns.ring_heights.clear();
-    for (int i = 0; i < r; ++i) ns.ring_heights.push_back(0.4 + 3.2 * (i + 0.5) / r + (trial % 3 == 0 ? 0.0 : offset(rng) / r));
+    for (int i = 0; i < r; ++i)
+      ns.ring_heights.push_back(0.4 + 3.2 * (i + 0.5) / r + (trial % 3 == 0 ? 0.0 : offset(rng) / r));
     ns.cap_offset = Vec3(offset(rng), 0, offset(rng));
-    SCOPED_TRACE("trial " + std::to_string(trial) + ": tube " + std::to_string(ts.around) + "x" + std::to_string(ts.along) + "x" +
-                 std::to_string(ts.cap_rings) + (ts.triangulate ? " tris" : " quads") + ", net " + std::to_string(r) + "x" +
-                 std::to_string(ns.nodes_per_ring) + " at " + std::to_string(ns.first_angle_deg) + " deg");
+    SCOPED_TRACE("trial " + std::to_string(trial) + ": tube " + std::to_string(ts.around) + "x" +
+                 std::to_string(ts.along) + "x" + std::to_string(ts.cap_rings) + (ts.triangulate ? " tris" : " quads") +
+                 ", net " + std::to_string(r) + "x" + std::to_string(ns.nodes_per_ring) + " at " +
+                 std::to_string(ns.first_angle_deg) + " deg");
     const Rig rig = make_tube_net(ns);
     const int V = r * ns.nodes_per_ring + 2, E = (2 * r + 1) * ns.nodes_per_ring;
     const Embedding e = embed(make_surface_mesh(make_capped_tube(ts), "tube"), rig);
@@ -260,7 +270,8 @@ TEST(Embed, AdjacentRegionsHaveDifferentPreviewColours) {
   int barriers = 0;
   for (int h = 0; h < cut.num_halfedges(); ++h) {
     const detail::Halfedge he(h);
-    if (!cut.tag(he).is_curve() || cut.is_boundary(he) || cut.is_boundary(detail::CutMesh::twin(he))) continue;
+    if (!cut.tag(he).is_curve() || cut.is_boundary(he) || cut.is_boundary(detail::CutMesh::twin(he)))
+      continue;
     const int a = fr[cut.face(he).idx], b = fr[cut.face(detail::CutMesh::twin(he)).idx];
     ASSERT_NE(a, b);
     EXPECT_NE(regions[a].colour, regions[b].colour);
@@ -274,7 +285,8 @@ TEST(Embed, RegionIdentitiesDoNotDependOnTheMesh) {
   auto keys = [&](const SurfaceMesh& m) {
     std::set<std::string> k;
     const Embedding e = embed(m, rig);
-    for (const auto& r : e.report().region_list) k.insert(r.key());
+    for (const auto& r : e.report().region_list)
+      k.insert(r.key());
     return k;
   };
   EXPECT_EQ(keys(tube(16, 16, 4, false)), keys(tube(40, 30, 9, true)));
@@ -308,7 +320,8 @@ TEST(Embed, ValidatorHoldsAfterEveryMutation) {
     in.profile_ids.push_back(p.id);
     in.profile_from.push_back(a);
     in.profile_to.push_back(b);
-    in.traces.push_back(trace_profile(tm, {p.id, s.points, in.node_points[a], in.node_points[b], a, b}, m.mean_edge_length(), tol));
+    in.traces.push_back(
+        trace_profile(tm, {p.id, s.points, in.node_points[a], in.node_points[b], a, b}, m.mean_edge_length(), tol));
   }
   int mutations = 0;
   const CutResult res = cut_mesh(cut, tm, in, [&] {
@@ -322,7 +335,8 @@ TEST(Embed, ValidatorHoldsAfterEveryMutation) {
 }
 
 TEST(Embed, HandExampleRigOnEveryClosedTessellation) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   const Rig rig = read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
   for (const char* f : {"xr_tools_hand/hand_l.gltf", "xr_tools_hand/Hand_low_L.gltf", "xr_tools_hand/hand_l_quads.obj",
                         "xr_tools_hand/hand_low_l_quads.obj"}) {
@@ -334,7 +348,8 @@ TEST(Embed, HandExampleRigOnEveryClosedTessellation) {
 }
 
 TEST(Embed, GenusOneTorusHasNoExpectedCount) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   const SurfaceMesh m = load_mesh(test::data("torus/torus.obj"));
   // A loop around the tube of the torus and one around its hole, meeting at one node.
   Vec3 lo = m.positions[0], hi = m.positions[0];
@@ -345,9 +360,10 @@ TEST(Embed, GenusOneTorusHasNoExpectedCount) {
   const Vec3 c = (lo + hi) / 2, ext = hi - lo;
   int axis = 0; // the torus's axis is its thinnest extent
   for (int k = 1; k < 3; ++k)
-    if (ext[k] < ext[axis]) axis = k;
+    if (ext[k] < ext[axis])
+      axis = k;
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-  const double r = ext[axis] / 2;     // tube radius
+  const double r = ext[axis] / 2;    // tube radius
   const double big = ext[u] / 2 - r; // centre-line radius
   auto at = [&](double theta, double phi) {
     Vec3 p = c;

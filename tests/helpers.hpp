@@ -5,20 +5,25 @@
 #include "curvenet/surface_mesh.hpp"
 
 #include <filesystem>
-#include <unistd.h>
 #include <string>
+#include <unistd.h>
 #include <vector>
 
 namespace curvenet::test {
 
-inline std::string data(const std::string& rel) { return std::string(CURVENET_DATA_DIR) + "/" + rel; }
-inline bool have_data() { return std::filesystem::exists(CURVENET_DATA_DIR); }
+inline std::string data(const std::string& rel) {
+  return std::string(CURVENET_DATA_DIR) + "/" + rel;
+}
+inline bool have_data() {
+  return std::filesystem::exists(CURVENET_DATA_DIR);
+}
 
 /// An n x m grid of unit quads in the plane z = 0, from (0,0) to (n,m).
 inline RawMesh grid(int n, int m, bool triangles = false) {
   RawMesh r;
   for (int j = 0; j <= m; ++j)
-    for (int i = 0; i <= n; ++i) r.positions.emplace_back(i, j, 0);
+    for (int i = 0; i <= n; ++i)
+      r.positions.emplace_back(i, j, 0);
   auto id = [n](int i, int j) { return j * (n + 1) + i; };
   for (int j = 0; j < m; ++j)
     for (int i = 0; i < n; ++i) {

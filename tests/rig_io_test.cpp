@@ -11,8 +11,8 @@ using namespace curvenet;
 
 namespace {
 std::string minimal(const std::string& extra_top = "", const std::string& node_extra = "") {
-  return R"({"format":"curvenet-rig","version":1,)" + extra_top +
-         R"("nodes":[{"id":"a","position":[0,0,0])" + node_extra + R"(},{"id":"b","position":[1,0,0]}],
+  return R"({"format":"curvenet-rig","version":1,)" + extra_top + R"("nodes":[{"id":"a","position":[0,0,0])" +
+         node_extra + R"(},{"id":"b","position":[1,0,0]}],
            "profiles":[{"id":"p","from":"a","to":"b","points":[[0,0,0],[1,0,0]]}]})";
 }
 std::string element_of(const std::string& text) {
@@ -27,7 +27,8 @@ std::string element_of(const std::string& text) {
 } // namespace
 
 TEST(RigIo, ReadsTheWorkedExample) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   const Rig rig = read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
   EXPECT_EQ(rig.nodes.size(), 64u);
   EXPECT_EQ(rig.profiles.size(), 104u);
@@ -40,7 +41,8 @@ TEST(RigIo, RoundTripsEveryCurveForm) {
   Rig rig = make_tube_net();
   rig.profiles[0].curve.kind = Curve::Kind::Bezier;
   rig.profiles[0].curve.points.resize(7);
-  rig.profiles[1].curve = {Curve::Kind::Nurbs, {{0, 0, 0}, {1, 1, 0}, {2, 1, 0}, {3, 0, 0}}, 3, {0, 0, 0, 0, 1, 1, 1, 1}, {1, 2, 2, 1}};
+  rig.profiles[1].curve = {
+      Curve::Kind::Nurbs, {{0, 0, 0}, {1, 1, 0}, {2, 1, 0}, {3, 0, 0}}, 3, {0, 0, 0, 0, 1, 1, 1, 1}, {1, 2, 2, 1}};
   rig.weights["ring0_0"] = {{"root", 0.25}, {"mid", 0.75}};
   const Rig back = parse_rig(rig_to_json(rig), "mem");
   ASSERT_EQ(back.profiles.size(), rig.profiles.size());
@@ -54,25 +56,32 @@ TEST(RigIo, RoundTripsEveryCurveForm) {
 
 TEST(RigIo, AcceptsExtensionsAndMayaKnots) {
   EXPECT_EQ(element_of(minimal(R"("x_tool":{"any":1},)", R"(,"x_note":"hi")")), "(accepted)");
-  const Rig r = parse_rig(R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"b","position":[3,0,0]}],
-    "profiles":[{"id":"p","from":"a","to":"b","nurbs":{"degree":3,"points":[[0,0,0],[1,1,0],[2,1,0],[3,0,0]],"knots":[0,0,0,1,1,1]}}]})", "maya");
+  const Rig r = parse_rig(
+      R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"b","position":[3,0,0]}],
+    "profiles":[{"id":"p","from":"a","to":"b","nurbs":{"degree":3,"points":[[0,0,0],[1,1,0],[2,1,0],[3,0,0]],"knots":[0,0,0,1,1,1]}}]})",
+      "maya");
   EXPECT_EQ(r.profiles[0].curve.knots.size(), 8u);
 }
 
 TEST(RigIo, RefusesWithTheJsonPathOfTheFault) {
-  EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"a","position":[1,0,0]}],"profiles":[]})"),
-            "/nodes/1/id");
+  EXPECT_EQ(
+      element_of(
+          R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]},{"id":"a","position":[1,0,0]}],"profiles":[]})"),
+      "/nodes/1/id");
   EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],
-      "profiles":[{"id":"p","from":"a","to":"zz","points":[[0,0,0],[1,0,0]]}]})"), "/profiles/0/to");
+      "profiles":[{"id":"p","from":"a","to":"zz","points":[[0,0,0],[1,0,0]]}]})"),
+            "/profiles/0/to");
   EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],
       "profiles":[{"id":"p","from":"a","to":"a","points":[[0,0,0],[1,0,0]]},{"id":"p","from":"a","to":"a","points":[[0,0,0],[1,0,0]]}]})"),
             "/profiles/1/id");
   EXPECT_EQ(element_of(minimal(R"("colour":"red",)")), "/colour");
   EXPECT_EQ(element_of(minimal("", R"(,"weight":1)")), "/nodes/0/weight");
   EXPECT_EQ(element_of(minimal(R"("frame":[1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1],)")), "/frame");
-  EXPECT_EQ(element_of(minimal(R"("skeleton":{"joints":[{"name":"r","parent":null,"bind":[1,0,0,0,0,1,0,0,0,0,1,0,1,0,0,1]}]},)")),
+  EXPECT_EQ(element_of(minimal(
+                R"("skeleton":{"joints":[{"name":"r","parent":null,"bind":[1,0,0,0,0,1,0,0,0,0,1,0,1,0,0,1]}]},)")),
             "/skeleton/joints/0/bind");
-  EXPECT_EQ(element_of(minimal(R"("skeleton":{"joints":[{"name":"c","parent":"r","bind":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}]},)")),
+  EXPECT_EQ(element_of(minimal(
+                R"("skeleton":{"joints":[{"name":"c","parent":"r","bind":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}]},)")),
             "/skeleton/joints/0/parent");
   EXPECT_EQ(element_of(minimal(R"("weights":{"a":{"nojoint":1}},)")), "/weights/a/nojoint");
   EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":2,"nodes":[],"profiles":[]})"), "/version");

@@ -23,7 +23,8 @@ TEST(Sampling, SamplesAreUniformInArcLength) {
   ASSERT_EQ(s.points.size(), 8u);
   for (size_t i = 1; i < s.points.size(); ++i) {
     EXPECT_NEAR(s.t[i] - s.t[i - 1], 1.0 / 7.0, 1e-15);
-    if (i != 2) EXPECT_NEAR((s.points[i] - s.points[i - 1]).norm(), 4.0 / 7.0, 1e-12) << i;
+    if (i != 2)
+      EXPECT_NEAR((s.points[i] - s.points[i - 1]).norm(), 4.0 / 7.0, 1e-12) << i;
   }
 }
 
@@ -51,7 +52,8 @@ TEST(Sampling, BezierAndNurbsReproduceTheirEnds) {
   n.points = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}, {4, 0, 0}};
   n.knots = {0, 0, 0, 0, 0.5, 1, 1, 1, 1};
   n.weights = {1, 2, 1, 3, 1};
-  for (const auto& p : evaluate_dense(n)) EXPECT_NEAR(p.y(), 0.0, 1e-15);
+  for (const auto& p : evaluate_dense(n))
+    EXPECT_NEAR(p.y(), 0.0, 1e-15);
   EXPECT_NEAR((evaluate_nurbs(n, 0) - n.points.front()).norm(), 0, 1e-15);
   EXPECT_NEAR((evaluate_nurbs(n, 1) - n.points.back()).norm(), 0, 1e-15);
 }

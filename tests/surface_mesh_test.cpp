@@ -108,7 +108,8 @@ TEST(SurfaceMesh, RepairsInconsistentOrientationAndSaysSo) {
 }
 
 TEST(SurfaceMesh, HandGltfWeldsIntoTheClosedExampleMesh) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   const SurfaceMesh m = load_mesh(test::data("xr_tools_hand/hand_l.gltf"));
   EXPECT_EQ(m.input_to_welded.size(), 1764u);
   EXPECT_EQ(m.num_vertices(), 1528);
@@ -121,11 +122,13 @@ TEST(SurfaceMesh, HandGltfWeldsIntoTheClosedExampleMesh) {
   const SurfaceMesh w = load_mesh(test::data("xr_tools_hand/example/hand_l_welded.obj"));
   ASSERT_EQ(w.num_vertices(), m.num_vertices());
   // (The OBJ holds the float32 values in decimal: equal to float precision.)
-  for (int v = 0; v < m.num_vertices(); ++v) EXPECT_LT((w.positions[v] - m.positions[v]).norm(), 1e-7) << v;
+  for (int v = 0; v < m.num_vertices(); ++v)
+    EXPECT_LT((w.positions[v] - m.positions[v]).norm(), 1e-7) << v;
 }
 
 TEST(SurfaceMesh, TorusHasGenusOne) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   const SurfaceMesh m = load_mesh(test::data("torus/torus.obj"));
   const auto comps = mesh_components(m);
   ASSERT_EQ(comps.size(), 1u);
@@ -134,11 +137,13 @@ TEST(SurfaceMesh, TorusHasGenusOne) {
 }
 
 TEST(SurfaceMesh, NailsHandIsOpenOrRefusedCleanly) {
-  if (!test::have_data()) GTEST_SKIP() << "no shared data";
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
   try {
     const SurfaceMesh m = load_mesh(test::data("xr_tools_hand/Hand_Nails_L.gltf"));
     bool any_open = false;
-    for (const auto& c : mesh_components(m)) any_open = any_open || !c.closed;
+    for (const auto& c : mesh_components(m))
+      any_open = any_open || !c.closed;
     EXPECT_TRUE(any_open);
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("Hand_Nails_L.gltf"), std::string::npos);
@@ -150,7 +155,8 @@ TEST(MeshIo, ReadsPlyAndOffThroughAssimp) {
   {
     std::ofstream ply(dir / "q.ply");
     ply << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
-           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 "
+           "3\n";
     std::ofstream off(dir / "q.off");
     off << "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n";
   }

@@ -1,7 +1,7 @@
 // Stage "project and trace": placing points on the surface and walking it.
 
-#include "trace/tracer.hpp"
 #include "helpers.hpp"
+#include "trace/tracer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,7 +21,8 @@ struct Fixture {
     const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
     TraceInput in;
     in.profile_id = "p";
-    for (int i = 0; i < n; ++i) in.samples.push_back(a + (b - a) * i / (n - 1));
+    for (int i = 0; i < n; ++i)
+      in.samples.push_back(a + (b - a) * i / (n - 1));
     in.from = place_node(*tm, a, tol);
     in.to = place_node(*tm, b, tol);
     in.from_node = 0;
@@ -71,7 +72,8 @@ TEST(Tracer, ACurveAlongEdgesVisitsTheirVertices) {
   for (const auto& p : t.points) {
     EXPECT_EQ(p.at.pos.y(), 1.0);
     EXPECT_NE(p.at.kind, Kind::Face);
-    if (p.at.kind == Kind::Vertex) vertices.push_back(p.at.vertex);
+    if (p.at.kind == Kind::Vertex)
+      vertices.push_back(p.at.vertex);
   }
   EXPECT_EQ(vertices, (std::vector<int>{5, 6, 7, 8, 9}));
 }

@@ -16,8 +16,10 @@ namespace curvenet::cli {
 namespace {
 
 Coverage parse_coverage(const std::string& s) {
-  if (s == "full") return Coverage::Full;
-  if (s == "local") return Coverage::Local;
+  if (s == "full")
+    return Coverage::Full;
+  if (s == "local")
+    return Coverage::Local;
   return Coverage::Auto;
 }
 
@@ -26,13 +28,16 @@ struct Progress {
   bool enabled;
   bool tty = ::isatty(2) != 0;
   void operator()(std::string_view stage, double fraction) const {
-    if (!enabled) return;
-    std::cerr << (tty ? "\r" : "") << "curvenet: " << stage << " " << std::setw(3) << static_cast<int>(100 * fraction) << "%"
-              << (tty ? "" : "\n") << std::flush;
-    if (tty && fraction >= 1.0) std::cerr << "\n";
+    if (!enabled)
+      return;
+    std::cerr << (tty ? "\r" : "") << "curvenet: " << stage << " " << std::setw(3) << static_cast<int>(100 * fraction)
+              << "%" << (tty ? "" : "\n") << std::flush;
+    if (tty && fraction >= 1.0)
+      std::cerr << "\n";
   }
   void stage(const std::string& what) const {
-    if (enabled) std::cerr << "curvenet: " << what << "\n";
+    if (enabled)
+      std::cerr << "curvenet: " << what << "\n";
   }
 };
 
@@ -48,12 +53,15 @@ void print_summary(std::ostream& out, const std::string& mesh_name, const EmbedR
   out << "expected regions: " << (r.expected_regions ? std::to_string(*r.expected_regions) : "not determined") << "\n";
   out << "mapped faces: " << r.mapped_faces << "\n";
   out << "unmapped faces: " << r.unmapped_faces << "\n";
-  if (r.outside_faces) out << "outside faces: " << r.outside_faces << "\n";
+  if (r.outside_faces)
+    out << "outside faces: " << r.outside_faces << "\n";
   out << "cut mesh: " << r.cut_vertices << " vertices, " << r.cut_faces << " faces\n";
   double total = 0;
-  for (const auto& [s, ms] : r.timings_ms) total += ms;
+  for (const auto& [s, ms] : r.timings_ms)
+    total += ms;
   out << "time: " << std::fixed << std::setprecision(1) << total << " ms\n" << std::defaultfloat;
-  for (const auto& p : r.problems) out << "problem: " << p << "\n";
+  for (const auto& p : r.problems)
+    out << "problem: " << p << "\n";
 }
 
 } // namespace
@@ -68,7 +76,8 @@ int run_embed(const EmbedArgs& a) {
   const double load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   EmbedOptions opt;
   opt.density = a.density;
-  if (!a.coverage.empty()) opt.coverage = parse_coverage(a.coverage);
+  if (!a.coverage.empty())
+    opt.coverage = parse_coverage(a.coverage);
   opt.progress = [&](std::string_view s, double f) { progress(s, f); };
   const Embedding emb = embed(mesh, rig, opt);
   EmbedReport rep = emb.report();
@@ -77,9 +86,12 @@ int run_embed(const EmbedArgs& a) {
   const std::string report_text = a.report.empty() ? "" : report_to_json(rep);
   const std::string regions_text = a.regions.empty() ? "" : emb.regions_ply();
   const std::string cut_text = a.cut_mesh.empty() ? "" : emb.cut_mesh_obj();
-  if (!a.report.empty()) write_file_atomic(a.report, report_text);
-  if (!a.regions.empty()) write_file_atomic(a.regions, regions_text);
-  if (!a.cut_mesh.empty()) write_file_atomic(a.cut_mesh, cut_text);
+  if (!a.report.empty())
+    write_file_atomic(a.report, report_text);
+  if (!a.regions.empty())
+    write_file_atomic(a.regions, regions_text);
+  if (!a.cut_mesh.empty())
+    write_file_atomic(a.cut_mesh, cut_text);
   print_summary(std::cout, std::filesystem::path(a.mesh).filename().string(), rep);
   return rep.ok ? 0 : 1;
 }
@@ -123,7 +135,8 @@ int run_demo(const DemoArgs& a) {
     lines.push_back(s.str());
   }
   std::cout << "\nsummary:\n";
-  for (const auto& l : lines) std::cout << "  " << l << "\n";
+  for (const auto& l : lines)
+    std::cout << "  " << l << "\n";
   std::cout << "outputs in " << out.string() << "/ (meshes, rig, reports, region previews, cut meshes)\n";
   return all_ok ? 0 : 1;
 }

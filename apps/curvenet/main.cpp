@@ -29,10 +29,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"full", "local", "auto"}));
   embed->add_option("--density", embed_args.density, "Profile samples per mean edge length (rho)")
       ->check(CLI::PositiveNumber);
-  embed->add_flag("--progress,!--no-progress", embed_args.progress, "Show progress on stderr (default: when stderr is a terminal)");
+  embed->add_flag("--progress,!--no-progress", embed_args.progress,
+                  "Show progress on stderr (default: when stderr is a terminal)");
 
   curvenet::cli::DemoArgs demo_args;
-  auto* demo = app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
+  auto* demo =
+      app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
   demo->add_option("--out", demo_args.out, "Output folder")->capture_default_str();
 
   try {
@@ -41,8 +43,10 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   try {
-    if (*embed) return curvenet::cli::run_embed(embed_args);
-    if (*demo) return curvenet::cli::run_demo(demo_args);
+    if (*embed)
+      return curvenet::cli::run_embed(embed_args);
+    if (*demo)
+      return curvenet::cli::run_demo(demo_args);
   } catch (const curvenet::Error& e) {
     std::cerr << "curvenet: error: " << e.what() << "\n";
     return 2;

@@ -32,15 +32,15 @@ struct EmbedOptions {
 /// outside the surface) and 'R' when it lies right of it.
 struct RegionInfo {
   std::vector<std::pair<std::string, char>> boundary;
-  int faces = 0;    ///< cut-mesh faces
-  double area = 0;  ///< surface area
-  int colour = 0;   ///< preview colour index; adjacent regions differ
+  int faces = 0;                         ///< cut-mesh faces
+  double area = 0;                       ///< surface area
+  int colour = 0;                        ///< preview colour index; adjacent regions differ
   [[nodiscard]] std::string key() const; ///< "a:L|b:R", or "" for no boundary
 };
 
 struct EmbedReport {
   bool ok = false;
-  Coverage coverage = Coverage::Full;  ///< the mode used (never Auto)
+  Coverage coverage = Coverage::Full; ///< the mode used (never Auto)
   int logical_nodes = 0;
   int profiles = 0;
   int components = 0;        ///< connected components of the net (C)
@@ -48,19 +48,19 @@ struct EmbedReport {
   int closed_components = 0; ///< closed ones among them (K)
   int regions = 0;
   std::optional<int> expected_regions; ///< empty on a surface of higher genus
-  int mapped_faces = 0;      ///< cut-mesh faces that belong to a region
-  int unmapped_faces = 0;    ///< cut-mesh faces in no region and not outside
-  int outside_faces = 0;     ///< local coverage: faces outside the net
-  int physical_nodes = 0;    ///< node vertices in the cut mesh
+  int mapped_faces = 0;                ///< cut-mesh faces that belong to a region
+  int unmapped_faces = 0;              ///< cut-mesh faces in no region and not outside
+  int outside_faces = 0;               ///< local coverage: faces outside the net
+  int physical_nodes = 0;              ///< node vertices in the cut mesh
   int cut_vertices = 0;
   int cut_faces = 0;
   int input_vertices = 0;
   int input_faces = 0;
-  int samples = 0;           ///< profile samples placed on the surface
-  int crossings = 0;         ///< edge crossings and vertex hits cut into the mesh
+  int samples = 0;                                        ///< profile samples placed on the surface
+  int crossings = 0;                                      ///< edge crossings and vertex hits cut into the mesh
   std::vector<std::pair<std::string, double>> timings_ms; ///< one entry per stage
-  std::vector<std::string> problems; ///< why ok is false, one line each
-  std::vector<std::string> notes;    ///< repairs and remarks
+  std::vector<std::string> problems;                      ///< why ok is false, one line each
+  std::vector<std::string> notes;                         ///< repairs and remarks
   std::vector<RegionInfo> region_list;
 };
 

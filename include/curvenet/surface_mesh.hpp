@@ -31,18 +31,17 @@ struct RawMesh {
 /// each vertex of the file to its welded vertex, so results come back on the
 /// file's own vertex order. Faces keep the file's order.
 struct SurfaceMesh {
-  std::string source;              ///< the file it came from (for messages)
-  std::vector<Vec3> positions;     ///< #V welded positions
-  std::vector<int> face_offsets;   ///< #F+1
-  std::vector<int> face_vertices;  ///< welded vertex ids, counter-clockwise
-  std::vector<int> input_to_welded;///< #input vertices
-  std::vector<std::string> notes;  ///< repairs made on load, one line each
+  std::string source;               ///< the file it came from (for messages)
+  std::vector<Vec3> positions;      ///< #V welded positions
+  std::vector<int> face_offsets;    ///< #F+1
+  std::vector<int> face_vertices;   ///< welded vertex ids, counter-clockwise
+  std::vector<int> input_to_welded; ///< #input vertices
+  std::vector<std::string> notes;   ///< repairs made on load, one line each
 
   [[nodiscard]] int num_vertices() const { return static_cast<int>(positions.size()); }
   [[nodiscard]] int num_faces() const { return static_cast<int>(face_offsets.size()) - 1; }
   [[nodiscard]] std::span<const int> face(int f) const {
-    return {face_vertices.data() + face_offsets[f],
-            static_cast<size_t>(face_offsets[f + 1] - face_offsets[f])};
+    return {face_vertices.data() + face_offsets[f], static_cast<size_t>(face_offsets[f + 1] - face_offsets[f])};
   }
   [[nodiscard]] double bbox_diagonal() const;
   [[nodiscard]] double mean_edge_length() const;
@@ -58,8 +57,7 @@ struct ComponentInfo {
 
 /// The connected components of `mesh` (by shared edges), in order of their
 /// lowest face. `face_component` receives the component of each face if given.
-std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh,
-                                           std::vector<int>* face_component = nullptr);
+std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<int>* face_component = nullptr);
 
 /// Validates and welds a raw mesh.
 /// \throw InputError naming `source` and the element: a non-finite

@@ -14,8 +14,7 @@ int orient2d(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Ve
 /// Sign of the orientation of d against the plane through (a, b, c): +1 when
 /// d lies on the side that (b - a) x (c - a) points to, -1 on the other side,
 /// 0 on the plane. Exact for the given doubles.
-int orient3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-             const Eigen::Vector3d& d);
+int orient3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d);
 
 /// True when the three points are exactly collinear (or coincide).
 bool collinear3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);

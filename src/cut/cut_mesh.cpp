@@ -27,7 +27,8 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
   const int nv = mesh.num_vertices();
   m.position_ = mesh.positions;
   m.vertex_origin_.resize(nv);
-  for (int v = 0; v < nv; ++v) m.vertex_origin_[v] = {VertexOrigin::Kind::Input, v, 0};
+  for (int v = 0; v < nv; ++v)
+    m.vertex_origin_[v] = {VertexOrigin::Kind::Input, v, 0};
   m.vertex_halfedge_.assign(nv, Halfedge());
   std::unordered_map<long long, int> edge_of;
   auto key = [nv](int a, int b) { return static_cast<long long>(std::min(a, b)) * nv + std::max(a, b); };
@@ -38,10 +39,13 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
     for (int i = 0; i < n; ++i) {
       const int a = c[i], b = c[(i + 1) % n];
       auto [it, fresh] = edge_of.emplace(key(a, b), m.num_edges());
-      if (fresh) m.new_edge(Vertex(a), Vertex(b), it->second);
+      if (fresh)
+        m.new_edge(Vertex(a), Vertex(b), it->second);
       Halfedge h(2 * it->second);
-      if (m.to(h) != Vertex(b)) h = twin(h);
-      if (m.face_[h.idx].is_valid()) throw TopologyError("input edge used twice in one direction");
+      if (m.to(h) != Vertex(b))
+        h = twin(h);
+      if (m.face_[h.idx].is_valid())
+        throw TopologyError("input edge used twice in one direction");
       m.face_[h.idx] = Face(f);
       loop.push_back(h);
     }
@@ -57,17 +61,21 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
   std::vector<Halfedge> boundary_out(nv);
   for (int h = 0; h < m.num_halfedges(); ++h) {
     const Vertex a = m.from(Halfedge(h));
-    if (!m.face_[h].is_valid()) boundary_out[a.idx] = Halfedge(h);
-    if (!m.vertex_halfedge_[a.idx].is_valid()) m.vertex_halfedge_[a.idx] = Halfedge(h);
+    if (!m.face_[h].is_valid())
+      boundary_out[a.idx] = Halfedge(h);
+    if (!m.vertex_halfedge_[a.idx].is_valid())
+      m.vertex_halfedge_[a.idx] = Halfedge(h);
   }
   for (int h = 0; h < m.num_halfedges(); ++h) {
-    if (m.face_[h].is_valid()) continue;
+    if (m.face_[h].is_valid())
+      continue;
     const Halfedge n = boundary_out[m.to(Halfedge(h)).idx];
     m.next_[h] = n;
     m.prev_[n.idx] = Halfedge(h);
   }
   for (int v = 0; v < nv; ++v)
-    if (boundary_out[v].is_valid()) m.vertex_halfedge_[v] = boundary_out[v];
+    if (boundary_out[v].is_valid())
+      m.vertex_halfedge_[v] = boundary_out[v];
   return m;
 }
 
@@ -83,7 +91,8 @@ std::vector<Halfedge> CutMesh::face_loop(Face f) const {
   do {
     loop.push_back(h);
     h = next(h);
-    if (static_cast<int>(loop.size()) > num_halfedges()) throw TopologyError("face loop does not close");
+    if (static_cast<int>(loop.size()) > num_halfedges())
+      throw TopologyError("face loop does not close");
   } while (h != start);
   return loop;
 }
@@ -91,23 +100,28 @@ std::vector<Halfedge> CutMesh::face_loop(Face f) const {
 std::vector<Halfedge> CutMesh::outgoing(Vertex v) const {
   std::vector<Halfedge> out;
   const Halfedge start = vertex_halfedge_[v.idx];
-  if (!start.is_valid()) return out;
+  if (!start.is_valid())
+    return out;
   Halfedge h = start;
   do {
     out.push_back(h);
     h = next(twin(h));
-    if (static_cast<int>(out.size()) > num_halfedges()) throw TopologyError("vertex rotation does not close");
+    if (static_cast<int>(out.size()) > num_halfedges())
+      throw TopologyError("vertex rotation does not close");
   } while (h != start);
   return out;
 }
 
 Eigen::Vector3d CutMesh::face_normal(Face f) const {
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
-  for (Halfedge h : face_loop(f)) n += position(from(h)).cross(position(to(h)));
+  for (Halfedge h : face_loop(f))
+    n += position(from(h)).cross(position(to(h)));
   return n;
 }
 
-double CutMesh::face_area(Face f) const { return 0.5 * face_normal(f).norm(); }
+double CutMesh::face_area(Face f) const {
+  return 0.5 * face_normal(f).norm();
+}
 
 Vertex CutMesh::split_edge(Halfedge h, const Eigen::Vector3d& pos, const VertexOrigin& origin) {
   const Vertex v(num_vertices());
@@ -122,15 +136,20 @@ Vertex CutMesh::split_edge(Halfedge h, const Eigen::Vector3d& pos, const VertexO
   to_[h.idx] = v; // h: u -> v; t keeps to() == u and now starts at v
   // Face of h: ... h -> n -> hn ...
   face_[n.idx] = face_[h.idx];
-  next_[h.idx] = n; prev_[n.idx] = h;
-  next_[n.idx] = hn; prev_[hn.idx] = n;
+  next_[h.idx] = n;
+  prev_[n.idx] = h;
+  next_[n.idx] = hn;
+  prev_[hn.idx] = n;
   // Face of t: ... tp -> nt -> t ...
   face_[nt.idx] = face_[t.idx];
-  next_[tp.idx] = nt; prev_[nt.idx] = tp;
-  next_[nt.idx] = t; prev_[t.idx] = nt;
+  next_[tp.idx] = nt;
+  prev_[nt.idx] = tp;
+  next_[nt.idx] = t;
+  prev_[t.idx] = nt;
   tag_[n.idx] = tag_[h.idx];
   tag_[nt.idx] = tag_[t.idx];
-  if (vertex_halfedge_[w.idx] == t) vertex_halfedge_[w.idx] = nt;
+  if (vertex_halfedge_[w.idx] == t)
+    vertex_halfedge_[w.idx] = nt;
   vertex_halfedge_[v.idx] = is_boundary(t) ? t : n;
   return v;
 }
@@ -169,7 +188,8 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
   std::vector<Halfedge> local;
   for (Halfedge h : loop) {
     if (spokes.count(from(h).idx) && !spokes[from(h).idx].empty() &&
-        std::any_of(spokes[from(h).idx].begin(), spokes[from(h).idx].end(), [](const Spoke& s) { return s.out.is_valid(); }))
+        std::any_of(spokes[from(h).idx].begin(), spokes[from(h).idx].end(),
+                    [](const Spoke& s) { return s.out.is_valid(); }))
       throw TopologyError("subdivide_face: face " + std::to_string(f.idx) + " visits a vertex twice");
     spokes[from(h).idx].push_back({to(h), h});
     spokes[to(h).idx].push_back({from(h), Halfedge()});
@@ -189,17 +209,21 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
   for (auto& [vi, list] : spokes) {
     const Eigen::Vector2d c = to_face_plane(f, position_[vi]);
     std::vector<Eigen::Vector2d> pts;
-    for (const Spoke& s : list) pts.push_back(to_face_plane(f, position(s.other)));
+    for (const Spoke& s : list)
+      pts.push_back(to_face_plane(f, position(s.other)));
     auto upper = [&](const Eigen::Vector2d& p) { return !(p.y() < c.y() || (p.y() == c.y() && p.x() < c.x())); };
     std::vector<int> order(list.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    for (size_t i = 0; i < order.size(); ++i)
+      order[i] = static_cast<int>(i);
     std::sort(order.begin(), order.end(), [&](int a, int b) {
       const bool ua = upper(pts[a]), ub = upper(pts[b]);
-      if (ua != ub) return ua;
+      if (ua != ub)
+        return ua;
       return orient2d(c, pts[a], pts[b]) > 0;
     });
     std::vector<Spoke> sorted;
-    for (int i : order) sorted.push_back(list[i]);
+    for (int i : order)
+      sorted.push_back(list[i]);
     list = std::move(sorted);
   }
   // next(h) for h arriving at v from u: the spoke just clockwise of u's.
@@ -210,8 +234,10 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
     const bool on_loop = std::find(loop.begin(), loop.end(), h) != loop.end();
     int at = -1;
     for (size_t i = 0; i < list.size(); ++i)
-      if (list[i].out.is_valid() ? list[i].out == twin(h) : (on_loop && list[i].other == u)) at = static_cast<int>(i);
-    if (at < 0) throw TopologyError("subdivide_face: missing spoke");
+      if (list[i].out.is_valid() ? list[i].out == twin(h) : (on_loop && list[i].other == u))
+        at = static_cast<int>(i);
+    if (at < 0)
+      throw TopologyError("subdivide_face: missing spoke");
     const Spoke& cw = list[(at + list.size() - 1) % list.size()];
     if (!cw.out.is_valid())
       throw EmbedError("cut: a profile segment leaves input face " + std::to_string(face_origin_[f.idx]) +
@@ -224,11 +250,14 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
   const int origin = face_origin_[f.idx];
   const Frame frame = frame_[f.idx];
   for (Halfedge start : local) {
-    if (seen[start.idx]) continue;
+    if (seen[start.idx])
+      continue;
     std::vector<Halfedge> piece;
     Halfedge h = start;
     do {
-      if (seen[h.idx]) throw EmbedError("cut: the profile segments in input face " + std::to_string(origin) + " do not form simple faces");
+      if (seen[h.idx])
+        throw EmbedError("cut: the profile segments in input face " + std::to_string(origin) +
+                         " do not form simple faces");
       seen[h.idx] = 1;
       piece.push_back(h);
       h = next_of.at(h.idx);
@@ -263,8 +292,10 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
     for (Vertex v : {c.a, c.b})
       if (!vertex_halfedge_[v.idx].is_valid()) {
         for (Halfedge h : result) {
-          if (from(h) == v) vertex_halfedge_[v.idx] = h;
-          if (to(h) == v) vertex_halfedge_[v.idx] = twin(h);
+          if (from(h) == v)
+            vertex_halfedge_[v.idx] = h;
+          if (to(h) == v)
+            vertex_halfedge_[v.idx] = twin(h);
         }
       }
   return result;
@@ -275,36 +306,52 @@ std::optional<std::string> CutMesh::validate() const {
   auto he = [](int h) { return "half-edge " + std::to_string(h); };
   for (int h = 0; h < nh; ++h) {
     const Halfedge H(h);
-    if (!to_[h].is_valid() || to_[h].idx >= num_vertices()) return he(h) + ": invalid target vertex";
-    if (to_[h] == to_[h ^ 1]) return he(h) + ": both ends are the same vertex";
-    if (!next_[h].is_valid() || !prev_[h].is_valid()) return he(h) + ": next or prev missing";
-    if (prev(next(H)) != H) return he(h) + ": prev(next(h)) != h";
-    if (next(prev(H)) != H) return he(h) + ": next(prev(h)) != h";
-    if (from(next(H)) != to(H)) return he(h) + ": next(h) does not start where h ends";
-    if (face(next(H)) != face(H)) return he(h) + ": next(h) lies in another face";
-    if (face(H).is_valid() && face(H).idx >= num_faces()) return he(h) + ": invalid face";
+    if (!to_[h].is_valid() || to_[h].idx >= num_vertices())
+      return he(h) + ": invalid target vertex";
+    if (to_[h] == to_[h ^ 1])
+      return he(h) + ": both ends are the same vertex";
+    if (!next_[h].is_valid() || !prev_[h].is_valid())
+      return he(h) + ": next or prev missing";
+    if (prev(next(H)) != H)
+      return he(h) + ": prev(next(h)) != h";
+    if (next(prev(H)) != H)
+      return he(h) + ": next(prev(h)) != h";
+    if (from(next(H)) != to(H))
+      return he(h) + ": next(h) does not start where h ends";
+    if (face(next(H)) != face(H))
+      return he(h) + ": next(h) lies in another face";
+    if (face(H).is_valid() && face(H).idx >= num_faces())
+      return he(h) + ": invalid face";
     const CurveTag a = tag_[h], b = tag_[h ^ 1];
-    if (a.profile != b.profile || (a.is_curve() && a.forward == b.forward)) return he(h) + ": curve tag differs from its twin's";
+    if (a.profile != b.profile || (a.is_curve() && a.forward == b.forward))
+      return he(h) + ": curve tag differs from its twin's";
   }
   std::vector<int> count(num_faces(), 0);
   for (int h = 0; h < nh; ++h)
-    if (face_[h].is_valid()) count[face_[h].idx]++;
+    if (face_[h].is_valid())
+      count[face_[h].idx]++;
   for (int f = 0; f < num_faces(); ++f) {
     const Halfedge start = face_halfedge_[f];
-    if (!start.is_valid() || face(start) != Face(f)) return "face " + std::to_string(f) + ": its half-edge lies in another face";
+    if (!start.is_valid() || face(start) != Face(f))
+      return "face " + std::to_string(f) + ": its half-edge lies in another face";
     int n = 0;
     Halfedge h = start;
     do {
-      if (face(h) != Face(f)) return "face " + std::to_string(f) + ": loop leaves the face";
+      if (face(h) != Face(f))
+        return "face " + std::to_string(f) + ": loop leaves the face";
       h = next(h);
-      if (++n > nh) return "face " + std::to_string(f) + ": loop does not close";
+      if (++n > nh)
+        return "face " + std::to_string(f) + ": loop does not close";
     } while (h != start);
-    if (n != count[f]) return "face " + std::to_string(f) + ": " + std::to_string(count[f] - n) + " half-edges are not on its loop";
-    if (n < 2) return "face " + std::to_string(f) + ": fewer than 2 half-edges";
+    if (n != count[f])
+      return "face " + std::to_string(f) + ": " + std::to_string(count[f] - n) + " half-edges are not on its loop";
+    if (n < 2)
+      return "face " + std::to_string(f) + ": fewer than 2 half-edges";
   }
   for (int v = 0; v < num_vertices(); ++v) {
     const Halfedge h = vertex_halfedge_[v];
-    if (h.is_valid() && from(h) != Vertex(v)) return "vertex " + std::to_string(v) + ": its half-edge starts elsewhere";
+    if (h.is_valid() && from(h) != Vertex(v))
+      return "vertex " + std::to_string(v) + ": its half-edge starts elsewhere";
   }
   return std::nullopt;
 }

@@ -17,8 +17,7 @@
 namespace curvenet::detail {
 
 /// A typed index: one int, an invalid sentinel, and nothing else.
-template <class Tag>
-struct Handle {
+template <class Tag> struct Handle {
   int idx = -1;
   constexpr Handle() = default;
   constexpr explicit Handle(int i) : idx(i) {}
@@ -131,7 +130,9 @@ private:
   std::vector<int> face_origin_;
   // Per face: the plane frame used for 2D predicates (origin, u, v), fixed
   // when the face is first subdivided and inherited by its pieces.
-  struct Frame { Eigen::Vector3d o, u, v; };
+  struct Frame {
+    Eigen::Vector3d o, u, v;
+  };
   std::vector<Frame> frame_;
 };
 

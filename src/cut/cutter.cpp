@@ -21,31 +21,40 @@ struct EdgeSplit {
 
 /// Input edges that contain a surface point.
 std::vector<int> edges_of(const TraceMesh& tm, const SurfacePoint& p) {
-  if (p.kind == Kind::Edge) return {p.edge};
-  if (p.kind != Kind::Vertex) return {};
+  if (p.kind == Kind::Edge)
+    return {p.edge};
+  if (p.kind != Kind::Vertex)
+    return {};
   return tm.vertex_edges(p.vertex);
 }
 
 int seg_cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, const Eigen::Vector2d& d) {
   // 1 when the closed segments ab and cd intersect, 0 otherwise.
   const int o1 = orient2d(a, b, c), o2 = orient2d(a, b, d), o3 = orient2d(c, d, a), o4 = orient2d(c, d, b);
-  if (o1 * o2 < 0 && o3 * o4 < 0) return 1;
+  if (o1 * o2 < 0 && o3 * o4 < 0)
+    return 1;
   auto on = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q, const Eigen::Vector2d& r) {
     return std::min(p.x(), q.x()) <= r.x() && r.x() <= std::max(p.x(), q.x()) && std::min(p.y(), q.y()) <= r.y() &&
            r.y() <= std::max(p.y(), q.y());
   };
-  if (o1 == 0 && on(a, b, c)) return 1;
-  if (o2 == 0 && on(a, b, d)) return 1;
-  if (o3 == 0 && on(c, d, a)) return 1;
-  if (o4 == 0 && on(c, d, b)) return 1;
+  if (o1 == 0 && on(a, b, c))
+    return 1;
+  if (o2 == 0 && on(a, b, d))
+    return 1;
+  if (o3 == 0 && on(c, d, a))
+    return 1;
+  if (o4 == 0 && on(c, d, b))
+    return 1;
   return 0;
 }
 
 } // namespace
 
-CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const std::function<void()>& after_mutation) {
+CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
+                   const std::function<void()>& after_mutation) {
   auto mutated = [&] {
-    if (after_mutation) after_mutation();
+    if (after_mutation)
+      after_mutation();
   };
   const int nn = static_cast<int>(in.node_points.size());
   const int np = static_cast<int>(in.traces.size());
@@ -54,7 +63,8 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
   res.chains.resize(np);
 
   std::vector<char> node_used(nn, 0);
-  for (int p = 0; p < np; ++p) node_used[in.profile_from[p]] = node_used[in.profile_to[p]] = 1;
+  for (int p = 0; p < np; ++p)
+    node_used[in.profile_from[p]] = node_used[in.profile_to[p]] = 1;
 
   std::map<int, std::vector<EdgeSplit>> splits; // input edge -> splits
   std::map<int, std::vector<int>> interior;     // input face -> nodes inside it
@@ -66,11 +76,14 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
 
   // 1. Nodes first, each as one vertex.
   for (int i = 0; i < nn; ++i) {
-    if (!node_used[i]) continue;
+    if (!node_used[i])
+      continue;
     const SurfacePoint& sp = in.node_points[i];
     if (sp.kind == Kind::Vertex) {
       auto [it, fresh] = vertex_node.emplace(sp.vertex, i);
-      if (!fresh) throw EmbedError("cut: nodes '" + in.node_ids[it->second] + "' and '" + in.node_ids[i] + "' land on the same input vertex " + std::to_string(sp.vertex));
+      if (!fresh)
+        throw EmbedError("cut: nodes '" + in.node_ids[it->second] + "' and '" + in.node_ids[i] +
+                         "' land on the same input vertex " + std::to_string(sp.vertex));
       res.node_vertex[i] = Vertex(sp.vertex);
     } else if (sp.kind == Kind::Edge) {
       splits[sp.edge].push_back({sp.t, -1, i, Vertex()});
@@ -91,8 +104,9 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
         auto [it, fresh] = vertex_owner.emplace(sp.vertex, p);
         if (!fresh)
           throw EmbedError("cut: profiles '" + in.profile_ids[it->second] + "' and '" + in.profile_ids[p] +
-                           "' cross or touch at input vertex " + std::to_string(sp.vertex) + ", away from any node (sample " +
-                           std::to_string(pts[k].sample) + " of '" + in.profile_ids[p] + "')");
+                           "' cross or touch at input vertex " + std::to_string(sp.vertex) +
+                           ", away from any node (sample " + std::to_string(pts[k].sample) + " of '" +
+                           in.profile_ids[p] + "')");
       } else if (sp.kind == Kind::Edge) {
         splits[sp.edge].push_back({sp.t, p, -1, Vertex()});
       }
@@ -104,16 +118,19 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
     for (size_t i = 1; i < list.size(); ++i)
       if (list[i].t == list[i - 1].t) {
         auto name = [&](const EdgeSplit& s) {
-          return s.owner_profile >= 0 ? "profile '" + in.profile_ids[s.owner_profile] + "'" : "node '" + in.node_ids[s.owner_node] + "'";
+          return s.owner_profile >= 0 ? "profile '" + in.profile_ids[s.owner_profile] + "'"
+                                      : "node '" + in.node_ids[s.owner_node] + "'";
         };
-        throw EmbedError("cut: " + name(list[i - 1]) + " and " + name(list[i]) + " cross " + describe_edge(e) + " at the same point, away from any node");
+        throw EmbedError("cut: " + name(list[i - 1]) + " and " + name(list[i]) + " cross " + describe_edge(e) +
+                         " at the same point, away from any node");
       }
     const auto ends = tm.edge_ends(e);
     Halfedge h(2 * e);
     for (auto& s : list) {
       const Vec3 pos = (1 - s.t) * tm.position(ends[0]) + s.t * tm.position(ends[1]);
       s.vertex = mesh.split_edge(h, pos, {VertexOrigin::Kind::OnEdge, e, s.t});
-      if (s.owner_node >= 0) res.node_vertex[s.owner_node] = s.vertex;
+      if (s.owner_node >= 0)
+        res.node_vertex[s.owner_node] = s.vertex;
       h = mesh.next(h);
       mutated();
     }
@@ -121,12 +138,16 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
   // Who owns each cut vertex: a profile (a crossing or vertex hit), or a node.
   std::map<int, int> owner; // cut vertex -> profile, or -1 for a node
   for (const auto& [e, list] : splits)
-    for (const auto& sp : list) owner[sp.vertex.idx] = sp.owner_profile;
-  for (const auto& [v, p] : vertex_owner) owner[v] = p;
-  for (const auto& [v, n] : vertex_node) owner[v] = -1;
+    for (const auto& sp : list)
+      owner[sp.vertex.idx] = sp.owner_profile;
+  for (const auto& [v, p] : vertex_owner)
+    owner[v] = p;
+  for (const auto& [v, n] : vertex_node)
+    owner[v] = -1;
   auto edge_vertex = [&](int e, double t) {
     for (const auto& s : splits.at(e))
-      if (s.t == t) return s.vertex;
+      if (s.t == t)
+        return s.vertex;
     throw TopologyError("cut: lost the split of an edge");
   };
   // Interior nodes become isolated vertices, connected when their face is split.
@@ -136,14 +157,18 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
       res.node_vertex[i] = mesh.add_isolated_vertex(sp.pos, {VertexOrigin::Kind::InFace, f, 0});
     }
   auto vertex_of = [&](const PathPoint& pp) {
-    if (pp.node >= 0) return res.node_vertex[pp.node];
-    if (pp.at.kind == Kind::Vertex) return Vertex(pp.at.vertex);
-    if (pp.at.kind == Kind::Edge) return edge_vertex(pp.at.edge, pp.at.t);
+    if (pp.node >= 0)
+      return res.node_vertex[pp.node];
+    if (pp.at.kind == Kind::Vertex)
+      return Vertex(pp.at.vertex);
+    if (pp.at.kind == Kind::Edge)
+      return edge_vertex(pp.at.edge, pp.at.t);
     throw TopologyError("cut: a path point inside a face that is not a node");
   };
   auto t_on_edge = [&](Vertex v, int e) {
     const VertexOrigin& o = mesh.origin(v);
-    if (o.kind == VertexOrigin::Kind::OnEdge) return o.t;
+    if (o.kind == VertexOrigin::Kind::OnEdge)
+      return o.t;
     return tm.edge_ends(e)[0] == v.idx ? 0.0 : 1.0;
   };
 
@@ -161,13 +186,15 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
     chain.vertices.push_back(vertex_of(pts[0]));
     for (size_t k = 1; k < pts.size(); ++k) {
       const Vertex va = chain.vertices.back(), vb = vertex_of(pts[k]);
-      if (va == vb) continue;
+      if (va == vb)
+        continue;
       const PathPoint &a = pts[k - 1], &b = pts[k];
       // Along an input edge?
       int along = -1;
       for (int e : edges_of(tm, a.at))
         for (int g : edges_of(tm, b.at))
-          if (e == g) along = e;
+          if (e == g)
+            along = e;
       if (along >= 0) {
         const double ta = t_on_edge(va, along), tb = t_on_edge(vb, along);
         Vertex cur = va;
@@ -175,14 +202,17 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
         while (cur != vb) {
           Halfedge step;
           for (Halfedge h : mesh.outgoing(cur)) {
-            if (mesh.edge_origin(h) != along) continue;
+            if (mesh.edge_origin(h) != along)
+              continue;
             const double tn = t_on_edge(mesh.to(h), along);
-            if ((tb > ta) == (tn > t_on_edge(cur, along))) step = h;
+            if ((tb > ta) == (tn > t_on_edge(cur, along)))
+              step = h;
           }
-          if (!step.is_valid() || ++guard > mesh.num_halfedges()) throw TopologyError("cut: lost the way along " + describe_edge(along));
+          if (!step.is_valid() || ++guard > mesh.num_halfedges())
+            throw TopologyError("cut: lost the way along " + describe_edge(along));
           if (mesh.tag(step).is_curve())
-            throw EmbedError("cut: profiles '" + in.profile_ids[mesh.tag(step).profile] + "' and '" + in.profile_ids[p] +
-                             "' run along the same part of " + describe_edge(along));
+            throw EmbedError("cut: profiles '" + in.profile_ids[mesh.tag(step).profile] + "' and '" +
+                             in.profile_ids[p] + "' run along the same part of " + describe_edge(along));
           mesh.set_tag(step, {p, true});
           chain.halfedges.push_back(step);
           cur = mesh.to(step);
@@ -207,17 +237,23 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
   }
   // 5. Split each crossed face along its chords, after checking that no two cross.
   std::set<int> faces;
-  for (const auto& [f, c] : chords) faces.insert(f);
-  for (const auto& [f, n] : interior) faces.insert(f);
+  for (const auto& [f, c] : chords)
+    faces.insert(f);
+  for (const auto& [f, n] : interior)
+    faces.insert(f);
   for (int f : faces) {
     auto& list = chords[f];
     const Face face(f);
     std::vector<Chord> cs;
-    for (const auto& pc : list) cs.push_back(pc.chord);
+    for (const auto& pc : list)
+      cs.push_back(pc.chord);
     for (int i : interior[f])
-      if (std::none_of(cs.begin(), cs.end(), [&](const Chord& c) { return c.a == res.node_vertex[i] || c.b == res.node_vertex[i]; }))
-        throw EmbedError("cut: node '" + in.node_ids[i] + "' lies inside input face " + std::to_string(f) + " but no profile leaves it there");
-    if (cs.empty()) continue;
+      if (std::none_of(cs.begin(), cs.end(),
+                       [&](const Chord& c) { return c.a == res.node_vertex[i] || c.b == res.node_vertex[i]; }))
+        throw EmbedError("cut: node '" + in.node_ids[i] + "' lies inside input face " + std::to_string(f) +
+                         " but no profile leaves it there");
+    if (cs.empty())
+      continue;
     // Check: chords against each other and against the face boundary.
     const Eigen::Vector3d n = mesh.face_normal(face).normalized();
     const Eigen::Vector3d axis = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
@@ -229,7 +265,8 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
         const bool same_pair = (c.a == d.a && c.b == d.b) || (c.a == d.b && c.b == d.a);
         int shared = (c.a == d.a) + (c.a == d.b) + (c.b == d.a) + (c.b == d.b);
         bool bad = same_pair;
-        if (!bad && shared == 0) bad = seg_cross(p2(c.a), p2(c.b), p2(d.a), p2(d.b));
+        if (!bad && shared == 0)
+          bad = seg_cross(p2(c.a), p2(c.b), p2(d.a), p2(d.b));
         if (!bad && shared == 1) {
           // Sharing one end: they overlap only when collinear and on the same side.
           const Vertex s = (c.a == d.a || c.a == d.b) ? c.a : c.b;
@@ -247,17 +284,21 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in, const
     for (const Chord& c : cs)
       for (Halfedge h : mesh.face_loop(face)) {
         const Vertex x = mesh.from(h), y = mesh.to(h);
-        if (x == c.a || x == c.b || y == c.a || y == c.b) continue;
+        if (x == c.a || x == c.b || y == c.a || y == c.b)
+          continue;
         if (seg_cross(p2(c.a), p2(c.b), p2(x), p2(y)))
-          throw EmbedError("cut: profile '" + in.profile_ids[c.tag.profile] + "' leaves input face " + std::to_string(f) +
+          throw EmbedError("cut: profile '" + in.profile_ids[c.tag.profile] + "' leaves input face " +
+                           std::to_string(f) +
                            " between two of its crossings (the face is not flat enough, or the path folds)");
       }
     const std::vector<Halfedge> hs = mesh.subdivide_face(face, cs);
     mutated();
-    for (size_t i = 0; i < list.size(); ++i) res.chains[list[i].profile].halfedges[list[i].slot] = hs[i];
+    for (size_t i = 0; i < list.size(); ++i)
+      res.chains[list[i].profile].halfedges[list[i].slot] = hs[i];
   }
   for (const auto& [e, list] : splits)
-    for (const auto& sp : list) res.crossings += sp.owner_profile >= 0;
+    for (const auto& sp : list)
+      res.crossings += sp.owner_profile >= 0;
   res.crossings += static_cast<int>(vertex_owner.size());
   return res;
 }
@@ -266,15 +307,22 @@ std::optional<std::string> validate_chains(const CutMesh& mesh, const CutInput& 
   for (size_t p = 0; p < cut.chains.size(); ++p) {
     const CutChain& c = cut.chains[p];
     const std::string name = "chain '" + in.profile_ids[p] + "'";
-    if (c.halfedges.empty()) return name + ": no half-edges";
-    if (c.vertices.size() != c.halfedges.size() + 1) return name + ": vertex and half-edge counts disagree";
-    if (c.vertices.front() != cut.node_vertex[in.profile_from[p]]) return name + ": does not start at its from-node's vertex";
-    if (c.vertices.back() != cut.node_vertex[in.profile_to[p]]) return name + ": does not end at its to-node's vertex";
+    if (c.halfedges.empty())
+      return name + ": no half-edges";
+    if (c.vertices.size() != c.halfedges.size() + 1)
+      return name + ": vertex and half-edge counts disagree";
+    if (c.vertices.front() != cut.node_vertex[in.profile_from[p]])
+      return name + ": does not start at its from-node's vertex";
+    if (c.vertices.back() != cut.node_vertex[in.profile_to[p]])
+      return name + ": does not end at its to-node's vertex";
     for (size_t i = 0; i < c.halfedges.size(); ++i) {
       const Halfedge h = c.halfedges[i];
-      if (!h.is_valid() || h.idx >= mesh.num_halfedges()) return name + ": invalid half-edge " + std::to_string(i);
-      if (mesh.from(h) != c.vertices[i] || mesh.to(h) != c.vertices[i + 1]) return name + ": half-edge " + std::to_string(i) + " is not continuous";
-      if (mesh.tag(h).profile != static_cast<int>(p) || !mesh.tag(h).forward) return name + ": half-edge " + std::to_string(i) + " carries the wrong tag";
+      if (!h.is_valid() || h.idx >= mesh.num_halfedges())
+        return name + ": invalid half-edge " + std::to_string(i);
+      if (mesh.from(h) != c.vertices[i] || mesh.to(h) != c.vertices[i + 1])
+        return name + ": half-edge " + std::to_string(i) + " is not continuous";
+      if (mesh.tag(h).profile != static_cast<int>(p) || !mesh.tag(h).forward)
+        return name + ": half-edge " + std::to_string(i) + " carries the wrong tag";
     }
   }
   return std::nullopt;

@@ -28,8 +28,8 @@ struct CutInput {
 };
 
 struct CutResult {
-  std::vector<CutChain> chains;     ///< one per profile
-  std::vector<Vertex> node_vertex;  ///< per node; invalid for a node no profile uses
+  std::vector<CutChain> chains;    ///< one per profile
+  std::vector<Vertex> node_vertex; ///< per node; invalid for a node no profile uses
   int crossings = 0;
 };
 

@@ -24,15 +24,20 @@ using namespace detail;
 std::string RegionInfo::key() const {
   std::string k;
   for (const auto& [id, side] : boundary) {
-    if (!k.empty()) k += '|';
+    if (!k.empty())
+      k += '|';
     k += id + ':' + side;
   }
   return k;
 }
 
 Embedding::Embedding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
-const EmbedReport& Embedding::report() const { return impl_->report; }
-const std::vector<int>& Embedding::face_regions() const { return impl_->regions.face_region; }
+const EmbedReport& Embedding::report() const {
+  return impl_->report;
+}
+const std::vector<int>& Embedding::face_regions() const {
+  return impl_->regions.face_region;
+}
 
 namespace {
 
@@ -50,18 +55,23 @@ private:
   std::chrono::steady_clock::time_point start_;
 };
 
-Vec3 apply(const Mat4& m, const Vec3& p) { return (m * p.homogeneous()).head<3>(); }
+Vec3 apply(const Mat4& m, const Vec3& p) {
+  return (m * p.homogeneous()).head<3>();
+}
 
 int net_components(const Rig& rig) {
   std::vector<int> parent(rig.nodes.size());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
     return x;
   };
-  for (const auto& p : rig.profiles) parent[find(rig.node_index(p.from))] = find(rig.node_index(p.to));
+  for (const auto& p : rig.profiles)
+    parent[find(rig.node_index(p.from))] = find(rig.node_index(p.to));
   int c = 0;
-  for (size_t i = 0; i < parent.size(); ++i) c += find(static_cast<int>(i)) == static_cast<int>(i);
+  for (size_t i = 0; i < parent.size(); ++i)
+    c += find(static_cast<int>(i)) == static_cast<int>(i);
   return c;
 }
 
@@ -71,7 +81,8 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   auto impl = std::make_shared<Embedding::Impl>();
   EmbedReport& rep = impl->report;
   auto progress = [&](std::string_view stage, double f) {
-    if (options.progress) options.progress(stage, f);
+    if (options.progress)
+      options.progress(stage, f);
   };
   Stopwatch clock(rep);
   const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
@@ -93,10 +104,12 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     higher_genus = higher_genus || (c.closed && c.genus() != 0);
   }
   Coverage cov = options.coverage.value_or(rig.coverage);
-  if (cov == Coverage::Auto) cov = all_closed ? Coverage::Full : Coverage::Local;
+  if (cov == Coverage::Auto)
+    cov = all_closed ? Coverage::Full : Coverage::Local;
   rep.coverage = cov;
   const int V = rep.logical_nodes, E = rep.profiles, C = rep.components, K = rep.closed_components;
-  if (!higher_genus) rep.expected_regions = cov == Coverage::Full ? C + K - V + E : E - V + C;
+  if (!higher_genus)
+    rep.expected_regions = cov == Coverage::Full ? C + K - V + E : E - V + C;
 
   // Build the surface structures.
   impl->cut = CutMesh::from_surface(mesh);
@@ -115,7 +128,8 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   for (int p = 0; p < np; ++p) {
     const Profile& pr = rig.profiles[p];
     Curve curve = pr.curve;
-    for (auto& q : curve.points) q = apply(rig.frame, q);
+    for (auto& q : curve.points)
+      q = apply(rig.frame, q);
     const int a = rig.node_index(pr.from), b = rig.node_index(pr.to);
     SampledProfile s = sample_profile(curve, in.node_points[a].pos, in.node_points[b].pos, h, options.density);
     in.profile_ids.push_back(pr.id);
@@ -139,18 +153,22 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       errors[p] = std::current_exception();
     }
     const int d = ++done;
-    if (options.progress && d % 16 == 0) progress("trace", static_cast<double>(d) / np);
+    if (options.progress && d % 16 == 0)
+      progress("trace", static_cast<double>(d) / np);
   });
   for (auto& e : errors)
-    if (e) std::rethrow_exception(e);
+    if (e)
+      std::rethrow_exception(e);
   progress("trace", 1.0);
   clock.lap("trace");
 
   impl->result = cut_mesh(impl->cut, tm, in);
   rep.crossings = impl->result.crossings;
   clock.lap("cut");
-  if (auto fault = impl->cut.validate()) throw TopologyError("cut mesh invalid after cutting: " + *fault);
-  if (auto fault = validate_chains(impl->cut, in, impl->result)) throw TopologyError("cut chains invalid: " + *fault);
+  if (auto fault = impl->cut.validate())
+    throw TopologyError("cut mesh invalid after cutting: " + *fault);
+  if (auto fault = validate_chains(impl->cut, in, impl->result))
+    throw TopologyError("cut chains invalid: " + *fault);
   clock.lap("validate");
 
   impl->regions = find_regions(impl->cut, in.profile_ids, cov, face_component);
@@ -161,19 +179,25 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   rep.cut_vertices = impl->cut.num_vertices();
   rep.cut_faces = impl->cut.num_faces();
   rep.outside_faces = impl->regions.outside_faces;
-  for (int r : impl->regions.face_region) rep.mapped_faces += r >= 0;
+  for (int r : impl->regions.face_region)
+    rep.mapped_faces += r >= 0;
   rep.unmapped_faces = rep.cut_faces - rep.mapped_faces - rep.outside_faces;
   std::vector<int> nv;
   for (Vertex v : impl->result.node_vertex)
-    if (v.is_valid()) nv.push_back(v.idx);
+    if (v.is_valid())
+      nv.push_back(v.idx);
   std::sort(nv.begin(), nv.end());
   rep.physical_nodes = static_cast<int>(std::unique(nv.begin(), nv.end()) - nv.begin());
   for (int i = 0; i < V; ++i)
-    if (!impl->result.node_vertex[i].is_valid()) rep.notes.push_back("node '" + rig.nodes[i].id + "' has no profile and is not cut into the mesh");
+    if (!impl->result.node_vertex[i].is_valid())
+      rep.notes.push_back("node '" + rig.nodes[i].id + "' has no profile and is not cut into the mesh");
   if (rep.expected_regions && rep.regions != *rep.expected_regions)
-    rep.problems.push_back("found " + std::to_string(rep.regions) + " regions, expected " + std::to_string(*rep.expected_regions));
-  if (rep.unmapped_faces != 0) rep.problems.push_back(std::to_string(rep.unmapped_faces) + " faces belong to no region");
-  if (higher_genus) rep.notes.push_back("a closed component has genus > 0: the expected region count is not determined");
+    rep.problems.push_back("found " + std::to_string(rep.regions) + " regions, expected " +
+                           std::to_string(*rep.expected_regions));
+  if (rep.unmapped_faces != 0)
+    rep.problems.push_back(std::to_string(rep.unmapped_faces) + " faces belong to no region");
+  if (higher_genus)
+    rep.notes.push_back("a closed component has genus > 0: the expected region count is not determined");
   rep.ok = rep.problems.empty();
   return Embedding(impl);
 }
@@ -188,7 +212,8 @@ std::string report_to_json(const EmbedReport& r) {
   j["mesh_components"] = r.mesh_components;
   j["closed_components"] = r.closed_components;
   j["regions"] = r.regions;
-  j["expected_regions"] = r.expected_regions ? nlohmann::ordered_json(*r.expected_regions) : nlohmann::ordered_json(nullptr);
+  j["expected_regions"] =
+      r.expected_regions ? nlohmann::ordered_json(*r.expected_regions) : nlohmann::ordered_json(nullptr);
   j["mapped_faces"] = r.mapped_faces;
   j["unmapped_faces"] = r.unmapped_faces;
   j["outside_faces"] = r.outside_faces;
@@ -198,15 +223,18 @@ std::string report_to_json(const EmbedReport& r) {
   j["samples"] = r.samples;
   j["crossings"] = r.crossings;
   nlohmann::ordered_json t = nlohmann::ordered_json::object();
-  for (const auto& [stage, ms] : r.timings_ms) t[stage] = ms;
+  for (const auto& [stage, ms] : r.timings_ms)
+    t[stage] = ms;
   j["timings_ms"] = t;
   j["problems"] = r.problems;
   j["notes"] = r.notes;
   nlohmann::ordered_json regions = nlohmann::ordered_json::array();
   for (const auto& reg : r.region_list) {
     nlohmann::ordered_json b = nlohmann::ordered_json::array();
-    for (const auto& [id, side] : reg.boundary) b.push_back({id, std::string(1, side)});
-    regions.push_back({{"key", reg.key()}, {"boundary", b}, {"faces", reg.faces}, {"area", reg.area}, {"colour", reg.colour}});
+    for (const auto& [id, side] : reg.boundary)
+      b.push_back({id, std::string(1, side)});
+    regions.push_back(
+        {{"key", reg.key()}, {"boundary", b}, {"faces", reg.faces}, {"area", reg.area}, {"colour", reg.colour}});
   }
   j["region_list"] = regions;
   return j.dump(2) + "\n";
@@ -224,13 +252,15 @@ std::string Embedding::cut_mesh_obj() const {
   out << "g faces\n";
   for (int f = 0; f < m.num_faces(); ++f) {
     out << 'f';
-    for (Halfedge h : m.face_loop(Face(f))) out << ' ' << m.from(h).idx + 1;
+    for (Halfedge h : m.face_loop(Face(f)))
+      out << ' ' << m.from(h).idx + 1;
     out << '\n';
   }
   const auto& chains = impl_->result.chains;
   for (size_t p = 0; p < chains.size(); ++p) {
     out << "g chain_" << impl_->input.profile_ids[p] << "\nl";
-    for (Vertex v : chains[p].vertices) out << ' ' << v.idx + 1;
+    for (Vertex v : chains[p].vertices)
+      out << ' ' << v.idx + 1;
     out << '\n';
   }
   return out.str();
@@ -252,9 +282,11 @@ std::string Embedding::regions_ply() const {
   for (int f = 0; f < m.num_faces(); ++f) {
     const auto loop = m.face_loop(Face(f));
     out << loop.size();
-    for (Halfedge h : loop) out << ' ' << m.from(h).idx;
+    for (Halfedge h : loop)
+      out << ' ' << m.from(h).idx;
     const int r = fr[f];
-    const std::array<int, 3> c = r >= 0 ? palette_colour(impl_->regions.regions[r].colour) : std::array<int, 3>{128, 128, 128};
+    const std::array<int, 3> c =
+        r >= 0 ? palette_colour(impl_->regions.regions[r].colour) : std::array<int, 3>{128, 128, 128};
     out << ' ' << c[0] << ' ' << c[1] << ' ' << c[2] << ' ' << r << '\n';
   }
   return out.str();

@@ -15,12 +15,14 @@ RawMesh make_capped_tube(const TubeSpec& s) {
   };
   // Side rings 0..along.
   for (int j = 0; j <= s.along; ++j)
-    for (int i = 0; i < n; ++i) m.positions.push_back(ring_point(s.radius, i, s.length * j / s.along));
+    for (int i = 0; i < n; ++i)
+      m.positions.push_back(ring_point(s.radius, i, s.length * j / s.along));
   auto side = [&](int i, int j) { return j * n + (i % n); };
   // Cap rings: k = 1..cap_rings-1 inside the rim, then the centre.
   auto add_cap = [&](double y, int rim_row) {
     std::vector<int> prev(n);
-    for (int i = 0; i < n; ++i) prev[i] = side(i, rim_row);
+    for (int i = 0; i < n; ++i)
+      prev[i] = side(i, rim_row);
     std::vector<std::vector<int>> rings{prev};
     for (int k = 1; k < s.cap_rings; ++k) {
       std::vector<int> r(n);
@@ -47,20 +49,25 @@ RawMesh make_capped_tube(const TubeSpec& s) {
     }
   };
   for (int j = 0; j < s.along; ++j)
-    for (int i = 0; i < n; ++i) quad(side(i, j), side(i, j + 1), side(i + 1, j + 1), side(i + 1, j), (i + j) % 2 == 1);
+    for (int i = 0; i < n; ++i)
+      quad(side(i, j), side(i, j + 1), side(i + 1, j + 1), side(i + 1, j), (i + j) % 2 == 1);
   for (int end = 0; end < 2; ++end) {
     const double y = end == 0 ? 0.0 : s.length;
     auto [rings, centre] = add_cap(y, end == 0 ? 0 : s.along);
     for (size_t k = 0; k + 1 < rings.size(); ++k)
       for (int i = 0; i < n; ++i) {
         const int a = rings[k][i], b = rings[k][(i + 1) % n], c = rings[k + 1][(i + 1) % n], d = rings[k + 1][i];
-        if (end == 0) quad(a, b, c, d, (i + static_cast<int>(k)) % 2 == 1);
-        else quad(a, d, c, b, (i + static_cast<int>(k)) % 2 == 1);
+        if (end == 0)
+          quad(a, b, c, d, (i + static_cast<int>(k)) % 2 == 1);
+        else
+          quad(a, d, c, b, (i + static_cast<int>(k)) % 2 == 1);
       }
     const auto& last = rings.back();
     for (int i = 0; i < n; ++i) {
-      if (end == 0) faces.push_back({last[i], last[(i + 1) % n], centre});
-      else faces.push_back({last[i], centre, last[(i + 1) % n]});
+      if (end == 0)
+        faces.push_back({last[i], last[(i + 1) % n], centre});
+      else
+        faces.push_back({last[i], centre, last[(i + 1) % n]});
     }
   }
   // Orient outward: the signed volume must be positive.
@@ -69,7 +76,8 @@ RawMesh make_capped_tube(const TubeSpec& s) {
     for (size_t k = 1; k + 1 < f.size(); ++k)
       vol += m.positions[f[0]].dot(m.positions[f[k]].cross(m.positions[f[k + 1]]));
   for (auto& f : faces) {
-    if (vol < 0) std::reverse(f.begin(), f.end());
+    if (vol < 0)
+      std::reverse(f.begin(), f.end());
     m.add_face(f);
   }
   return m;
@@ -86,7 +94,8 @@ Rig make_tube_net(const TubeNetSpec& s) {
   auto on_side = [&](double a, double y) { return Eigen::Vector3d(r * std::cos(a), y, r * std::sin(a)); };
   auto ring_node = [](int i, int k) { return "ring" + std::to_string(i) + "_" + std::to_string(k); };
   for (int i = 0; i < rings; ++i)
-    for (int k = 0; k < n; ++k) rig.nodes.push_back({ring_node(i, k), on_side(angle(k), s.ring_heights[i])});
+    for (int k = 0; k < n; ++k)
+      rig.nodes.push_back({ring_node(i, k), on_side(angle(k), s.ring_heights[i])});
   const Eigen::Vector3d bottom = Eigen::Vector3d(0, 0, 0) + s.cap_offset;
   const Eigen::Vector3d top = Eigen::Vector3d(0, s.length, 0) + s.cap_offset;
   rig.nodes.push_back({"cap_bottom", bottom});
@@ -103,8 +112,10 @@ Rig make_tube_net(const TubeNetSpec& s) {
   for (int i = 0; i < rings; ++i)
     for (int k = 0; k < n; ++k) {
       std::vector<Eigen::Vector3d> pts;
-      for (int q = 0; q <= np; ++q) pts.push_back(on_side(angle(k) + step * q / np, s.ring_heights[i]));
-      add("ring" + std::to_string(i) + "_arc" + std::to_string(k) + std::to_string((k + 1) % n), ring_node(i, k), ring_node(i, (k + 1) % n), pts);
+      for (int q = 0; q <= np; ++q)
+        pts.push_back(on_side(angle(k) + step * q / np, s.ring_heights[i]));
+      add("ring" + std::to_string(i) + "_arc" + std::to_string(k) + std::to_string((k + 1) % n), ring_node(i, k),
+          ring_node(i, (k + 1) % n), pts);
     }
   // Along the side, between consecutive rings.
   for (int i = 0; i + 1 < rings; ++i)
@@ -112,7 +123,8 @@ Rig make_tube_net(const TubeNetSpec& s) {
       std::vector<Eigen::Vector3d> pts;
       for (int q = 0; q <= np; ++q)
         pts.push_back(on_side(angle(k), s.ring_heights[i] + (s.ring_heights[i + 1] - s.ring_heights[i]) * q / np));
-      add("side" + std::to_string(i) + std::to_string(i + 1) + "_" + std::to_string(k), ring_node(i, k), ring_node(i + 1, k), pts);
+      add("side" + std::to_string(i) + std::to_string(i + 1) + "_" + std::to_string(k), ring_node(i, k),
+          ring_node(i + 1, k), pts);
     }
   // Spokes: from each cap's centre across the cap, over the rim, to the nearest ring.
   for (int end = 0; end < 2; ++end) {
@@ -122,10 +134,12 @@ Rig make_tube_net(const TubeNetSpec& s) {
     for (int k = 0; k < n; ++k) {
       std::vector<Eigen::Vector3d> pts;
       const Eigen::Vector3d rim = on_side(angle(k), y_cap);
-      for (int q = 0; q < np; ++q) pts.push_back(centre + (rim - centre) * q / np);
-      for (int q = 0; q <= np; ++q) pts.push_back(on_side(angle(k), y_cap + (y_ring - y_cap) * q / np));
-      add(std::string(end == 0 ? "spoke_bottom_" : "spoke_top_") + std::to_string(k), end == 0 ? "cap_bottom" : "cap_top",
-          ring_node(end == 0 ? 0 : rings - 1, k), pts);
+      for (int q = 0; q < np; ++q)
+        pts.push_back(centre + (rim - centre) * q / np);
+      for (int q = 0; q <= np; ++q)
+        pts.push_back(on_side(angle(k), y_cap + (y_ring - y_cap) * q / np));
+      add(std::string(end == 0 ? "spoke_bottom_" : "spoke_top_") + std::to_string(k),
+          end == 0 ? "cap_bottom" : "cap_top", ring_node(end == 0 ? 0 : rings - 1, k), pts);
     }
   }
   // A three-joint skeleton along the axis.
@@ -134,7 +148,8 @@ Rig make_tube_net(const TubeNetSpec& s) {
   for (int j = 0; j < 3; ++j) {
     Joint jt;
     jt.name = names[j];
-    if (j > 0) jt.parent = names[j - 1];
+    if (j > 0)
+      jt.parent = names[j - 1];
     jt.bind(1, 3) = s.length * j / 2.0;
     rig.joints.push_back(jt);
   }

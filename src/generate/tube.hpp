@@ -9,10 +9,10 @@ namespace curvenet {
 
 struct TubeSpec {
   double radius = 1.0;
-  double length = 4.0;   ///< along +y, from y = 0
-  int around = 16;       ///< vertices per ring
-  int along = 16;        ///< side rows
-  int cap_rings = 4;     ///< rings on each cap, the centre included
+  double length = 4.0;      ///< along +y, from y = 0
+  int around = 16;          ///< vertices per ring
+  int along = 16;           ///< side rows
+  int cap_rings = 4;        ///< rings on each cap, the centre included
   bool triangulate = false; ///< split every quad (alternating diagonals)
 };
 
@@ -25,7 +25,7 @@ struct TubeNetSpec {
   double length = 4.0;
   std::vector<double> ring_heights{0.6, 2.1, 3.4}; ///< at least 1, increasing
   int nodes_per_ring = 4;
-  double first_angle_deg = 30.0; ///< angle of node 0 on each ring
+  double first_angle_deg = 30.0;                        ///< angle of node 0 on each ring
   Eigen::Vector3d cap_offset = Eigen::Vector3d::Zero(); ///< moves both cap nodes off the axis
   int points_per_profile = 24;
 };

@@ -17,16 +17,20 @@ using Json = nlohmann::ordered_json;
 
 const char* to_string(Coverage c) {
   switch (c) {
-  case Coverage::Full: return "full";
-  case Coverage::Local: return "local";
-  case Coverage::Auto: return "auto";
+  case Coverage::Full:
+    return "full";
+  case Coverage::Local:
+    return "local";
+  case Coverage::Auto:
+    return "auto";
   }
   return "auto";
 }
 
 int Rig::node_index(const std::string& id) const {
   for (size_t i = 0; i < nodes.size(); ++i)
-    if (nodes[i].id == id) return static_cast<int>(i);
+    if (nodes[i].id == id)
+      return static_cast<int>(i);
   return -1;
 }
 
@@ -42,59 +46,75 @@ public:
 
   const Json& require(const Json& obj, const std::string& path, const char* key) const {
     auto it = obj.find(key);
-    if (it == obj.end()) fail(path, std::string("missing required key '") + key + "'");
+    if (it == obj.end())
+      fail(path, std::string("missing required key '") + key + "'");
     return *it;
   }
 
   void only_keys(const Json& obj, const std::string& path, std::initializer_list<const char*> allowed) const {
-    if (!obj.is_object()) fail(path, "expected an object");
+    if (!obj.is_object())
+      fail(path, "expected an object");
     for (auto it = obj.begin(); it != obj.end(); ++it) {
       const std::string& k = it.key();
-      if (k.rfind("x_", 0) == 0) continue;
+      if (k.rfind("x_", 0) == 0)
+        continue;
       bool ok = false;
-      for (const char* a : allowed) ok = ok || k == a;
-      if (!ok) fail(path + "/" + k, "unknown key '" + k + "' (extensions must start with 'x_')");
+      for (const char* a : allowed)
+        ok = ok || k == a;
+      if (!ok)
+        fail(path + "/" + k, "unknown key '" + k + "' (extensions must start with 'x_')");
     }
   }
 
   double number(const Json& j, const std::string& path) const {
-    if (!j.is_number()) fail(path, "expected a number");
+    if (!j.is_number())
+      fail(path, "expected a number");
     const double v = j.get<double>();
-    if (!std::isfinite(v)) fail(path, "not a finite number");
+    if (!std::isfinite(v))
+      fail(path, "not a finite number");
     return v;
   }
 
   std::string string(const Json& j, const std::string& path) const {
-    if (!j.is_string()) fail(path, "expected a string");
+    if (!j.is_string())
+      fail(path, "expected a string");
     return j.get<std::string>();
   }
 
   Eigen::Vector3d vec3(const Json& j, const std::string& path) const {
-    if (!j.is_array() || j.size() != 3) fail(path, "expected an array of 3 numbers");
+    if (!j.is_array() || j.size() != 3)
+      fail(path, "expected an array of 3 numbers");
     return {number(j[0], path + "/0"), number(j[1], path + "/1"), number(j[2], path + "/2")};
   }
 
   std::vector<Eigen::Vector3d> points(const Json& j, const std::string& path, size_t min_count) const {
-    if (!j.is_array()) fail(path, "expected an array of points");
-    if (j.size() < min_count) fail(path, "needs at least " + std::to_string(min_count) + " points, has " + std::to_string(j.size()));
+    if (!j.is_array())
+      fail(path, "expected an array of points");
+    if (j.size() < min_count)
+      fail(path, "needs at least " + std::to_string(min_count) + " points, has " + std::to_string(j.size()));
     std::vector<Eigen::Vector3d> pts;
-    for (size_t i = 0; i < j.size(); ++i) pts.push_back(vec3(j[i], path + "/" + std::to_string(i)));
+    for (size_t i = 0; i < j.size(); ++i)
+      pts.push_back(vec3(j[i], path + "/" + std::to_string(i)));
     return pts;
   }
 
   Mat4 matrix(const Json& j, const std::string& path) const {
-    if (!j.is_array() || j.size() != 16) fail(path, "expected 16 numbers (a 4x4 matrix, row by row)");
+    if (!j.is_array() || j.size() != 16)
+      fail(path, "expected 16 numbers (a 4x4 matrix, row by row)");
     Mat4 m;
     for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) m(r, c) = number(j[4 * r + c], path + "/" + std::to_string(4 * r + c));
+      for (int c = 0; c < 4; ++c)
+        m(r, c) = number(j[4 * r + c], path + "/" + std::to_string(4 * r + c));
     if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1)
       fail(path, "the last row of the matrix must be 0 0 0 1");
     return m;
   }
 
   Curve curve(const Json& p, const std::string& path) const {
-    const int forms = static_cast<int>(p.contains("points")) + static_cast<int>(p.contains("bezier")) + static_cast<int>(p.contains("nurbs"));
-    if (forms != 1) fail(path, "needs exactly one of 'points', 'bezier' or 'nurbs'");
+    const int forms = static_cast<int>(p.contains("points")) + static_cast<int>(p.contains("bezier")) +
+                      static_cast<int>(p.contains("nurbs"));
+    if (forms != 1)
+      fail(path, "needs exactly one of 'points', 'bezier' or 'nurbs'");
     Curve c;
     if (p.contains("points")) {
       c.kind = Curve::Kind::Polyline;
@@ -102,35 +122,44 @@ public:
     } else if (p.contains("bezier")) {
       c.kind = Curve::Kind::Bezier;
       c.points = points(p["bezier"], path + "/bezier", 4);
-      if ((c.points.size() - 1) % 3 != 0) fail(path + "/bezier", "a cubic Bezier needs 3k+1 control points, has " + std::to_string(c.points.size()));
+      if ((c.points.size() - 1) % 3 != 0)
+        fail(path + "/bezier", "a cubic Bezier needs 3k+1 control points, has " + std::to_string(c.points.size()));
     } else {
       c.kind = Curve::Kind::Nurbs;
       const std::string np = path + "/nurbs";
       const Json& n = p["nurbs"];
       only_keys(n, np, {"degree", "points", "knots", "weights"});
       const Json& d = require(n, np, "degree");
-      if (!d.is_number_integer() || d.get<int>() < 1) fail(np + "/degree", "expected a positive integer");
+      if (!d.is_number_integer() || d.get<int>() < 1)
+        fail(np + "/degree", "expected a positive integer");
       c.degree = d.get<int>();
       c.points = points(require(n, np, "points"), np + "/points", static_cast<size_t>(c.degree) + 1);
       const Json& k = require(n, np, "knots");
-      if (!k.is_array()) fail(np + "/knots", "expected an array of numbers");
-      for (size_t i = 0; i < k.size(); ++i) c.knots.push_back(number(k[i], np + "/knots/" + std::to_string(i)));
+      if (!k.is_array())
+        fail(np + "/knots", "expected an array of numbers");
+      for (size_t i = 0; i < k.size(); ++i)
+        c.knots.push_back(number(k[i], np + "/knots/" + std::to_string(i)));
       const size_t npts = c.points.size(), deg = static_cast<size_t>(c.degree);
       if (c.knots.size() == npts + deg - 1) { // Maya's convention: repeat the end knots once
         c.knots.insert(c.knots.begin(), c.knots.front());
         c.knots.push_back(c.knots.back());
       }
       if (c.knots.size() != npts + deg + 1)
-        fail(np + "/knots", "needs " + std::to_string(npts + deg + 1) + " knots (points + degree + 1), has " + std::to_string(k.size()));
+        fail(np + "/knots", "needs " + std::to_string(npts + deg + 1) + " knots (points + degree + 1), has " +
+                                std::to_string(k.size()));
       for (size_t i = 1; i < c.knots.size(); ++i)
-        if (c.knots[i] < c.knots[i - 1]) fail(np + "/knots/" + std::to_string(i), "knots must not decrease");
-      if (!(c.knots[deg] < c.knots[npts])) fail(np + "/knots", "the curve's knot domain is empty");
+        if (c.knots[i] < c.knots[i - 1])
+          fail(np + "/knots/" + std::to_string(i), "knots must not decrease");
+      if (!(c.knots[deg] < c.knots[npts]))
+        fail(np + "/knots", "the curve's knot domain is empty");
       if (n.contains("weights")) {
         const Json& w = n["weights"];
-        if (!w.is_array() || w.size() != npts) fail(np + "/weights", "needs one weight per control point");
+        if (!w.is_array() || w.size() != npts)
+          fail(np + "/weights", "needs one weight per control point");
         for (size_t i = 0; i < w.size(); ++i) {
           const double v = number(w[i], np + "/weights/" + std::to_string(i));
-          if (!(v > 0)) fail(np + "/weights/" + std::to_string(i), "weights must be positive");
+          if (!(v > 0))
+            fail(np + "/weights/" + std::to_string(i), "weights must be positive");
           c.weights.push_back(v);
         }
       }
@@ -141,44 +170,57 @@ public:
   Rig read(const Json& root) const {
     Rig rig;
     only_keys(root, "", {"format", "version", "coverage", "frame", "nodes", "profiles", "skeleton", "weights"});
-    if (string(require(root, "", "format"), "/format") != "curvenet-rig") fail("/format", "must be \"curvenet-rig\"");
+    if (string(require(root, "", "format"), "/format") != "curvenet-rig")
+      fail("/format", "must be \"curvenet-rig\"");
     const Json& version = require(root, "", "version");
-    if (!version.is_number_integer() || version.get<int>() != 1) fail("/version", "only version 1 is supported");
+    if (!version.is_number_integer() || version.get<int>() != 1)
+      fail("/version", "only version 1 is supported");
     if (root.contains("coverage")) {
       const std::string c = string(root["coverage"], "/coverage");
-      if (c == "full") rig.coverage = Coverage::Full;
-      else if (c == "local") rig.coverage = Coverage::Local;
-      else if (c == "auto") rig.coverage = Coverage::Auto;
-      else fail("/coverage", "must be \"full\", \"local\" or \"auto\", not \"" + c + "\"");
+      if (c == "full")
+        rig.coverage = Coverage::Full;
+      else if (c == "local")
+        rig.coverage = Coverage::Local;
+      else if (c == "auto")
+        rig.coverage = Coverage::Auto;
+      else
+        fail("/coverage", "must be \"full\", \"local\" or \"auto\", not \"" + c + "\"");
     }
-    if (root.contains("frame")) rig.frame = matrix(root["frame"], "/frame");
+    if (root.contains("frame"))
+      rig.frame = matrix(root["frame"], "/frame");
 
     const Json& nodes = require(root, "", "nodes");
-    if (!nodes.is_array()) fail("/nodes", "expected an array");
+    if (!nodes.is_array())
+      fail("/nodes", "expected an array");
     std::set<std::string> node_ids;
     for (size_t i = 0; i < nodes.size(); ++i) {
       const std::string path = "/nodes/" + std::to_string(i);
       only_keys(nodes[i], path, {"id", "position"});
       Node n;
       n.id = string(require(nodes[i], path, "id"), path + "/id");
-      if (!node_ids.insert(n.id).second) fail(path + "/id", "duplicate node id '" + n.id + "'");
+      if (!node_ids.insert(n.id).second)
+        fail(path + "/id", "duplicate node id '" + n.id + "'");
       n.position = vec3(require(nodes[i], path, "position"), path + "/position");
       rig.nodes.push_back(std::move(n));
     }
 
     const Json& profiles = require(root, "", "profiles");
-    if (!profiles.is_array()) fail("/profiles", "expected an array");
+    if (!profiles.is_array())
+      fail("/profiles", "expected an array");
     std::set<std::string> profile_ids;
     for (size_t i = 0; i < profiles.size(); ++i) {
       const std::string path = "/profiles/" + std::to_string(i);
       only_keys(profiles[i], path, {"id", "from", "to", "points", "bezier", "nurbs"});
       Profile p;
       p.id = string(require(profiles[i], path, "id"), path + "/id");
-      if (!profile_ids.insert(p.id).second) fail(path + "/id", "duplicate profile id '" + p.id + "'");
+      if (!profile_ids.insert(p.id).second)
+        fail(path + "/id", "duplicate profile id '" + p.id + "'");
       p.from = string(require(profiles[i], path, "from"), path + "/from");
-      if (!node_ids.count(p.from)) fail(path + "/from", "names node '" + p.from + "', which does not exist");
+      if (!node_ids.count(p.from))
+        fail(path + "/from", "names node '" + p.from + "', which does not exist");
       p.to = string(require(profiles[i], path, "to"), path + "/to");
-      if (!node_ids.count(p.to)) fail(path + "/to", "names node '" + p.to + "', which does not exist");
+      if (!node_ids.count(p.to))
+        fail(path + "/to", "names node '" + p.to + "', which does not exist");
       p.curve = curve(profiles[i], path);
       rig.profiles.push_back(std::move(p));
     }
@@ -188,7 +230,8 @@ public:
       const Json& sk = root["skeleton"];
       only_keys(sk, "/skeleton", {"joints"});
       const Json& joints = require(sk, "/skeleton", "joints");
-      if (!joints.is_array()) fail("/skeleton/joints", "expected an array");
+      if (!joints.is_array())
+        fail("/skeleton/joints", "expected an array");
       rig.has_skeleton = true;
       for (size_t i = 0; i < joints.size(); ++i) {
         const std::string path = "/skeleton/joints/" + std::to_string(i);
@@ -201,7 +244,8 @@ public:
           if (!joint_names.count(*j.parent))
             fail(path + "/parent", "parent '" + *j.parent + "' is not listed before this joint");
         }
-        if (!joint_names.insert(j.name).second) fail(path + "/name", "duplicate joint name '" + j.name + "'");
+        if (!joint_names.insert(j.name).second)
+          fail(path + "/name", "duplicate joint name '" + j.name + "'");
         j.bind = matrix(require(joints[i], path, "bind"), path + "/bind");
         rig.joints.push_back(std::move(j));
       }
@@ -209,17 +253,22 @@ public:
 
     if (root.contains("weights")) {
       const Json& w = root["weights"];
-      if (!w.is_object()) fail("/weights", "expected an object");
+      if (!w.is_object())
+        fail("/weights", "expected an object");
       for (auto it = w.begin(); it != w.end(); ++it) {
         const std::string path = "/weights/" + it.key();
-        if (!node_ids.count(it.key())) fail(path, "names node '" + it.key() + "', which does not exist");
-        if (!it->is_object()) fail(path, "expected an object of joint weights");
+        if (!node_ids.count(it.key()))
+          fail(path, "names node '" + it.key() + "', which does not exist");
+        if (!it->is_object())
+          fail(path, "expected an object of joint weights");
         auto& entry = rig.weights[it.key()];
         for (auto jt = it->begin(); jt != it->end(); ++jt) {
           const std::string jp = path + "/" + jt.key();
-          if (!joint_names.count(jt.key())) fail(jp, "names joint '" + jt.key() + "', which the skeleton lacks");
+          if (!joint_names.count(jt.key()))
+            fail(jp, "names joint '" + jt.key() + "', which the skeleton lacks");
           const double v = number(*jt, jp);
-          if (v < 0) fail(jp, "weights must not be negative");
+          if (v < 0)
+            fail(jp, "weights must not be negative");
           entry[jt.key()] = v;
         }
       }
@@ -231,16 +280,20 @@ private:
   std::string source_;
 };
 
-Json vec_json(const Eigen::Vector3d& p) { return Json::array({p.x(), p.y(), p.z()}); }
+Json vec_json(const Eigen::Vector3d& p) {
+  return Json::array({p.x(), p.y(), p.z()});
+}
 Json points_json(const std::vector<Eigen::Vector3d>& pts) {
   Json a = Json::array();
-  for (const auto& p : pts) a.push_back(vec_json(p));
+  for (const auto& p : pts)
+    a.push_back(vec_json(p));
   return a;
 }
 Json matrix_json(const Mat4& m) {
   Json a = Json::array();
   for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) a.push_back(m(r, c));
+    for (int c = 0; c < 4; ++c)
+      a.push_back(m(r, c));
   return a;
 }
 
@@ -254,7 +307,12 @@ Rig parse_rig(const std::string& text, const std::string& source) {
     // Turn the byte offset into a line and column.
     size_t line = 1, col = 1;
     for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n') { ++line; col = 1; } else { ++col; }
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
     }
     std::string what = e.what();
     auto pos = what.find("syntax error");
@@ -266,7 +324,8 @@ Rig parse_rig(const std::string& text, const std::string& source) {
 
 Rig read_rig(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot open the rig file");
+  if (!in)
+    throw InputError(path, "", "cannot open the rig file");
   std::ostringstream s;
   s << in.rdbuf();
   return parse_rig(s.str(), path);
@@ -279,17 +338,23 @@ std::string rig_to_json(const Rig& rig) {
   root["coverage"] = to_string(rig.coverage);
   root["frame"] = matrix_json(rig.frame);
   Json nodes = Json::array();
-  for (const auto& n : rig.nodes) nodes.push_back({{"id", n.id}, {"position", vec_json(n.position)}});
+  for (const auto& n : rig.nodes)
+    nodes.push_back({{"id", n.id}, {"position", vec_json(n.position)}});
   root["nodes"] = nodes;
   Json profiles = Json::array();
   for (const auto& p : rig.profiles) {
     Json j{{"id", p.id}, {"from", p.from}, {"to", p.to}};
     switch (p.curve.kind) {
-    case Curve::Kind::Polyline: j["points"] = points_json(p.curve.points); break;
-    case Curve::Kind::Bezier: j["bezier"] = points_json(p.curve.points); break;
+    case Curve::Kind::Polyline:
+      j["points"] = points_json(p.curve.points);
+      break;
+    case Curve::Kind::Bezier:
+      j["bezier"] = points_json(p.curve.points);
+      break;
     case Curve::Kind::Nurbs: {
       Json n{{"degree", p.curve.degree}, {"points", points_json(p.curve.points)}, {"knots", p.curve.knots}};
-      if (!p.curve.weights.empty()) n["weights"] = p.curve.weights;
+      if (!p.curve.weights.empty())
+        n["weights"] = p.curve.weights;
       j["nurbs"] = n;
       break;
     }
@@ -300,14 +365,17 @@ std::string rig_to_json(const Rig& rig) {
   if (rig.has_skeleton) {
     Json joints = Json::array();
     for (const auto& jt : rig.joints)
-      joints.push_back({{"name", jt.name}, {"parent", jt.parent ? Json(*jt.parent) : Json(nullptr)}, {"bind", matrix_json(jt.bind)}});
+      joints.push_back({{"name", jt.name},
+                        {"parent", jt.parent ? Json(*jt.parent) : Json(nullptr)},
+                        {"bind", matrix_json(jt.bind)}});
     root["skeleton"] = {{"joints", joints}};
   }
   if (!rig.weights.empty()) {
     Json w = Json::object();
     for (const auto& [node, m] : rig.weights) {
       Json e = Json::object();
-      for (const auto& [joint, v] : m) e[joint] = v;
+      for (const auto& [joint, v] : m)
+        e[joint] = v;
       w[node] = e;
     }
     root["weights"] = w;
@@ -315,6 +383,8 @@ std::string rig_to_json(const Rig& rig) {
   return root.dump(1) + "\n";
 }
 
-void write_rig(const Rig& rig, const std::string& path) { write_file_atomic(path, rig_to_json(rig)); }
+void write_rig(const Rig& rig, const std::string& path) {
+  write_file_atomic(path, rig_to_json(rig));
+}
 
 } // namespace curvenet

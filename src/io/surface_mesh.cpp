@@ -1,8 +1,8 @@
 // Validation, welding and orientation repair of input meshes.
 
-#include "curvenet/errors.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "core/predicates.hpp"
+#include "curvenet/errors.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,8 +15,8 @@
 namespace curvenet {
 
 InputError::InputError(std::string file, std::string element, const std::string& message)
-    : Error(file + ": " + (element.empty() ? "" : element + ": ") + message),
-      file_(std::move(file)), element_(std::move(element)) {}
+    : Error(file + ": " + (element.empty() ? "" : element + ": ") + message), file_(std::move(file)),
+      element_(std::move(element)) {}
 
 void RawMesh::add_face(std::span<const int> corners) {
   face_vertices.insert(face_vertices.end(), corners.begin(), corners.end());
@@ -24,7 +24,8 @@ void RawMesh::add_face(std::span<const int> corners) {
 }
 
 double SurfaceMesh::bbox_diagonal() const {
-  if (positions.empty()) return 0.0;
+  if (positions.empty())
+    return 0.0;
   Vec3 lo = positions[0], hi = positions[0];
   for (const auto& p : positions) {
     lo = lo.cwiseMin(p);
@@ -54,11 +55,12 @@ struct EdgeUse {
 };
 
 using EdgeKey = std::pair<int, int>;
-EdgeKey edge_key(int a, int b) { return a < b ? EdgeKey{a, b} : EdgeKey{b, a}; }
+EdgeKey edge_key(int a, int b) {
+  return a < b ? EdgeKey{a, b} : EdgeKey{b, a};
+}
 
 /// Undirected edges of a polygon soup, with the faces that use them.
-std::map<EdgeKey, std::vector<EdgeUse>> edge_uses(const std::vector<int>& offsets,
-                                                  const std::vector<int>& verts) {
+std::map<EdgeKey, std::vector<EdgeUse>> edge_uses(const std::vector<int>& offsets, const std::vector<int>& verts) {
   std::map<EdgeKey, std::vector<EdgeUse>> uses;
   for (size_t f = 0; f + 1 < offsets.size(); ++f) {
     const int n = offsets[f + 1] - offsets[f];
@@ -73,43 +75,48 @@ std::map<EdgeKey, std::vector<EdgeUse>> edge_uses(const std::vector<int>& offset
 
 /// Vertices whose incident faces form more than one fan (non-manifold
 /// vertices), given manifold edges.
-std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets,
-                                       const std::vector<int>& verts,
+std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, const std::vector<int>& verts,
                                        const std::map<EdgeKey, std::vector<EdgeUse>>& uses) {
   // For each vertex, union-find over its incident face corners, joined when
   // two faces share an edge at that vertex.
   std::vector<std::vector<int>> vfaces(nv);
   for (size_t f = 0; f + 1 < offsets.size(); ++f)
-    for (int k = offsets[f]; k < offsets[f + 1]; ++k) vfaces[verts[k]].push_back(static_cast<int>(f));
+    for (int k = offsets[f]; k < offsets[f + 1]; ++k)
+      vfaces[verts[k]].push_back(static_cast<int>(f));
   std::vector<int> bad;
   for (int v = 0; v < nv; ++v) {
     auto& fs = vfaces[v];
-    if (fs.size() <= 1) continue;
+    if (fs.size() <= 1)
+      continue;
     std::sort(fs.begin(), fs.end());
     fs.erase(std::unique(fs.begin(), fs.end()), fs.end());
     std::vector<int> parent(fs.size());
     std::iota(parent.begin(), parent.end(), 0);
     auto find = [&](int x) {
-      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      while (parent[x] != x)
+        x = parent[x] = parent[parent[x]];
       return x;
     };
-    auto index_of = [&](int f) {
-      return static_cast<int>(std::lower_bound(fs.begin(), fs.end(), f) - fs.begin());
-    };
+    auto index_of = [&](int f) { return static_cast<int>(std::lower_bound(fs.begin(), fs.end(), f) - fs.begin()); };
     for (int f : fs) {
       const int n = offsets[f + 1] - offsets[f];
       for (int i = 0; i < n; ++i) {
-        if (verts[offsets[f] + i] != v) continue;
+        if (verts[offsets[f] + i] != v)
+          continue;
         for (int nb : {verts[offsets[f] + (i + 1) % n], verts[offsets[f] + (i + n - 1) % n]}) {
           auto it = uses.find(edge_key(v, nb));
-          if (it == uses.end()) continue;
-          for (const auto& u : it->second) parent[find(index_of(u.face))] = find(index_of(f));
+          if (it == uses.end())
+            continue;
+          for (const auto& u : it->second)
+            parent[find(index_of(u.face))] = find(index_of(f));
         }
       }
     }
     int roots = 0;
-    for (size_t i = 0; i < fs.size(); ++i) roots += find(static_cast<int>(i)) == static_cast<int>(i);
-    if (roots > 1) bad.push_back(v);
+    for (size_t i = 0; i < fs.size(); ++i)
+      roots += find(static_cast<int>(i)) == static_cast<int>(i);
+    if (roots > 1)
+      bad.push_back(v);
   }
   return bad;
 }
@@ -146,7 +153,8 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
   std::vector<int> comp(nf, -1);
   std::vector<ComponentInfo> out;
   for (int s = 0; s < nf; ++s) {
-    if (comp[s] >= 0) continue;
+    if (comp[s] >= 0)
+      continue;
     const int c = static_cast<int>(out.size());
     out.emplace_back();
     std::vector<int> stack{s};
@@ -175,29 +183,35 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
   std::vector<char> open(out.size(), 0);
   for (const auto& [k, u] : uses) {
     nedges[comp[u[0].face]]++;
-    if (u.size() == 1) open[comp[u[0].face]] = 1;
+    if (u.size() == 1)
+      open[comp[u[0].face]] = 1;
   }
   for (size_t c = 0; c < out.size(); ++c) {
     out[c].closed = !open[c];
     out[c].euler = nverts[c] - nedges[c] + out[c].faces;
   }
-  if (face_component) *face_component = std::move(comp);
+  if (face_component)
+    *face_component = std::move(comp);
   return out;
 }
 
 SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   const int nin = static_cast<int>(raw.positions.size());
   const int nf = static_cast<int>(raw.face_offsets.size()) - 1;
-  if (nf <= 0) throw InputError(source, "", "the mesh has no faces");
+  if (nf <= 0)
+    throw InputError(source, "", "the mesh has no faces");
   for (int v = 0; v < nin; ++v)
     if (!raw.positions[v].allFinite())
       throw InputError(source, "vertex " + std::to_string(v), "non-finite coordinate " + vec_str(raw.positions[v]));
   for (int f = 0; f < nf; ++f) {
     const int n = raw.face_offsets[f + 1] - raw.face_offsets[f];
-    if (n < 3) throw InputError(source, "face " + std::to_string(f), "has " + std::to_string(n) + " corners; at least 3 are needed");
+    if (n < 3)
+      throw InputError(source, "face " + std::to_string(f),
+                       "has " + std::to_string(n) + " corners; at least 3 are needed");
     for (int k = raw.face_offsets[f]; k < raw.face_offsets[f + 1]; ++k)
       if (raw.face_vertices[k] < 0 || raw.face_vertices[k] >= nin)
-        throw InputError(source, "face " + std::to_string(f), "refers to vertex " + std::to_string(raw.face_vertices[k]) + ", which does not exist");
+        throw InputError(source, "face " + std::to_string(f),
+                         "refers to vertex " + std::to_string(raw.face_vertices[k]) + ", which does not exist");
   }
 
   // Faces that are degenerate in the input itself (before any weld).
@@ -208,11 +222,13 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
         for (int j = i + 1; j < n; ++j)
           if (verts[b + i] == verts[b + j] || pos[verts[b + i]] == pos[verts[b + j]])
             throw InputError(source, "face " + std::to_string(f),
-                             std::string("degenerate: corners ") + std::to_string(i) + " and " + std::to_string(j) + " are the same " + what);
+                             std::string("degenerate: corners ") + std::to_string(i) + " and " + std::to_string(j) +
+                                 " are the same " + what);
       bool all_collinear = true;
       for (int i = 1; i + 1 < n && all_collinear; ++i)
         all_collinear = detail::collinear3d(pos[verts[b]], pos[verts[b + i]], pos[verts[b + i + 1]]);
-      if (all_collinear) throw InputError(source, "face " + std::to_string(f), "degenerate: its corners are collinear (zero area)");
+      if (all_collinear)
+        throw InputError(source, "face " + std::to_string(f), "degenerate: its corners are collinear (zero area)");
     }
   };
   check_degenerate(raw.positions, raw.face_vertices, "point");
@@ -233,7 +249,8 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   std::vector<int> group(nin);
   {
     std::unordered_map<Vec3, int, VecHash> first;
-    for (int v = 0; v < nin; ++v) group[v] = first.emplace(raw.positions[v], v).first->second;
+    for (int v = 0; v < nin; ++v)
+      group[v] = first.emplace(raw.positions[v], v).first->second;
   }
   std::vector<int> to_welded;
   std::vector<int> fverts;
@@ -245,26 +262,33 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
     int next = 0;
     for (int v = 0; v < nin; ++v) {
       int r = group[v];
-      if (id_of_rep[r] < 0) id_of_rep[r] = next++;
+      if (id_of_rep[r] < 0)
+        id_of_rep[r] = next++;
       to_welded[v] = id_of_rep[r];
     }
     fverts.resize(raw.face_vertices.size());
-    for (size_t k = 0; k < fverts.size(); ++k) fverts[k] = to_welded[raw.face_vertices[k]];
+    for (size_t k = 0; k < fverts.size(); ++k)
+      fverts[k] = to_welded[raw.face_vertices[k]];
     auto uses = edge_uses(raw.face_offsets, fverts);
     std::vector<char> unweld(next, 0);
     bool any = false;
     for (const auto& [k, u] : uses)
-      if (u.size() > 2) unweld[k.first] = unweld[k.second] = any = true;
+      if (u.size() > 2)
+        unweld[k.first] = unweld[k.second] = any = true;
     for (int f = 0; f < nf; ++f) { // a weld that collapses a face
       const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
       for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j)
-          if (fverts[b + i] == fverts[b + j]) unweld[fverts[b + i]] = any = true;
+          if (fverts[b + i] == fverts[b + j])
+            unweld[fverts[b + i]] = any = true;
     }
     if (!any)
-      for (int v : non_manifold_vertices(next, raw.face_offsets, fverts, uses)) unweld[v] = any = true;
-    if (!any) break;
-    if (round > 64) throw InputError(source, "", "could not weld the mesh into a manifold");
+      for (int v : non_manifold_vertices(next, raw.face_offsets, fverts, uses))
+        unweld[v] = any = true;
+    if (!any)
+      break;
+    if (round > 64)
+      throw InputError(source, "", "could not weld the mesh into a manifold");
     for (int v = 0; v < nin; ++v)
       if (unweld[to_welded[v]] && group[v] != v) {
         group[v] = v;
@@ -276,15 +300,19 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   mesh.source = source;
   mesh.input_to_welded = to_welded;
   int nw = 0;
-  for (int w : to_welded) nw = std::max(nw, w + 1);
+  for (int w : to_welded)
+    nw = std::max(nw, w + 1);
   mesh.positions.resize(nw);
-  for (int v = 0; v < nin; ++v) mesh.positions[to_welded[v]] = raw.positions[v];
+  for (int v = 0; v < nin; ++v)
+    mesh.positions[to_welded[v]] = raw.positions[v];
   mesh.face_offsets = raw.face_offsets;
   mesh.face_vertices = fverts;
   if (nw < nin)
-    mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) + " by position");
+    mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) +
+                         " by position");
   if (refused_welds > 0)
-    mesh.notes.push_back("kept " + std::to_string(refused_welds) + " coincident vertices apart, where welding would break manifoldness");
+    mesh.notes.push_back("kept " + std::to_string(refused_welds) +
+                         " coincident vertices apart, where welding would break manifoldness");
 
   // Orientation: make every component consistent with its lowest face.
   auto uses = edge_uses(mesh.face_offsets, mesh.face_vertices);
@@ -298,7 +326,8 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   std::vector<int> flip(nf, -1);
   int flipped = 0;
   for (int s = 0; s < nf; ++s) {
-    if (flip[s] >= 0) continue;
+    if (flip[s] >= 0)
+      continue;
     flip[s] = 0;
     std::queue<int> q;
     q.push(s);
@@ -313,20 +342,26 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
           flip[g] = want;
           q.push(g);
         } else if (flip[g] != want) {
-          throw InputError(source, "face " + std::to_string(g), "the surface is not orientable (a Moebius-like component)");
+          throw InputError(source, "face " + std::to_string(g),
+                           "the surface is not orientable (a Moebius-like component)");
         }
       }
     }
     int count = 0;
-    for (int f : members) count += flip[f];
+    for (int f : members)
+      count += flip[f];
     // Keep the majority orientation of the component.
     if (2 * count > static_cast<int>(members.size()))
-      for (int f : members) flip[f] ^= 1;
-    for (int f : members) flipped += flip[f];
+      for (int f : members)
+        flip[f] ^= 1;
+    for (int f : members)
+      flipped += flip[f];
   }
   if (flipped > 0) {
     for (int f = 0; f < nf; ++f)
-      if (flip[f]) std::reverse(mesh.face_vertices.begin() + mesh.face_offsets[f], mesh.face_vertices.begin() + mesh.face_offsets[f + 1]);
+      if (flip[f])
+        std::reverse(mesh.face_vertices.begin() + mesh.face_offsets[f],
+                     mesh.face_vertices.begin() + mesh.face_offsets[f + 1]);
     mesh.notes.push_back("repaired inconsistent orientation: reversed " + std::to_string(flipped) + " faces");
   }
   // A weld can make a face degenerate in welded terms only when positions coincide, which was checked above.

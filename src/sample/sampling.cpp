@@ -13,7 +13,8 @@ Vec3 bezier(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, doub
 
 std::vector<double> cumulative_length(const std::vector<Vec3>& pts) {
   std::vector<double> acc(pts.size(), 0.0);
-  for (size_t i = 1; i < pts.size(); ++i) acc[i] = acc[i - 1] + (pts[i] - pts[i - 1]).norm();
+  for (size_t i = 1; i < pts.size(); ++i)
+    acc[i] = acc[i - 1] + (pts[i] - pts[i - 1]).norm();
   return acc;
 }
 
@@ -27,7 +28,8 @@ Vec3 evaluate_nurbs(const Curve& c, double u) {
   // Knot span: the k with U[k] <= u < U[k+1], p <= k <= n-1.
   int k = static_cast<int>(std::upper_bound(U.begin(), U.end(), u) - U.begin()) - 1;
   k = std::clamp(k, p, n - 1);
-  while (k > p && U[k] == U[k + 1]) --k;
+  while (k > p && U[k] == U[k + 1])
+    --k;
   std::vector<Eigen::Vector4d> d(p + 1);
   for (int j = 0; j <= p; ++j) {
     const double w = c.weights.empty() ? 1.0 : c.weights[k - p + j];
@@ -44,7 +46,8 @@ Vec3 evaluate_nurbs(const Curve& c, double u) {
 
 std::vector<Vec3> evaluate_dense(const Curve& c) {
   switch (c.kind) {
-  case Curve::Kind::Polyline: return c.points;
+  case Curve::Kind::Polyline:
+    return c.points;
   case Curve::Kind::Bezier: {
     const size_t segments = (c.points.size() - 1) / 3;
     const int per = std::max(8, static_cast<int>(std::ceil(200.0 / static_cast<double>(segments))));
@@ -60,7 +63,8 @@ std::vector<Vec3> evaluate_dense(const Curve& c) {
     const double a = c.knots[p], b = c.knots[n];
     const int count = std::max(200, 16 * (n - p));
     std::vector<Vec3> out;
-    for (int i = 0; i <= count; ++i) out.push_back(evaluate_nurbs(c, a + (b - a) * i / count));
+    for (int i = 0; i <= count; ++i)
+      out.push_back(evaluate_nurbs(c, a + (b - a) * i / count));
     return out;
   }
   }
@@ -93,7 +97,8 @@ SampledProfile sample_profile(const Curve& curve, const Vec3& from, const Vec3& 
   for (int i = 0; i < n; ++i) {
     const double t = static_cast<double>(i) / (n - 1);
     const double target = t * out.length;
-    while (seg + 2 < dense.size() && acc[seg + 1] < target) ++seg;
+    while (seg + 2 < dense.size() && acc[seg + 1] < target)
+      ++seg;
     const double len = acc[seg + 1] - acc[seg];
     const double a = len > 0 ? std::clamp((target - acc[seg]) / len, 0.0, 1.0) : 0.0;
     out.points.push_back((1 - a) * dense[seg] + a * dense[seg + 1]);

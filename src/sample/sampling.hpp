@@ -28,7 +28,6 @@ struct SampledProfile {
 /// onto its nodes by a displacement that fades linearly in arc length, so the
 /// profile starts exactly at `from` and ends exactly at `to`. The sample
 /// count is n = max(2, ceil(density * length / edge_length)).
-SampledProfile sample_profile(const Curve& curve, const Vec3& from, const Vec3& to, double edge_length,
-                              double density);
+SampledProfile sample_profile(const Curve& curve, const Vec3& from, const Vec3& to, double edge_length, double density);
 
 } // namespace curvenet::detail

@@ -26,10 +26,12 @@ TriClosest closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
   // barycentric coordinates of every Voronoi region.
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return {a, {1, 0, 0}};
+  if (d1 <= 0 && d2 <= 0)
+    return {a, {1, 0, 0}};
   const Vec3 bp = p - b;
   const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return {b, {0, 1, 0}};
+  if (d3 >= 0 && d4 <= d3)
+    return {b, {0, 1, 0}};
   const double vc = d1 * d4 - d3 * d2;
   if (vc <= 0 && d1 >= 0 && d3 <= 0) {
     const double v = d1 / (d1 - d3);
@@ -37,7 +39,8 @@ TriClosest closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
   }
   const Vec3 cp = p - c;
   const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return {c, {0, 0, 1}};
+  if (d6 >= 0 && d5 <= d6)
+    return {c, {0, 0, 1}};
   const double vb = d5 * d2 - d1 * d6;
   if (vb <= 0 && d2 >= 0 && d6 <= 0) {
     const double w = d2 / (d2 - d6);
@@ -60,8 +63,10 @@ struct TraceMesh::Bvh {
   RTCScene scene = nullptr;
   double slack = 0;
   ~Bvh() {
-    if (scene) rtcReleaseScene(scene);
-    if (device) rtcReleaseDevice(device);
+    if (scene)
+      rtcReleaseScene(scene);
+    if (device)
+      rtcReleaseDevice(device);
   }
 };
 
@@ -79,7 +84,8 @@ bool point_query(RTCPointQueryFunctionArguments* args) {
   auto* d = static_cast<QueryData*>(args->userPtr);
   const int t = static_cast<int>(args->primID);
   const auto& c = d->mesh->tri(t);
-  const TriClosest r = closest_on_triangle(d->q, d->mesh->position(c[0]), d->mesh->position(c[1]), d->mesh->position(c[2]));
+  const TriClosest r =
+      closest_on_triangle(d->q, d->mesh->position(c[0]), d->mesh->position(c[1]), d->mesh->position(c[2]));
   const double dist = (r.point - d->q).norm();
   if (dist < d->best || (dist == d->best && t < d->tri)) {
     d->best = dist;
@@ -116,27 +122,34 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
     const Vec3 axis = std::abs(normal.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
     const Vec3 u = normal.cross(axis).normalized(), w = normal.cross(u);
     std::vector<Eigen::Vector2d> p2(n);
-    for (int i = 0; i < n; ++i) p2[i] = {mesh.positions[corner[i]].dot(u), mesh.positions[corner[i]].dot(w)};
+    for (int i = 0; i < n; ++i)
+      p2[i] = {mesh.positions[corner[i]].dot(u), mesh.positions[corner[i]].dot(w)};
     std::vector<int> ring(n);
-    for (int i = 0; i < n; ++i) ring[i] = i;
+    for (int i = 0; i < n; ++i)
+      ring[i] = i;
     std::vector<std::array<int, 3>> tris; // polygon-local corner indices
     while (ring.size() > 3) {
       const int m = static_cast<int>(ring.size());
       int ear = -1;
       for (int i = 0; i < m && ear < 0; ++i) {
         const int a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
-        if (orient2d(p2[a], p2[b], p2[c]) <= 0) continue;
+        if (orient2d(p2[a], p2[b], p2[c]) <= 0)
+          continue;
         bool empty = true;
         for (int j : ring) {
-          if (j == a || j == b || j == c) continue;
-          if (orient2d(p2[a], p2[b], p2[j]) >= 0 && orient2d(p2[b], p2[c], p2[j]) >= 0 && orient2d(p2[c], p2[a], p2[j]) >= 0) {
+          if (j == a || j == b || j == c)
+            continue;
+          if (orient2d(p2[a], p2[b], p2[j]) >= 0 && orient2d(p2[b], p2[c], p2[j]) >= 0 &&
+              orient2d(p2[c], p2[a], p2[j]) >= 0) {
             empty = false;
             break;
           }
         }
-        if (empty) ear = i;
+        if (empty)
+          ear = i;
       }
-      if (ear < 0) ear = 0; // a non-planar polygon with no clean ear: cut the first corner
+      if (ear < 0)
+        ear = 0; // a non-planar polygon with no clean ear: cut the first corner
       tris.push_back({ring[(ear + m - 1) % m], ring[ear], ring[(ear + 1) % m]});
       ring.erase(ring.begin() + ear);
     }
@@ -174,15 +187,18 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
   for (int t = 0; t < num_triangles(); ++t)
     for (int k = 0; k < 3; ++k) {
       const int e = side_edge_[t][k];
-      if (e < 0) continue;
+      if (e < 0)
+        continue;
       for (int o : edge_tris_[e])
-        if (o != t) nbr_[t][k] = o;
+        if (o != t)
+          nbr_[t][k] = o;
     }
 
   // Embree BVH over the triangles, for closest-point queries.
   bvh_ = std::make_unique<Bvh>();
   bvh_->device = rtcNewDevice("threads=1");
-  if (!bvh_->device) throw Error("Embree: cannot create a device");
+  if (!bvh_->device)
+    throw Error("Embree: cannot create a device");
   bvh_->scene = rtcNewScene(bvh_->device);
   RTCGeometry geom = rtcNewGeometry(bvh_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -194,10 +210,11 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
       scale = std::max(scale, std::abs(mesh.positions[v][k]));
     }
   bvh_->slack = 1e-6 * (scale + 1e-300);
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                            3 * sizeof(unsigned), tri_.size()));
+  auto* ib = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tri_.size()));
   for (size_t t = 0; t < tri_.size(); ++t)
-    for (int k = 0; k < 3; ++k) ib[3 * t + k] = static_cast<unsigned>(tri_[t][k]);
+    for (int k = 0; k < 3; ++k)
+      ib[3 * t + k] = static_cast<unsigned>(tri_[t][k]);
   rtcSetGeometryPointQueryFunction(geom, point_query);
   rtcCommitGeometry(geom);
   rtcAttachGeometry(bvh_->scene, geom);
@@ -214,8 +231,10 @@ Vec3 TraceMesh::tri_normal(int t) const {
 
 std::vector<int> TraceMesh::triangles_of(const SurfacePoint& p) const {
   switch (p.kind) {
-  case SurfacePoint::Kind::Vertex: return vertex_tris_[p.vertex];
-  case SurfacePoint::Kind::Edge: return edge_tris_[p.edge];
+  case SurfacePoint::Kind::Vertex:
+    return vertex_tris_[p.vertex];
+  case SurfacePoint::Kind::Edge:
+    return edge_tris_[p.edge];
   case SurfacePoint::Kind::Face: {
     std::vector<int> out{p.tri};
     // On a diagonal of its polygon: the triangle across it holds p too.
@@ -232,7 +251,8 @@ std::vector<int> TraceMesh::triangles_of(const SurfacePoint& p) const {
 
 std::vector<int> TraceMesh::faces_of(const SurfacePoint& p) const {
   std::vector<int> out;
-  for (int t : triangles_of(p)) out.push_back(tri_face_[t]);
+  for (int t : triangles_of(p))
+    out.push_back(tri_face_[t]);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
@@ -250,7 +270,8 @@ SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);
   rtcPointQuery(bvh_->scene, &query, &context, nullptr, &data);
-  if (data.tri < 0) throw EmbedError("closest point: the surface has no triangle");
+  if (data.tri < 0)
+    throw EmbedError("closest point: the surface has no triangle");
   const int t = data.tri;
   const auto& c = tri_[t];
   // Classify: within Tolerances::crossing_min_param (relative) of a corner
@@ -258,21 +279,25 @@ SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
   const auto& l = data.hit.bary;
   const double d = Tolerances::crossing_min_param;
   for (int k = 0; k < 3; ++k)
-    if (l[k] > 1 - d) return vertex_point(c[k]);
+    if (l[k] > 1 - d)
+      return vertex_point(c[k]);
   SurfacePoint sp;
   sp.tri = t;
   sp.pos = data.hit.point;
   for (int k = 0; k < 3; ++k) {
     const int e = side_edge_[t][k];
-    if (e < 0 || !(l[(k + 2) % 3] < d)) continue;
+    if (e < 0 || !(l[(k + 2) % 3] < d))
+      continue;
     // On side k, from corner k to corner k+1.
     const double s = l[(k + 1) % 3] / (l[k] + l[(k + 1) % 3]);
     const auto& ends = edge_ends(e);
     sp.kind = SurfacePoint::Kind::Edge;
     sp.edge = e;
     sp.t = ends[0] == c[k] ? s : 1 - s;
-    if (!(sp.t > d)) return vertex_point(ends[0]);
-    if (!(sp.t < 1 - d)) return vertex_point(ends[1]);
+    if (!(sp.t > d))
+      return vertex_point(ends[0]);
+    if (!(sp.t < 1 - d))
+      return vertex_point(ends[1]);
     sp.pos = (1 - sp.t) * position(ends[0]) + sp.t * position(ends[1]);
     return sp;
   }

@@ -16,10 +16,12 @@ SurfacePoint place_node(const TraceMesh& mesh, const Vec3& p, const Tolerances& 
   if (sp.kind == SurfacePoint::Kind::Face) {
     const auto& c = mesh.tri(sp.tri);
     for (int k = 0; k < 3; ++k)
-      if ((mesh.position(c[k]) - sp.pos).norm() <= snap) return mesh.vertex_point(c[k]);
+      if ((mesh.position(c[k]) - sp.pos).norm() <= snap)
+        return mesh.vertex_point(c[k]);
     for (int k = 0; k < 3; ++k) {
       const int e = mesh.side_edge(sp.tri, k);
-      if (e < 0) continue;
+      if (e < 0)
+        continue;
       const auto ends = mesh.edge_ends(e);
       const Vec3 a = mesh.position(ends[0]), b = mesh.position(ends[1]);
       const double t = std::clamp((sp.pos - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
@@ -35,7 +37,8 @@ SurfacePoint place_node(const TraceMesh& mesh, const Vec3& p, const Tolerances& 
   } else if (sp.kind == SurfacePoint::Kind::Edge) {
     const auto ends = mesh.edge_ends(sp.edge);
     for (int v : ends)
-      if ((mesh.position(v) - sp.pos).norm() <= snap) return mesh.vertex_point(v);
+      if ((mesh.position(v) - sp.pos).norm() <= snap)
+        return mesh.vertex_point(v);
   }
   return sp;
 }
@@ -45,13 +48,17 @@ namespace {
 std::string where(const TraceMesh& m, const SurfacePoint& p) {
   std::ostringstream s;
   switch (p.kind) {
-  case SurfacePoint::Kind::Vertex: s << "vertex " << p.vertex; break;
+  case SurfacePoint::Kind::Vertex:
+    s << "vertex " << p.vertex;
+    break;
   case SurfacePoint::Kind::Edge: {
     const auto e = m.edge_ends(p.edge);
     s << "edge " << e[0] << "-" << e[1];
     break;
   }
-  case SurfacePoint::Kind::Face: s << "face " << m.tri_face(p.tri); break;
+  case SurfacePoint::Kind::Face:
+    s << "face " << m.tri_face(p.tri);
+    break;
   }
   return s.str();
 }
@@ -66,13 +73,16 @@ public:
       : m_(m), in_(in), mean_edge_(mean_edge), tol_(tol), out_(out) {}
 
   void emit(const SurfacePoint& p, int sample) {
-    if (p.kind == SurfacePoint::Kind::Face) return;
+    if (p.kind == SurfacePoint::Kind::Face)
+      return;
     auto& pts = out_.points;
     if (!pts.empty()) {
       const PathPoint& last = pts.back();
       const SurfacePoint& l = last.at;
-      if (p.kind == SurfacePoint::Kind::Vertex && l.kind == SurfacePoint::Kind::Vertex && l.vertex == p.vertex) return;
-      if (p.kind == SurfacePoint::Kind::Edge && l.kind == SurfacePoint::Kind::Edge && l.edge == p.edge && last.node < 0) {
+      if (p.kind == SurfacePoint::Kind::Vertex && l.kind == SurfacePoint::Kind::Vertex && l.vertex == p.vertex)
+        return;
+      if (p.kind == SurfacePoint::Kind::Edge && l.kind == SurfacePoint::Kind::Edge && l.edge == p.edge &&
+          last.node < 0) {
         // Crossed the edge and came back to it before meeting anything else:
         // the excursion is shorter than one face, keep the later point.
         pts.back().at = p;
@@ -85,7 +95,8 @@ public:
 
   Vec3 normal_at(const SurfacePoint& p) const {
     Vec3 n = Vec3::Zero();
-    for (int t : m_.triangles_of(p)) n += m_.tri_normal(t);
+    for (int t : m_.triangles_of(p))
+      n += m_.tri_normal(t);
     return n;
   }
 
@@ -107,11 +118,13 @@ public:
           walk_once(b, a, sample, 0);
           std::vector<PathPoint> back = std::move(out_.points);
           out_.points = std::move(saved);
-          for (auto it = back.rbegin(); it != back.rend(); ++it) emit(it->at, sample);
+          for (auto it = back.rbegin(); it != back.rend(); ++it)
+            emit(it->at, sample);
         }
         return;
       } catch (const WalkFailed& e) {
-        if (first_error.empty()) first_error = e.what();
+        if (first_error.empty())
+          first_error = e.what();
         out_.points.resize(mark);
       }
     }
@@ -123,15 +136,18 @@ public:
     auto in_target = [&](int t) { return std::find(target.begin(), target.end(), t) != target.end(); };
     auto shares = [&](const SurfacePoint& p) {
       for (int t : m_.triangles_of(p))
-        if (in_target(t)) return true;
+        if (in_target(t))
+          return true;
       return false;
     };
-    if (shares(a)) return;
+    if (shares(a))
+      return;
     // Both ends on edges (or vertices) around one vertex: the path runs
     // through that vertex. This is the exact form of a curve along edges.
     if (a.kind != SurfacePoint::Kind::Face && b.kind != SurfacePoint::Kind::Face) {
       auto ends_of = [&](const SurfacePoint& p) -> std::vector<int> {
-        if (p.kind == SurfacePoint::Kind::Vertex) return {p.vertex};
+        if (p.kind == SurfacePoint::Kind::Vertex)
+          return {p.vertex};
         const auto e = m_.edge_ends(p.edge);
         return {e[0], e[1]};
       };
@@ -148,14 +164,17 @@ public:
     const double len = (B - A).norm();
     const Vec3 na = normal_at(a).normalized() * len, nb = normal_at(b).normalized() * len;
     Vec3 C = A + (plane_mode == 1 ? na : plane_mode == 2 ? nb : Vec3(na + nb));
-    const Vec3 fallbacks[] = {A + normal_at(a).normalized() * len, A + Vec3::UnitX() * len, A + Vec3::UnitY() * len, A + Vec3::UnitZ() * len};
-    for (int i = 0; collinear3d(A, B, C) && i < 4; ++i) C = fallbacks[i];
+    const Vec3 fallbacks[] = {A + normal_at(a).normalized() * len, A + Vec3::UnitX() * len, A + Vec3::UnitY() * len,
+                              A + Vec3::UnitZ() * len};
+    for (int i = 0; collinear3d(A, B, C) && i < 4; ++i)
+      C = fallbacks[i];
     const Vec3 nrm = (B - A).cross(C - A);
     const Vec3 dir = B - A;
     std::unordered_map<int, int> side_memo;
     auto side = [&](int v) {
       auto it = side_memo.find(v);
-      if (it != side_memo.end()) return it->second;
+      if (it != side_memo.end())
+        return it->second;
       const int s = orient3d(A, B, C, m_.position(v));
       side_memo.emplace(v, s);
       return s;
@@ -169,8 +188,10 @@ public:
       const double s = (si - sj) != 0 ? si / (si - sj) : 0.5;
       // A crossing this close to an end of the edge goes through that end:
       // the path becomes a vertex hit instead of a sliver next to the vertex.
-      if (!(s > Tolerances::crossing_min_param)) return m_.vertex_point(i);
-      if (!(s < 1 - Tolerances::crossing_min_param)) return m_.vertex_point(j);
+      if (!(s > Tolerances::crossing_min_param))
+        return m_.vertex_point(i);
+      if (!(s < 1 - Tolerances::crossing_min_param))
+        return m_.vertex_point(j);
       SurfacePoint p;
       p.pos = (1 - s) * m_.position(i) + s * m_.position(j);
       const int e = m_.side_edge(t, k);
@@ -191,7 +212,8 @@ public:
         fail(sample, "reached the boundary of the mesh at " + where(m_, crossing(t, k)));
       const auto& d = m_.tri(n);
       for (int q = 0; q < 3; ++q)
-        if (d[q] == c[(k + 1) % 3] && d[(q + 1) % 3] == c[k]) came = q;
+        if (d[q] == c[(k + 1) % 3] && d[(q + 1) % 3] == c[k])
+          came = q;
       return n;
     };
 
@@ -211,7 +233,8 @@ public:
         for (int t : m_.edge_triangles(a.edge)) {
           int k0 = -1;
           for (int k = 0; k < 3; ++k)
-            if (m_.side_edge(t, k) == a.edge) k0 = k;
+            if (m_.side_edge(t, k) == a.edge)
+              k0 = k;
           for (const auto& cand : exits(t, k0, side, crossing)) {
             const double d = (cand.pos - A).dot(dir);
             if (d > best) {
@@ -227,7 +250,8 @@ public:
     double travelled = 0;
     for (int steps = 0;; ++steps) {
       if (state == State::InTri) {
-        if (in_target(tri)) return;
+        if (in_target(tri))
+          return;
         auto cands = exits(tri, came, side, crossing);
         if (cands.empty() && came < 0) {
           // The start lies on the triangle only up to rounding, and the plane
@@ -235,13 +259,16 @@ public:
           const auto& c = m_.tri(tri);
           int k = 0;
           for (int q = 1; q < 3; ++q)
-            if (std::abs(sd(c[q])) < std::abs(sd(c[k]))) k = q;
+            if (std::abs(sd(c[q])) < std::abs(sd(c[k])))
+              k = q;
           cands.push_back({-1, c[k], m_.position(c[k])});
         }
-        if (cands.empty()) fail(sample, "the path has no way out of face " + std::to_string(m_.tri_face(tri)));
+        if (cands.empty())
+          fail(sample, "the path has no way out of face " + std::to_string(m_.tri_face(tri)));
         const Exit* best = &cands[0];
         for (const auto& c : cands)
-          if ((c.pos - pos).dot(dir) > (best->pos - pos).dot(dir)) best = &c;
+          if ((c.pos - pos).dot(dir) > (best->pos - pos).dot(dir))
+            best = &c;
         travelled += (best->pos - pos).norm();
         pos = best->pos;
         if (best->vertex >= 0) {
@@ -264,28 +291,38 @@ public:
           came = nc;
         }
       } else {
-        if (shares(m_.vertex_point(vertex))) return;
+        if (shares(m_.vertex_point(vertex)))
+          return;
         // Leave the vertex through a triangle of its fan, or along an edge.
-        struct Option { int tri = -1, side = -1, to = -1; Vec3 pos; };
+        struct Option {
+          int tri = -1, side = -1, to = -1;
+          Vec3 pos;
+        };
         std::vector<Option> options;
         for (int t : m_.vertex_triangles(vertex)) {
           const auto& c = m_.tri(t);
           int i = 0;
-          while (c[i] != vertex) ++i;
+          while (c[i] != vertex)
+            ++i;
           const int v1 = c[(i + 1) % 3], v2 = c[(i + 2) % 3];
           const int s1 = side(v1), s2 = side(v2);
-          if (s1 * s2 < 0 && t != came_tri) options.push_back({t, (i + 1) % 3, -1, crossing(t, (i + 1) % 3).pos});
-          if (s1 == 0 && v1 != came_vertex) options.push_back({-1, -1, v1, m_.position(v1)});
-          if (s2 == 0 && v2 != came_vertex) options.push_back({-1, -1, v2, m_.position(v2)});
+          if (s1 * s2 < 0 && t != came_tri)
+            options.push_back({t, (i + 1) % 3, -1, crossing(t, (i + 1) % 3).pos});
+          if (s1 == 0 && v1 != came_vertex)
+            options.push_back({-1, -1, v1, m_.position(v1)});
+          if (s2 == 0 && v2 != came_vertex)
+            options.push_back({-1, -1, v2, m_.position(v2)});
         }
         if (options.empty()) {
           // The plane only touches the surface here: go along the edge that
           // points most toward b.
           for (int t : m_.vertex_triangles(vertex))
             for (int q : m_.tri(t))
-              if (q != vertex && q != came_vertex) options.push_back({-1, -1, q, m_.position(q)});
+              if (q != vertex && q != came_vertex)
+                options.push_back({-1, -1, q, m_.position(q)});
         }
-        if (options.empty()) fail(sample, "the path stops at vertex " + std::to_string(vertex));
+        if (options.empty())
+          fail(sample, "the path stops at vertex " + std::to_string(vertex));
         const Vec3 here = m_.position(vertex);
         const Option* best = nullptr;
         double best_score = -std::numeric_limits<double>::infinity();
@@ -331,17 +368,20 @@ private:
     Vec3 pos;
   };
 
-  template <class Side, class Crossing>
-  std::vector<Exit> exits(int t, int came, Side& side, Crossing& crossing) const {
+  template <class Side, class Crossing> std::vector<Exit> exits(int t, int came, Side& side, Crossing& crossing) const {
     std::vector<Exit> out;
     const auto& c = m_.tri(t);
     for (int k = 0; k < 3; ++k) {
-      if (k == came) continue;
-      if (side(c[k]) * side(c[(k + 1) % 3]) < 0) out.push_back({k, -1, crossing(t, k).pos});
+      if (k == came)
+        continue;
+      if (side(c[k]) * side(c[(k + 1) % 3]) < 0)
+        out.push_back({k, -1, crossing(t, k).pos});
     }
     for (int k = 0; k < 3; ++k) {
-      if (side(c[k]) != 0) continue;
-      if (came >= 0 && (k == came || k == (came + 1) % 3)) continue;
+      if (side(c[k]) != 0)
+        continue;
+      if (came >= 0 && (k == came || k == (came + 1) % 3))
+        continue;
       out.push_back({-1, c[k], m_.position(c[k])});
     }
     return out;
@@ -370,7 +410,8 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   for (int i = 1; i < n; ++i) {
     const SurfacePoint cur = (i == n - 1) ? in.to : mesh.closest_point(in.samples[i]);
     walker.walk(prev, cur, i);
-    if (i < n - 1) walker.emit(cur, i);
+    if (i < n - 1)
+      walker.emit(cur, i);
     prev = cur;
   }
   // A path that comes back to a vertex it already passed made an excursion
@@ -379,12 +420,16 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   {
     auto& pts = out.points;
     for (size_t i = 0; i < pts.size(); ++i) {
-      if (pts[i].at.kind != SurfacePoint::Kind::Vertex) continue;
+      if (pts[i].at.kind != SurfacePoint::Kind::Vertex)
+        continue;
       for (size_t j = pts.size() - 1; j > i + 1; --j) {
-        if (pts[j].at.kind != SurfacePoint::Kind::Vertex || pts[j].at.vertex != pts[i].at.vertex) continue;
-        if (pts[j].node >= 0 && pts[i].node >= 0) continue; // a closed loop through one node
+        if (pts[j].at.kind != SurfacePoint::Kind::Vertex || pts[j].at.vertex != pts[i].at.vertex)
+          continue;
+        if (pts[j].node >= 0 && pts[i].node >= 0)
+          continue; // a closed loop through one node
         double len = 0;
-        for (size_t k = i; k < j; ++k) len += (pts[k + 1].at.pos - pts[k].at.pos).norm();
+        for (size_t k = i; k < j; ++k)
+          len += (pts[k + 1].at.pos - pts[k].at.pos).norm();
         if (len <= 2 * mean_edge) {
           const int keep_node = pts[j].node >= 0 ? pts[j].node : pts[i].node;
           pts.erase(pts.begin() + static_cast<long>(i) + 1, pts.begin() + static_cast<long>(j) + 1);
@@ -401,7 +446,8 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   {
     auto& pts = out.points;
     auto on_edge = [&](const SurfacePoint& p, int e) {
-      if (p.kind == SurfacePoint::Kind::Edge) return p.edge == e;
+      if (p.kind == SurfacePoint::Kind::Edge)
+        return p.edge == e;
       if (p.kind == SurfacePoint::Kind::Vertex) {
         const auto& ends = mesh.edge_ends(e);
         return p.vertex == ends[0] || p.vertex == ends[1];
@@ -409,8 +455,10 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
       return false;
     };
     auto edges_through = [&](const SurfacePoint& p) -> std::vector<int> {
-      if (p.kind == SurfacePoint::Kind::Edge) return {p.edge};
-      if (p.kind == SurfacePoint::Kind::Vertex) return mesh.vertex_edges(p.vertex);
+      if (p.kind == SurfacePoint::Kind::Edge)
+        return {p.edge};
+      if (p.kind == SurfacePoint::Kind::Vertex)
+        return mesh.vertex_edges(p.vertex);
       return {};
     };
     std::vector<PathPoint> kept;
@@ -419,7 +467,8 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
       if (i > 0 && i + 1 < pts.size() && pts[i].node < 0)
         for (int e : edges_through(pts[i].at))
           middle = middle || (on_edge(kept.back().at, e) && on_edge(pts[i + 1].at, e));
-      if (!middle) kept.push_back(pts[i]);
+      if (!middle)
+        kept.push_back(pts[i]);
     }
     pts = std::move(kept);
   }

@@ -16,8 +16,8 @@ namespace curvenet::detail {
 /// an input face (or an input edge).
 struct PathPoint {
   SurfacePoint at;
-  int node = -1;   ///< rig node index for the two end points
-  int sample = 0;  ///< the sample the walk was heading to (for messages)
+  int node = -1;  ///< rig node index for the two end points
+  int sample = 0; ///< the sample the walk was heading to (for messages)
 };
 
 struct TracedProfile {
