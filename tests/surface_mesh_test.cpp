@@ -166,6 +166,45 @@ TEST(MeshIo, ReadsPlyAndOffThroughAssimp) {
   EXPECT_EQ(b.num_faces(), 2);
 }
 
+TEST(MeshIo, ReadsAsciiFbxThroughAssimp) {
+  // A closed tetrahedron in FBX 7.4's ASCII form (a negative index closes a polygon).
+  const auto dir = test::temp_dir("fbx");
+  std::ofstream(dir / "tet.fbx") << R"(; FBX 7.4.0 project file
+FBXHeaderExtension:  {
+	FBXHeaderVersion: 1003
+	FBXVersion: 7400
+}
+GlobalSettings:  {
+	Version: 1000
+}
+Objects:  {
+	Geometry: 100, "Geometry::tet", "Mesh" {
+		Vertices: *12 {
+			a: 0,0,0,1,0,0,0,1,0,0,0,1
+		}
+		PolygonVertexIndex: *12 {
+			a: 0,2,-2,0,1,-4,0,3,-3,1,2,-4
+		}
+		GeometryVersion: 124
+	}
+	Model: 200, "Model::tet", "Mesh" {
+		Version: 232
+	}
+}
+Connections:  {
+	C: "OO",100,200
+	C: "OO",200,0
+}
+)";
+  const SurfaceMesh m = load_mesh((dir / "tet.fbx").string());
+  EXPECT_EQ(m.num_vertices(), 4);
+  EXPECT_EQ(m.num_faces(), 4);
+  const auto comps = mesh_components(m);
+  ASSERT_EQ(comps.size(), 1u);
+  EXPECT_TRUE(comps[0].closed);
+  EXPECT_NEAR(m.bbox_diagonal(), std::sqrt(3.0), 1e-12);
+}
+
 TEST(MeshIo, UnreadableFilesAreInputErrors) {
   EXPECT_THROW(load_mesh("/nonexistent/mesh.obj"), InputError);
   const auto dir = test::temp_dir("unreadable");

@@ -106,6 +106,9 @@ Rig make_tube_net(const TubeNetSpec& s) {
     p.from = std::move(from);
     p.to = std::move(to);
     p.curve.points = std::move(pts);
+    // The ends are the nodes themselves, not the same angle rounded anew.
+    p.curve.points.front() = rig.nodes[rig.node_index(p.from)].position;
+    p.curve.points.back() = rig.nodes[rig.node_index(p.to)].position;
     rig.profiles.push_back(std::move(p));
   };
   // Ring arcs.
