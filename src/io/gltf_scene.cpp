@@ -1,0 +1,348 @@
+#include "io/gltf_scene.hpp"
+
+#include "curvenet/errors.hpp"
+
+#include <tiny_gltf.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <filesystem>
+
+namespace curvenet::detail {
+namespace {
+
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+  return true; // textures are not needed
+}
+
+/// Reads the elements of an accessor as doubles (normalised integers scaled to [0, 1]).
+struct AccessorReader {
+  const tinygltf::Accessor& acc;
+  const unsigned char* base = nullptr;
+  size_t stride = 0;
+  int ncomp = 0;
+
+  AccessorReader(const tinygltf::Model& m, int index, const std::string& path, const std::string& what)
+      : acc(m.accessors.at(index)) {
+    if (acc.sparse.isSparse)
+      throw InputError(path, what, "sparse accessors are not supported");
+    if (acc.bufferView < 0 || acc.bufferView >= static_cast<int>(m.bufferViews.size()))
+      throw InputError(path, what, "accessor has no buffer view");
+    const auto& view = m.bufferViews[acc.bufferView];
+    const auto& buf = m.buffers.at(view.buffer);
+    ncomp = tinygltf::GetNumComponentsInType(acc.type);
+    const int csize = tinygltf::GetComponentSizeInBytes(acc.componentType);
+    if (ncomp <= 0 || csize <= 0)
+      throw InputError(path, what, "accessor has an unknown type");
+    stride = acc.ByteStride(view) > 0 ? static_cast<size_t>(acc.ByteStride(view)) : static_cast<size_t>(ncomp * csize);
+    const size_t start = view.byteOffset + acc.byteOffset;
+    const size_t need = acc.count == 0 ? 0 : start + stride * (acc.count - 1) + static_cast<size_t>(ncomp * csize);
+    if (need > buf.data.size())
+      throw InputError(path, what, "accessor reads past the end of its buffer");
+    base = buf.data.data() + start;
+  }
+
+  [[nodiscard]] size_t count() const { return acc.count; }
+
+  [[nodiscard]] double get(size_t i, int c) const {
+    const unsigned char* p = base + i * stride;
+    auto load = [&](auto v, int size) {
+      std::memcpy(&v, p + size * c, size);
+      return v;
+    };
+    const bool norm = acc.normalized;
+    switch (acc.componentType) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return load(float{}, 4);
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
+      return load(double{}, 8);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return norm ? p[c] / 255.0 : p[c];
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return norm ? load(uint16_t{}, 2) / 65535.0 : load(uint16_t{}, 2);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      return load(uint32_t{}, 4);
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+      return norm ? std::max(static_cast<int8_t>(p[c]) / 127.0, -1.0) : static_cast<int8_t>(p[c]);
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+      return norm ? std::max(load(int16_t{}, 2) / 32767.0, -1.0) : load(int16_t{}, 2);
+    default:
+      return 0;
+    }
+  }
+};
+
+struct Trs {
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d s = Eigen::Vector3d::Ones();
+  bool has_matrix = false;
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+
+  [[nodiscard]] Eigen::Matrix4d matrix() const {
+    if (has_matrix)
+      return m;
+    Eigen::Affine3d a = Eigen::Affine3d::Identity();
+    a.translate(t);
+    a.rotate(r.normalized());
+    a.scale(s);
+    return a.matrix();
+  }
+};
+
+Trs rest_trs(const tinygltf::Node& node) {
+  Trs x;
+  if (node.matrix.size() == 16) {
+    x.has_matrix = true;
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r)
+        x.m(r, c) = node.matrix[4 * c + r]; // column-major in glTF
+    return x;
+  }
+  if (node.translation.size() == 3)
+    x.t = {node.translation[0], node.translation[1], node.translation[2]};
+  if (node.rotation.size() == 4)
+    x.r = Eigen::Quaterniond(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
+  if (node.scale.size() == 3)
+    x.s = {node.scale[0], node.scale[1], node.scale[2]};
+  return x;
+}
+
+void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, const Eigen::Matrix4d& world,
+                      const std::string& path, const std::string& what, bool skinned, GltfScene& scene) {
+  auto it = prim.attributes.find("POSITION");
+  if (it == prim.attributes.end())
+    return;
+  const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+    return; // points and lines carry no surface
+  RawMesh& raw = scene.mesh;
+  AccessorReader pos(model, it->second, path, what + " POSITION");
+  if (pos.ncomp != 3)
+    throw InputError(path, what, "POSITION is not a VEC3");
+  const int base = static_cast<int>(raw.positions.size());
+  for (size_t i = 0; i < pos.count(); ++i) {
+    const Eigen::Vector4d p(pos.get(i, 0), pos.get(i, 1), pos.get(i, 2), 1.0);
+    raw.positions.push_back((world * p).head<3>());
+  }
+  // Skin influences (JOINTS_0 / WEIGHTS_0), when this primitive is skinned.
+  scene.vertex_joint.resize(raw.positions.size(), {-1, -1, -1, -1});
+  scene.vertex_weight.resize(raw.positions.size(), {0, 0, 0, 0});
+  auto jt = prim.attributes.find("JOINTS_0"), wt = prim.attributes.find("WEIGHTS_0");
+  if (skinned && jt != prim.attributes.end() && wt != prim.attributes.end()) {
+    AccessorReader joints(model, jt->second, path, what + " JOINTS_0");
+    AccessorReader weights(model, wt->second, path, what + " WEIGHTS_0");
+    if (joints.count() != pos.count() || weights.count() != pos.count() || joints.ncomp != 4 || weights.ncomp != 4)
+      throw InputError(path, what, "JOINTS_0 and WEIGHTS_0 must be VEC4 with one entry per vertex");
+    for (size_t i = 0; i < pos.count(); ++i)
+      for (int k = 0; k < 4; ++k) {
+        const double w = weights.get(i, k);
+        scene.vertex_joint[base + i][k] = w > 0 ? static_cast<int>(joints.get(i, k)) : -1;
+        scene.vertex_weight[base + i][k] = w > 0 ? w : 0;
+      }
+  }
+  std::vector<int> idx;
+  if (prim.indices >= 0) {
+    AccessorReader ind(model, prim.indices, path, what + " indices");
+    for (size_t i = 0; i < ind.count(); ++i) {
+      const double v = ind.get(i, 0);
+      if (v >= static_cast<double>(pos.count()))
+        throw InputError(path, what + " index " + std::to_string(i),
+                         "refers to vertex " + std::to_string(static_cast<long>(v)) + " of " + std::to_string(pos.count()));
+      idx.push_back(static_cast<int>(v));
+    }
+  } else {
+    for (size_t i = 0; i < pos.count(); ++i)
+      idx.push_back(static_cast<int>(i));
+  }
+  const bool mirrored = world.topLeftCorner<3, 3>().determinant() < 0;
+  auto tri = [&](int a, int b, int c) {
+    std::array<int, 3> t{base + a, base + b, base + c};
+    if (mirrored)
+      std::swap(t[1], t[2]);
+    raw.add_face(t);
+  };
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    if (idx.size() % 3 != 0)
+      throw InputError(path, what, "index count is not a multiple of 3");
+    for (size_t i = 0; i + 2 < idx.size(); i += 3)
+      tri(idx[i], idx[i + 1], idx[i + 2]);
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    for (size_t i = 0; i + 2 < idx.size(); ++i)
+      (i % 2 == 0) ? tri(idx[i], idx[i + 1], idx[i + 2]) : tri(idx[i + 1], idx[i], idx[i + 2]);
+  } else {
+    for (size_t i = 1; i + 1 < idx.size(); ++i)
+      tri(idx[0], idx[i], idx[i + 1]);
+  }
+}
+
+std::vector<int> scene_roots(const tinygltf::Model& model, const std::vector<int>& parent) {
+  const int scene = model.defaultScene >= 0 ? model.defaultScene : (model.scenes.empty() ? -1 : 0);
+  if (scene >= 0)
+    return model.scenes[scene].nodes;
+  std::vector<int> roots;
+  for (size_t i = 0; i < parent.size(); ++i)
+    if (parent[i] < 0)
+      roots.push_back(static_cast<int>(i));
+  return roots;
+}
+
+} // namespace
+
+GltfScene read_gltf_scene(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(&skip_image, nullptr);
+  auto model = std::make_shared<tinygltf::Model>();
+  std::string err, warn;
+  const bool ok = ext == ".glb" ? loader.LoadBinaryFromFile(model.get(), &err, &warn, path)
+                                : loader.LoadASCIIFromFile(model.get(), &err, &warn, path);
+  if (!ok) {
+    while (!err.empty() && std::isspace(static_cast<unsigned char>(err.back())))
+      err.pop_back();
+    throw InputError(path, "", "cannot read glTF: " + (err.empty() ? std::string("unknown error") : err));
+  }
+  GltfScene scene;
+  scene.path = path;
+  scene.node_parent.assign(model->nodes.size(), -1);
+  for (size_t i = 0; i < model->nodes.size(); ++i)
+    for (int c : model->nodes[i].children) {
+      if (c < 0 || c >= static_cast<int>(model->nodes.size()) || scene.node_parent[c] >= 0)
+        throw InputError(path, "node " + std::to_string(i), "invalid node hierarchy");
+      scene.node_parent[c] = static_cast<int>(i);
+    }
+  // Walk the default scene. A skinned mesh's node transform is ignored, as
+  // glTF requires: its vertices stay in the mesh's object space, which is
+  // where rigs are authored.
+  const auto world = node_world_matrices({path, model, {}, scene.node_parent}, -1, 0);
+  std::vector<int> stack;
+  const auto roots = scene_roots(*model, scene.node_parent);
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it)
+    stack.push_back(*it);
+  size_t guard = 0;
+  while (!stack.empty()) {
+    const int ni = stack.back();
+    stack.pop_back();
+    if (ni < 0 || ni >= static_cast<int>(model->nodes.size()) || ++guard > model->nodes.size())
+      throw InputError(path, "node " + std::to_string(ni), "invalid node hierarchy");
+    const auto& node = model->nodes[ni];
+    if (node.mesh >= 0) {
+      const bool skinned = node.skin >= 0;
+      if (skinned && scene.skin < 0)
+        scene.skin = node.skin;
+      const Eigen::Matrix4d m = skinned ? Eigen::Matrix4d::Identity() : world[ni];
+      const auto& mesh = model->meshes.at(node.mesh);
+      for (size_t p = 0; p < mesh.primitives.size(); ++p)
+        append_primitive(*model, mesh.primitives[p], m, path, "mesh '" + mesh.name + "' primitive " + std::to_string(p),
+                         skinned && node.skin == scene.skin, scene);
+    }
+    for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
+      stack.push_back(*it);
+  }
+  if (scene.mesh.positions.empty())
+    throw InputError(path, "", "the glTF scene holds no triangle mesh");
+  scene.model = model;
+  return scene;
+}
+
+std::vector<Eigen::Matrix4d> inverse_bind_matrices(const GltfScene& scene) {
+  const auto& model = *scene.model;
+  const auto& skin = model.skins.at(scene.skin);
+  std::vector<Eigen::Matrix4d> out(skin.joints.size(), Eigen::Matrix4d::Identity());
+  if (skin.inverseBindMatrices >= 0) {
+    AccessorReader acc(model, skin.inverseBindMatrices, scene.path, "skin inverseBindMatrices");
+    if (acc.ncomp != 16 || acc.count() < skin.joints.size())
+      throw InputError(scene.path, "skin " + std::to_string(scene.skin), "inverseBindMatrices must hold one MAT4 per joint");
+    for (size_t j = 0; j < out.size(); ++j)
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+          out[j](r, c) = acc.get(j, 4 * c + r);
+  }
+  return out;
+}
+
+std::vector<Eigen::Matrix4d> node_world_matrices(const GltfScene& scene, int clip, double t) {
+  const auto& model = *scene.model;
+  const size_t n = model.nodes.size();
+  std::vector<Trs> local(n);
+  for (size_t i = 0; i < n; ++i)
+    local[i] = rest_trs(model.nodes[i]);
+  if (clip >= 0) {
+    const auto& anim = model.animations.at(clip);
+    for (size_t ci = 0; ci < anim.channels.size(); ++ci) {
+      const auto& ch = anim.channels[ci];
+      if (ch.target_node < 0 || ch.target_node >= static_cast<int>(n))
+        continue;
+      const auto& sampler = anim.samplers.at(ch.sampler);
+      const std::string what = "animation '" + anim.name + "' channel " + std::to_string(ci);
+      AccessorReader in(model, sampler.input, scene.path, what + " input");
+      AccessorReader out(model, sampler.output, scene.path, what + " output");
+      const size_t keys = in.count();
+      if (keys == 0)
+        continue;
+      const bool cubic = sampler.interpolation == "CUBICSPLINE";
+      const bool step = sampler.interpolation == "STEP";
+      if (out.count() < keys * (cubic ? 3 : 1))
+        throw InputError(scene.path, what, "output has fewer values than the input has times");
+      const int dim = ch.target_path == "rotation" ? 4 : 3;
+      if (ch.target_path != "translation" && ch.target_path != "rotation" && ch.target_path != "scale")
+        continue; // morph weights do not move joints
+      auto value = [&](size_t k, int slot) { // slot: 0 in-tangent, 1 value, 2 out-tangent (cubic only)
+        Eigen::Vector4d v = Eigen::Vector4d::Zero();
+        const size_t e = cubic ? 3 * k + slot : k;
+        for (int c = 0; c < dim; ++c)
+          v[c] = out.get(e, c);
+        return v;
+      };
+      // The keyframe interval that holds t.
+      size_t k = 0;
+      while (k + 1 < keys && in.get(k + 1, 0) <= t)
+        ++k;
+      Eigen::Vector4d v;
+      if (t <= in.get(0, 0) || k + 1 >= keys || step) {
+        v = value(t <= in.get(0, 0) ? 0 : k, 1);
+      } else {
+        const double t0 = in.get(k, 0), t1 = in.get(k + 1, 0), td = t1 - t0;
+        const double s = td > 0 ? (t - t0) / td : 0;
+        if (cubic) {
+          const double s2 = s * s, s3 = s2 * s;
+          v = (2 * s3 - 3 * s2 + 1) * value(k, 1) + (s3 - 2 * s2 + s) * td * value(k, 2) +
+              (-2 * s3 + 3 * s2) * value(k + 1, 1) + (s3 - s2) * td * value(k + 1, 0);
+        } else if (dim == 4) {
+          const Eigen::Vector4d a = value(k, 1), b = value(k + 1, 1);
+          const Eigen::Quaterniond qa(a[3], a[0], a[1], a[2]), qb(b[3], b[0], b[1], b[2]);
+          const Eigen::Quaterniond q = qa.normalized().slerp(s, qb.normalized());
+          v << q.x(), q.y(), q.z(), q.w();
+        } else {
+          v = (1 - s) * value(k, 1) + s * value(k + 1, 1);
+        }
+      }
+      Trs& x = local[ch.target_node];
+      if (ch.target_path == "translation")
+        x.t = v.head<3>();
+      else if (ch.target_path == "scale")
+        x.s = v.head<3>();
+      else
+        x.r = Eigen::Quaterniond(v[3], v[0], v[1], v[2]).normalized();
+    }
+  }
+  std::vector<Eigen::Matrix4d> world(n, Eigen::Matrix4d::Identity());
+  std::vector<char> done(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    // Compose up the parent chain (parents may come after children in the file).
+    std::vector<int> chain;
+    for (int c = static_cast<int>(i); c >= 0 && !done[c]; c = scene.node_parent[c])
+      chain.push_back(c);
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      const int c = *it, p = scene.node_parent[c];
+      world[c] = (p >= 0 ? world[p] : Eigen::Matrix4d::Identity()) * local[c].matrix();
+      done[c] = 1;
+    }
+  }
+  return world;
+}
+
+} // namespace curvenet::detail

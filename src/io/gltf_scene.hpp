@@ -1,0 +1,44 @@
+#pragma once
+// glTF/GLB scenes through tinygltf: the triangle meshes of the default scene,
+// the skin of the first skinned mesh, and node transforms sampled from
+// animation clips. Shared by the mesh reader and the skin reader.
+
+#include "curvenet/surface_mesh.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace tinygltf {
+class Model;
+}
+
+namespace curvenet::detail {
+
+struct GltfScene {
+  std::string path;
+  std::shared_ptr<const tinygltf::Model> model;
+  RawMesh mesh;                  ///< every triangle primitive, in traversal order
+  std::vector<int> node_parent;  ///< per node, -1 for roots
+  int skin = -1;                 ///< the skin of the first skinned mesh node, or -1
+  /// Per mesh vertex: up to 4 (skin joint slot, weight); slot -1 when unused.
+  std::vector<std::array<int, 4>> vertex_joint;
+  std::vector<std::array<double, 4>> vertex_weight;
+};
+
+/// Reads a .gltf or .glb file.
+/// \throw InputError for an unreadable file or a malformed accessor.
+GltfScene read_gltf_scene(const std::string& path);
+
+/// World matrices of every node, at time `t` (seconds) of animation `clip`,
+/// or at rest when clip < 0. Channels interpolate as their samplers say
+/// (LINEAR, STEP, CUBICSPLINE); times outside a channel hold its end value.
+std::vector<Eigen::Matrix4d> node_world_matrices(const GltfScene& scene, int clip, double t);
+
+/// The inverse bind matrices of the scene's skin, one per skin joint slot.
+std::vector<Eigen::Matrix4d> inverse_bind_matrices(const GltfScene& scene);
+
+} // namespace curvenet::detail
