@@ -1,0 +1,58 @@
+#pragma once
+/// \file skin.hpp
+/// A mesh file's own skeleton, skin weights and animation clips, read from
+/// glTF/GLB. The joints are what a rig's `skeleton` holds; the skin and the
+/// clips are what the engine is measured against.
+
+#include "curvenet/rig.hpp"
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+namespace detail {
+struct GltfScene;
+}
+
+class SkinnedMesh {
+public:
+  /// Joints in an order where parents come first. `bind` is the inverse of
+  /// the skin's inverse bind matrix: the joint's rest transform in the
+  /// mesh's object space. A joint's parent is its nearest ancestor node that
+  /// is also a joint of the skin.
+  std::vector<Joint> joints;
+  std::vector<Mat4> inverse_bind; ///< per joint
+  /// Per vertex of the file (in read_raw_mesh's order): up to four
+  /// influences as (joint index, weight), joint -1 when unused. The weights
+  /// of a skinned vertex sum to 1.
+  std::vector<std::array<int, 4>> vertex_joint;
+  std::vector<std::array<double, 4>> vertex_weight;
+  std::vector<std::string> clip_names;
+
+  [[nodiscard]] int num_clips() const { return static_cast<int>(clip_names.size()); }
+  /// A clip by name, or by index written as a number. -1 when there is none.
+  [[nodiscard]] int find_clip(const std::string& name_or_index) const;
+  /// The time range of a clip, in seconds.
+  [[nodiscard]] std::pair<double, double> clip_range(int clip) const;
+  /// World transforms of the joints at time t of a clip (rest pose for clip -1),
+  /// in the same space as the bind matrices.
+  [[nodiscard]] std::vector<Mat4> joint_world(int clip, double t) const;
+  /// Linear-blend-skinning matrices M_j = W_j(t) * inverse_bind_j.
+  [[nodiscard]] std::vector<Mat4> skinning_matrices(int clip, double t) const;
+
+  std::shared_ptr<const detail::GltfScene> scene;
+  std::vector<int> joint_node; ///< glTF node of each joint
+};
+
+/// Reads the skin of the first skinned mesh of a glTF/GLB file.
+/// \throw InputError when the file cannot be read or has no skin.
+SkinnedMesh load_skinned_mesh(const std::string& path);
+
+/// Moves `positions` (one per file vertex) by linear blend skinning.
+std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::vector<Eigen::Vector3d>& positions,
+                                            const std::vector<Mat4>& matrices);
+
+} // namespace curvenet

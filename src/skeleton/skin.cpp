@@ -1,0 +1,157 @@
+#include "curvenet/skin.hpp"
+
+#include "curvenet/errors.hpp"
+#include "io/gltf_scene.hpp"
+
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+namespace curvenet {
+
+SkinnedMesh load_skinned_mesh(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext != ".gltf" && ext != ".glb")
+    throw InputError(path, "", "skins and clips are read from glTF or GLB files");
+  auto scene = std::make_shared<detail::GltfScene>(detail::read_gltf_scene(path));
+  if (scene->skin < 0)
+    throw InputError(path, "", "the file has no skinned mesh (no skin to take a skeleton from)");
+  const auto& model = *scene->model;
+  const auto& skin = model.skins.at(scene->skin);
+  const auto ibm = detail::inverse_bind_matrices(*scene);
+  const int nslots = static_cast<int>(skin.joints.size());
+  std::vector<int> slot_of_node(model.nodes.size(), -1);
+  for (int s = 0; s < nslots; ++s)
+    slot_of_node.at(skin.joints[s]) = s;
+  // Parent slot: nearest ancestor node that is a joint.
+  std::vector<int> parent_slot(nslots, -1);
+  for (int s = 0; s < nslots; ++s)
+    for (int n = scene->node_parent[skin.joints[s]]; n >= 0; n = scene->node_parent[n])
+      if (slot_of_node[n] >= 0) {
+        parent_slot[s] = slot_of_node[n];
+        break;
+      }
+  // Order: parents first, otherwise the skin's order.
+  std::vector<int> order, joint_of_slot(nslots, -1);
+  std::vector<char> placed(nslots, 0);
+  while (static_cast<int>(order.size()) < nslots) {
+    bool progress = false;
+    for (int s = 0; s < nslots; ++s)
+      if (!placed[s] && (parent_slot[s] < 0 || placed[parent_slot[s]])) {
+        joint_of_slot[s] = static_cast<int>(order.size());
+        order.push_back(s);
+        placed[s] = 1;
+        progress = true;
+      }
+    if (!progress)
+      throw InputError(path, "skin " + std::to_string(scene->skin), "joint hierarchy has a cycle");
+  }
+  SkinnedMesh out;
+  std::vector<std::string> names;
+  for (int s : order) {
+    const auto& node = model.nodes[skin.joints[s]];
+    Joint j;
+    j.name = node.name.empty() ? "joint" + std::to_string(skin.joints[s]) : node.name;
+    if (std::find(names.begin(), names.end(), j.name) != names.end())
+      throw InputError(path, "node " + std::to_string(skin.joints[s]), "joint name '" + j.name + "' is not unique");
+    names.push_back(j.name);
+    if (parent_slot[s] >= 0)
+      j.parent = model.nodes[skin.joints[parent_slot[s]]].name;
+    j.bind = ibm[s].inverse();
+    j.bind.row(3) << 0, 0, 0, 1;
+    out.joints.push_back(j);
+    out.inverse_bind.push_back(ibm[s]);
+    out.joint_node.push_back(skin.joints[s]);
+  }
+  const size_t nv = scene->mesh.positions.size();
+  out.vertex_joint.assign(nv, {-1, -1, -1, -1});
+  out.vertex_weight.assign(nv, {0, 0, 0, 0});
+  for (size_t v = 0; v < nv; ++v) {
+    double sum = 0;
+    for (int k = 0; k < 4; ++k) {
+      const int s = scene->vertex_joint[v][k];
+      if (s < 0)
+        continue;
+      if (s >= nslots)
+        throw InputError(path, "vertex " + std::to_string(v), "JOINTS_0 names joint slot " + std::to_string(s) + " of " + std::to_string(nslots));
+      out.vertex_joint[v][k] = joint_of_slot[s];
+      out.vertex_weight[v][k] = scene->vertex_weight[v][k];
+      sum += scene->vertex_weight[v][k];
+    }
+    if (sum > 0)
+      for (double& w : out.vertex_weight[v])
+        w /= sum;
+  }
+  for (const auto& a : model.animations)
+    out.clip_names.push_back(a.name);
+  out.scene = scene;
+  return out;
+}
+
+int SkinnedMesh::find_clip(const std::string& key) const {
+  for (int c = 0; c < num_clips(); ++c)
+    if (clip_names[c] == key)
+      return c;
+  if (!key.empty() && std::all_of(key.begin(), key.end(), [](unsigned char ch) { return std::isdigit(ch); })) {
+    const long i = std::stol(key);
+    if (i < num_clips())
+      return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::pair<double, double> SkinnedMesh::clip_range(int clip) const {
+  const auto& model = *scene->model;
+  const auto& anim = model.animations.at(clip);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& sampler : anim.samplers) {
+    const auto& acc = model.accessors.at(sampler.input);
+    if (acc.minValues.size() == 1 && acc.maxValues.size() == 1) {
+      lo = std::min(lo, acc.minValues[0]);
+      hi = std::max(hi, acc.maxValues[0]);
+    }
+  }
+  if (!(lo <= hi))
+    return {0, 0};
+  return {lo, hi};
+}
+
+std::vector<Mat4> SkinnedMesh::joint_world(int clip, double t) const {
+  const auto world = detail::node_world_matrices(*scene, clip, t);
+  std::vector<Mat4> out;
+  out.reserve(joint_node.size());
+  for (int n : joint_node)
+    out.push_back(world[n]);
+  return out;
+}
+
+std::vector<Mat4> SkinnedMesh::skinning_matrices(int clip, double t) const {
+  auto m = joint_world(clip, t);
+  for (size_t j = 0; j < m.size(); ++j)
+    m[j] = m[j] * inverse_bind[j];
+  return m;
+}
+
+std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::vector<Eigen::Vector3d>& positions,
+                                            const std::vector<Mat4>& matrices) {
+  std::vector<Eigen::Vector3d> out(positions.size());
+  for (size_t v = 0; v < positions.size(); ++v) {
+    Eigen::Vector4d acc = Eigen::Vector4d::Zero();
+    double total = 0;
+    for (int k = 0; k < 4; ++k) {
+      const int j = skin.vertex_joint[v][k];
+      if (j < 0)
+        continue;
+      acc += skin.vertex_weight[v][k] * (matrices[j] * positions[v].homogeneous());
+      total += skin.vertex_weight[v][k];
+    }
+    out[v] = total > 0 ? Eigen::Vector3d(acc.head<3>()) : positions[v];
+  }
+  return out;
+}
+
+} // namespace curvenet

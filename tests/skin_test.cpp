@@ -1,0 +1,167 @@
+// Skins and clips from glTF: joints, inverse binds, skin weights, sampling.
+
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
+#include "helpers.hpp"
+#include "io/gltf_scene.hpp"
+
+#include <gtest/gtest.h>
+#include <tiny_gltf.h>
+
+#include <cstring>
+
+using namespace curvenet;
+
+TEST(Skin, HandSkeletonMatchesTheExampleRig) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh skin = load_skinned_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  const Rig rig = read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
+  ASSERT_EQ(skin.joints.size(), 26u);
+  ASSERT_EQ(rig.joints.size(), 26u);
+  for (size_t j = 0; j < 26; ++j) {
+    EXPECT_EQ(skin.joints[j].name, rig.joints[j].name);
+    EXPECT_EQ(skin.joints[j].parent, rig.joints[j].parent);
+    EXPECT_LT((skin.joints[j].bind - rig.joints[j].bind).cwiseAbs().maxCoeff(), 1e-6) << skin.joints[j].name;
+  }
+  // One influence set per file vertex, normalised.
+  ASSERT_EQ(skin.vertex_joint.size(), 1764u);
+  for (size_t v = 0; v < skin.vertex_weight.size(); ++v) {
+    double sum = 0;
+    for (double w : skin.vertex_weight[v])
+      sum += w;
+    EXPECT_NEAR(sum, 1.0, 1e-6) << v;
+  }
+}
+
+TEST(Skin, ClipsMoveTheHandAndRestIsTheIdentity) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh skin = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  EXPECT_EQ(skin.num_clips(), 35);
+  const int grip = skin.find_clip("Grip");
+  ASSERT_GE(grip, 0);
+  EXPECT_EQ(skin.find_clip(std::to_string(grip)), grip);
+  EXPECT_EQ(skin.find_clip("NoSuchClip"), -1);
+  for (const Mat4& m : skin.skinning_matrices(-1, 0))
+    EXPECT_LT((m - Mat4::Identity()).cwiseAbs().maxCoeff(), 1e-5);
+  const RawMesh raw = read_raw_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  const auto posed = skin_positions(skin, raw.positions, skin.skinning_matrices(grip, skin.clip_range(grip).first));
+  double moved = 0;
+  for (size_t v = 0; v < posed.size(); ++v) {
+    ASSERT_TRUE(posed[v].allFinite());
+    moved = std::max(moved, (posed[v] - raw.positions[v]).norm());
+  }
+  EXPECT_GT(moved, 0.01); // the grip closes the fingers by centimetres
+}
+
+namespace {
+
+/// A one-triangle glTF with one node animated by three samplers.
+std::string write_animated_gltf(const std::filesystem::path& dir) {
+  tinygltf::Model m;
+  std::vector<float> data;
+  auto add = [&](std::vector<float> values, int type, int count) {
+    const size_t offset = data.size() * 4;
+    data.insert(data.end(), values.begin(), values.end());
+    tinygltf::BufferView view;
+    view.buffer = 0;
+    view.byteOffset = offset;
+    view.byteLength = values.size() * 4;
+    m.bufferViews.push_back(view);
+    tinygltf::Accessor acc;
+    acc.bufferView = static_cast<int>(m.bufferViews.size()) - 1;
+    acc.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    acc.count = count;
+    acc.type = type;
+    if (type == TINYGLTF_TYPE_SCALAR) {
+      acc.minValues = {*std::min_element(values.begin(), values.end())};
+      acc.maxValues = {*std::max_element(values.begin(), values.end())};
+    }
+    m.accessors.push_back(acc);
+    return static_cast<int>(m.accessors.size()) - 1;
+  };
+  const int pos = add({0, 0, 0, 1, 0, 0, 0, 1, 0}, TINYGLTF_TYPE_VEC3, 3);
+  m.accessors[pos].minValues = {0, 0, 0};
+  m.accessors[pos].maxValues = {1, 1, 0};
+  const int times = add({0, 1, 2}, TINYGLTF_TYPE_SCALAR, 3);
+  const int trans = add({0, 0, 0, 2, 0, 0, 2, 4, 0}, TINYGLTF_TYPE_VEC3, 3);
+  const float h = 0.70710678f;
+  const int rot = add({0, 0, 0, 1, 0, 0, h, h, 0, 0, 1, 0}, TINYGLTF_TYPE_VEC4, 3);
+  // Cubic: (in-tangent, value, out-tangent) per key; zero tangents.
+  const int scl = add({0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 0, 0, 3, 3, 3, 0, 0, 0, 0, 0, 0, 3, 3, 3, 0, 0, 0},
+                      TINYGLTF_TYPE_VEC3, 9);
+  tinygltf::Buffer buffer;
+  buffer.data.resize(data.size() * 4);
+  std::memcpy(buffer.data.data(), data.data(), buffer.data.size());
+  m.buffers.push_back(buffer);
+  tinygltf::Primitive prim;
+  prim.attributes["POSITION"] = pos;
+  prim.mode = TINYGLTF_MODE_TRIANGLES;
+  tinygltf::Mesh mesh;
+  mesh.primitives.push_back(prim);
+  m.meshes.push_back(mesh);
+  tinygltf::Node node;
+  node.mesh = 0;
+  node.name = "n";
+  m.nodes.push_back(node);
+  tinygltf::Scene scene;
+  scene.nodes = {0};
+  m.scenes.push_back(scene);
+  m.defaultScene = 0;
+  tinygltf::Animation anim;
+  anim.name = "move";
+  auto sampler = [&](int out, const char* interp, const char* path) {
+    tinygltf::AnimationSampler s;
+    s.input = times;
+    s.output = out;
+    s.interpolation = interp;
+    anim.samplers.push_back(s);
+    tinygltf::AnimationChannel c;
+    c.sampler = static_cast<int>(anim.samplers.size()) - 1;
+    c.target_node = 0;
+    c.target_path = path;
+    anim.channels.push_back(c);
+  };
+  sampler(trans, "LINEAR", "translation");
+  sampler(rot, "STEP", "rotation");
+  sampler(scl, "CUBICSPLINE", "scale");
+  m.animations.push_back(anim);
+  m.asset.version = "2.0";
+  const std::string path = (dir / "anim.gltf").string();
+  tinygltf::TinyGLTF writer;
+  EXPECT_TRUE(writer.WriteGltfSceneToFile(&m, path, true, true, true, false));
+  return path;
+}
+
+} // namespace
+
+TEST(Skin, ClipSamplingFollowsEachInterpolation) {
+  const auto dir = test::temp_dir("anim");
+  const detail::GltfScene scene = detail::read_gltf_scene(write_animated_gltf(dir));
+  // t = 0.25: translation a quarter of the way (LINEAR), rotation still the
+  // first key (STEP), scale by the Hermite basis with zero tangents:
+  // 1 + 2 * (3 s^2 - 2 s^3) = 1.3125 (a linear blend would give 1.5).
+  const Mat4 a = detail::node_world_matrices(scene, 0, 0.25)[0];
+  EXPECT_NEAR(a(0, 3), 0.5, 1e-6);
+  EXPECT_NEAR(a(1, 3), 0.0, 1e-6);
+  EXPECT_NEAR(a(0, 0), 1.3125, 1e-6);
+  EXPECT_NEAR(a(1, 0), 0.0, 1e-6);
+  // t = 1.5: the rotation has stepped to 90 degrees about z.
+  const Mat4 b = detail::node_world_matrices(scene, 0, 1.5)[0];
+  EXPECT_NEAR(b(0, 3), 2.0, 1e-6);
+  EXPECT_NEAR(b(1, 3), 2.0, 1e-6);
+  EXPECT_NEAR(b(1, 0), 3.0, 1e-5); // R(90) * S(3): x goes to 3y
+  // Past the end, every channel holds its last value; before the start, its first.
+  const Mat4 c = detail::node_world_matrices(scene, 0, 10)[0];
+  EXPECT_NEAR(c(1, 3), 4.0, 1e-6);
+  const Mat4 d = detail::node_world_matrices(scene, 0, -1)[0];
+  EXPECT_NEAR((d - Mat4::Identity()).cwiseAbs().maxCoeff(), 0.0, 1e-6);
+}
+
+TEST(Skin, FilesWithoutASkinAreRefused) {
+  const auto dir = test::temp_dir("noskin");
+  EXPECT_THROW(load_skinned_mesh(write_animated_gltf(dir)), InputError);
+  EXPECT_THROW(load_skinned_mesh("/nonexistent.obj"), InputError);
+}
