@@ -4,6 +4,7 @@
 /// the rig file format (`docs/rig-format.md`). It never holds a mesh index.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <array>
 #include <map>
