@@ -3,8 +3,12 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
 #include "generate/tube.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <iomanip>
@@ -94,6 +98,49 @@ int run_embed(const EmbedArgs& a) {
     write_file_atomic(a.cut_mesh, cut_text);
   print_summary(std::cout, std::filesystem::path(a.mesh).filename().string(), rep);
   return rep.ok ? 0 : 1;
+}
+
+int run_starter(const StarterArgs& a) {
+  const SurfaceMesh mesh = load_mesh(a.mesh);
+  std::vector<Joint> joints;
+  if (!a.skeleton.empty()) {
+    std::string ext = std::filesystem::path(a.skeleton).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".gltf" || ext == ".glb") {
+      joints = load_skinned_mesh(a.skeleton).joints;
+    } else {
+      const Rig rig = read_rig(a.skeleton);
+      if (!rig.has_skeleton)
+        throw InputError(a.skeleton, "/skeleton", "the rig file has no skeleton");
+      joints = rig.joints;
+    }
+  } else {
+    std::string ext = std::filesystem::path(a.mesh).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext != ".gltf" && ext != ".glb")
+      throw InputError(a.mesh, "", "has no skin to take a skeleton from: give one with --skeleton (a rig file or a skinned glTF)");
+    joints = load_skinned_mesh(a.mesh).joints;
+  }
+  StarterOptions opt;
+  opt.nodes_per_ring = a.nodes_per_ring;
+  opt.rings_per_bone = a.rings_per_bone;
+  opt.coverage = a.coverage == "local" ? Coverage::Local : Coverage::Full;
+  opt.message = [](const std::string& m) { std::cout << "note: " << m << "\n"; };
+  const StarterResult r = make_starter(mesh, joints, opt);
+  write_rig(r.rig, a.out);
+  const int V = static_cast<int>(r.rig.nodes.size()), E = static_cast<int>(r.rig.profiles.size());
+  std::cout << "Curvenet starter: SUCCESS\n";
+  std::cout << "mesh: " << std::filesystem::path(a.mesh).filename().string() << " (" << mesh.num_vertices() << " vertices, "
+            << mesh.num_faces() << " faces)\n";
+  std::cout << "joints: " << joints.size() << "\n";
+  std::cout << "rings: " << r.rings << "\n";
+  std::cout << "nodes: " << V << "\n";
+  std::cout << "profiles: " << E << "\n";
+  std::cout << "components: " << r.net_components << "\n";
+  std::cout << "joins: " << r.joins << "\n";
+  std::cout << "unjoined chains: " << r.unjoined << "\n";
+  std::cout << "rig: " << a.out << "\n";
+  return 0;
 }
 
 int run_demo(const DemoArgs& a) {

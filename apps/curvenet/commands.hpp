@@ -13,6 +13,13 @@ struct EmbedArgs {
 };
 int run_embed(const EmbedArgs& args);
 
+struct StarterArgs {
+  std::string mesh, skeleton, out, coverage = "full";
+  int nodes_per_ring = 4;
+  int rings_per_bone = 1;
+};
+int run_starter(const StarterArgs& args);
+
 struct DemoArgs {
   std::string out = "out/demo";
 };

@@ -32,6 +32,21 @@ int main(int argc, char** argv) {
   embed->add_flag("--progress,!--no-progress", embed_args.progress,
                   "Show progress on stderr (default: when stderr is a terminal)");
 
+  curvenet::cli::StarterArgs starter_args;
+  auto* starter = app.add_subcommand("starter", "Generate a starter Curvenet from a mesh and its skeleton");
+  starter->add_option("MESH", starter_args.mesh, "Mesh file; its own skin gives the skeleton when it has one")->required();
+  starter->add_option("--skeleton", starter_args.skeleton, "Skeleton: a rig file, or a glTF/GLB file with a skin");
+  starter->add_option("-o,--output", starter_args.out, "Rig file to write (.cnrig.json)")->required();
+  starter->add_option("--nodes-per-ring", starter_args.nodes_per_ring, "Nodes on each ring")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 64));
+  starter->add_option("--rings-per-bone", starter_args.rings_per_bone, "Rings per bone (one at its end joint)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 16));
+  starter->add_option("--coverage", starter_args.coverage, "Coverage of the net")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"full", "local"}));
+
   curvenet::cli::DemoArgs demo_args;
   auto* demo =
       app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
@@ -45,6 +60,8 @@ int main(int argc, char** argv) {
   try {
     if (*embed)
       return curvenet::cli::run_embed(embed_args);
+    if (*starter)
+      return curvenet::cli::run_starter(starter_args);
     if (*demo)
       return curvenet::cli::run_demo(demo_args);
   } catch (const curvenet::Error& e) {

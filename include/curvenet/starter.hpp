@@ -1,0 +1,47 @@
+#pragma once
+/// \file starter.hpp
+/// A starter Curvenet from a skeleton: rings where planes through the joints
+/// cut the limbs, profiles along each chain between its rings, and joins
+/// where chains branch. The result is a rig file a rigger then edits.
+
+#include "curvenet/rig.hpp"
+#include "curvenet/surface_mesh.hpp"
+#include "curvenet/weights.hpp"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+struct StarterOptions {
+  int nodes_per_ring = 4;
+  /// Rings per bone: one at the bone's end joint, and rings_per_bone - 1
+  /// more spread along the bone.
+  int rings_per_bone = 1;
+  Coverage coverage = Coverage::Full;
+  AutoWeightOptions weights;
+  /// Rings closer than this (as a fraction of the bounding-box diagonal, and
+  /// at least half a mean edge length) are too close: the larger is dropped.
+  double min_ring_gap = 0.015;
+  std::function<void(const std::string&)> message; ///< what was moved, dropped or not joined
+};
+
+struct StarterResult {
+  Rig rig;
+  std::vector<std::string> messages;
+  int rings = 0;
+  int joins = 0;          ///< branch joins made
+  int unjoined = 0;       ///< chains that could not be joined to their parent
+  int net_components = 0; ///< connected components of the net
+};
+
+/// Builds a starter net on `mesh` for the skeleton `joints` (bind matrices in
+/// the mesh's object space). The net embeds on `mesh` with ok, which is
+/// checked before the result is returned.
+/// \throw InputError when the skeleton lies outside the mesh (no plane
+///   through a joint cuts a loop around it).
+/// \throw EmbedError when no net could be made to embed.
+StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& joints, const StarterOptions& options = {});
+
+} // namespace curvenet

@@ -1,0 +1,182 @@
+#include "starter/plane_section.hpp"
+
+#include "core/predicates.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+namespace curvenet::detail {
+
+SectionMesh::SectionMesh(const SurfaceMesh& mesh) : mesh_(mesh) {
+  std::map<std::pair<int, int>, int> edge_of;
+  auto edge_id = [&](int a, int b, int t) {
+    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+    auto [it, fresh] = edge_of.emplace(key, static_cast<int>(edge_.size()));
+    if (fresh) {
+      edge_.push_back({key.first, key.second});
+      edge_tri_.push_back({t, -1});
+    } else {
+      edge_tri_[it->second][1] = t;
+    }
+    return it->second;
+  };
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    const auto c = mesh.face(f);
+    for (size_t k = 1; k + 1 < c.size(); ++k) {
+      const int t = static_cast<int>(tri_.size());
+      tri_.push_back({c[0], c[k], c[k + 1]});
+      tri_edge_.push_back({edge_id(c[0], c[k], t), edge_id(c[k], c[k + 1], t), edge_id(c[k + 1], c[0], t)});
+    }
+  }
+}
+
+double Section::length() const {
+  double l = 0;
+  for (size_t i = 0; i + 1 < points.size(); ++i)
+    l += (points[i + 1] - points[i]).norm();
+  if (closed && points.size() > 1)
+    l += (points.front() - points.back()).norm();
+  return l;
+}
+
+std::array<Vec3, 2> plane_basis(const Vec3& n) {
+  const Vec3 z = n.normalized();
+  const Vec3 a = std::abs(z.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 u = z.cross(a).normalized();
+  return {u, z.cross(u)};
+}
+
+std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, const Vec3& normal) {
+  const auto [u, v] = plane_basis(normal);
+  const Vec3 o1 = origin + u, o2 = origin + v;
+  const auto& pos = m.mesh().positions;
+  std::vector<signed char> side(pos.size());
+  for (size_t i = 0; i < pos.size(); ++i)
+    side[i] = orient3d(origin, o1, o2, pos[i]) >= 0 ? 1 : -1; // on the plane counts as above
+  const Vec3 n = u.cross(v);
+  auto crosses = [&](int e) { return side[m.edge(e)[0]] != side[m.edge(e)[1]]; };
+  auto point_on = [&](int e) {
+    const Vec3 &a = pos[m.edge(e)[0]], &b = pos[m.edge(e)[1]];
+    const double da = (a - origin).dot(n), db = (b - origin).dot(n);
+    const double s = da != db ? std::clamp(da / (da - db), 0.0, 1.0) : 0.5;
+    return Vec3((1 - s) * a + s * b);
+  };
+  // Each triangle that the plane crosses holds one segment between two crossed edges.
+  auto other_edge = [&](int t, int e) {
+    for (int f : m.tri_edges(t))
+      if (f != e && crosses(f))
+        return f;
+    return -1;
+  };
+  std::vector<char> used(m.num_edges(), 0);
+  std::vector<Section> out;
+  // From crossed edge `start` through triangle `tri`: the crossed edges in
+  // order, and whether the walk came back to `start`.
+  auto trace = [&](int start, int tri, bool& closed) {
+    std::vector<int> edges{start};
+    closed = false;
+    int e = start, t = tri;
+    while (t >= 0) {
+      const int next = other_edge(t, e);
+      if (next < 0)
+        break;
+      if (next == start) {
+        closed = true;
+        break;
+      }
+      edges.push_back(next);
+      const auto& tt = m.edge_tris(next);
+      t = tt[0] == t ? tt[1] : tt[0];
+      e = next;
+    }
+    return edges;
+  };
+  for (int e0 = 0; e0 < m.num_edges(); ++e0) {
+    if (!crosses(e0) || used[e0])
+      continue;
+    const auto& tt = m.edge_tris(e0);
+    bool closed = false;
+    std::vector<int> edges = trace(e0, tt[0], closed);
+    if (!closed && tt[1] >= 0) { // open: extend backwards from e0 through its other triangle
+      bool unused = false;
+      std::vector<int> back = trace(e0, tt[1], unused);
+      std::reverse(back.begin(), back.end());
+      back.pop_back();
+      back.insert(back.end(), edges.begin(), edges.end());
+      edges = std::move(back);
+    }
+    Section s;
+    s.closed = closed;
+    for (int e : edges) {
+      used[e] = 1;
+      s.points.push_back(point_on(e));
+    }
+    if (s.points.size() >= 2)
+      out.push_back(std::move(s));
+  }
+  return out;
+}
+
+int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& origin, const Vec3& normal) {
+  const auto [u, v] = plane_basis(normal);
+  auto to2 = [&](const Vec3& q) { return Eigen::Vector2d((q - origin).dot(u), (q - origin).dot(v)); };
+  const Eigen::Vector2d P = to2(p);
+  int wn = 0;
+  for (size_t i = 0; i < loop.size(); ++i) {
+    const Eigen::Vector2d a = to2(loop[i]), b = to2(loop[(i + 1) % loop.size()]);
+    if (a.y() <= P.y()) {
+      if (b.y() > P.y() && orient2d(a, b, P) > 0)
+        ++wn;
+    } else if (b.y() <= P.y() && orient2d(a, b, P) < 0) {
+      --wn;
+    }
+  }
+  return wn;
+}
+
+double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, Vec3* on_q) {
+  // Closest points of two segments (Ericson 5.1.9), clamped.
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0, t = 0;
+  if (a <= 0 && e <= 0) {
+    if (on_q)
+      *on_q = q0;
+    return r.norm();
+  }
+  if (a <= 0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2), den = a * e - b * b;
+      s = den > 0 ? std::clamp((b * f - c * e) / den, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  if (on_q)
+    *on_q = q0 + t * d2;
+  return ((p0 + s * d1) - (q0 + t * d2)).norm();
+}
+
+double polyline_distance(const std::vector<Vec3>& a, bool ca, const std::vector<Vec3>& b, bool cb) {
+  double best = std::numeric_limits<double>::infinity();
+  const size_t na = ca ? a.size() : a.size() - 1, nb = cb ? b.size() : b.size() - 1;
+  for (size_t i = 0; i < na; ++i)
+    for (size_t j = 0; j < nb; ++j)
+      best = std::min(best, segment_distance(a[i], a[(i + 1) % a.size()], b[j], b[(j + 1) % b.size()]));
+  return best;
+}
+
+} // namespace curvenet::detail

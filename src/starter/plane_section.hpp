@@ -1,0 +1,57 @@
+#pragma once
+// Plane sections of a surface: the closed and open polylines where a plane
+// cuts the mesh. Which side of the plane a vertex lies on is decided
+// exactly; a vertex on the plane counts as above it (symbolic
+// perturbation), so every section passes through edge interiors and the
+// polylines close on a closed surface.
+
+#include "curvenet/surface_mesh.hpp"
+
+#include <array>
+#include <vector>
+
+namespace curvenet::detail {
+
+using Vec3 = Eigen::Vector3d;
+
+/// The mesh triangulated (polygons as fans) with an edge table, for sections.
+class SectionMesh {
+public:
+  explicit SectionMesh(const SurfaceMesh& mesh);
+  [[nodiscard]] const SurfaceMesh& mesh() const { return mesh_; }
+  [[nodiscard]] int num_triangles() const { return static_cast<int>(tri_.size()); }
+  [[nodiscard]] const std::array<int, 3>& tri(int t) const { return tri_[t]; }
+  [[nodiscard]] const std::array<int, 3>& tri_edges(int t) const { return tri_edge_[t]; } ///< edge k: corner k -> k+1
+  [[nodiscard]] const std::array<int, 2>& edge(int e) const { return edge_[e]; }
+  [[nodiscard]] const std::array<int, 2>& edge_tris(int e) const { return edge_tri_[e]; }
+  [[nodiscard]] int num_edges() const { return static_cast<int>(edge_.size()); }
+
+private:
+  const SurfaceMesh& mesh_;
+  std::vector<std::array<int, 3>> tri_, tri_edge_;
+  std::vector<std::array<int, 2>> edge_, edge_tri_;
+};
+
+struct Section {
+  std::vector<Vec3> points; ///< on mesh edges, in order
+  bool closed = false;
+  [[nodiscard]] double length() const;
+};
+
+/// Every polyline where the plane through `origin` with normal `normal` cuts the mesh.
+std::vector<Section> plane_sections(const SectionMesh& mesh, const Vec3& origin, const Vec3& normal);
+
+/// An orthonormal basis (u, v) of the plane with normal n, with u x v = n / |n|.
+std::array<Vec3, 2> plane_basis(const Vec3& n);
+
+/// Winding number of a closed polygon (in the plane through `origin` with
+/// normal `normal`) around point p of that plane; exact orientation tests.
+int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& origin, const Vec3& normal);
+
+/// Distance between segments p0-p1 and q0-q1; `on_q` gets the closest point on q.
+double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, Vec3* on_q = nullptr);
+
+/// Smallest distance between two polylines (closed when `closed_*`).
+double polyline_distance(const std::vector<Vec3>& a, bool closed_a, const std::vector<Vec3>& b, bool closed_b);
+
+} // namespace curvenet::detail
