@@ -159,6 +159,46 @@ TEST(Cli, CrossingProfilesAreRefusedNamingBoth) {
   EXPECT_FALSE(fs::exists(dir / "r.json"));
 }
 
+TEST(Cli, StarterWritesARigThatEmbeds) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("starter");
+  const fs::path rig = dir / "hand.cnrig.json";
+  const CliRun r = run("starter " + test::data("xr_tools_hand/hand_l_quads.obj") + " --skeleton " +
+                           test::data("xr_tools_hand/hand_l.gltf") + " -o " + rig.string(),
+                       dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("Curvenet starter: SUCCESS"), std::string::npos);
+  ASSERT_TRUE(fs::exists(rig));
+  EXPECT_EQ(run("embed " + test::data("xr_tools_hand/hand_l.gltf") + " " + rig.string(), dir).code, 0);
+  // The skeleton can come from a rig file too.
+  EXPECT_EQ(run("starter " + test::data("xr_tools_hand/hand_l_quads.obj") + " --skeleton " +
+                    test::data("xr_tools_hand/example/hand_l.cnrig.json") + " -o " + (dir / "again.json").string(),
+                dir)
+                .code,
+            0);
+}
+
+TEST(Cli, StarterRefusesAMeshWithoutASkeleton) {
+  const auto dir = test::temp_dir("starter_bad");
+  write(dir / "quad.obj", kQuad);
+  const fs::path out = dir / "out.cnrig.json";
+  CliRun r = run("starter " + (dir / "quad.obj").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("quad.obj"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--skeleton"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // A skeleton far outside the mesh.
+  write(dir / "far.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
+    {"name":"a","parent":null,"bind":[1,0,0,100, 0,1,0,100, 0,0,1,0, 0,0,0,1]},
+    {"name":"b","parent":"a","bind":[1,0,0,101, 0,1,0,100, 0,0,1,0, 0,0,0,1]}]}})");
+  r = run("starter " + (dir / "quad.obj").string() + " --skeleton " + (dir / "far.cnrig.json").string() + " -o " + out.string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("outside the mesh"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(run("starter --help", dir).code, 0);
+}
+
 TEST(Cli, DemoRunsOnGeneratedData) {
   const auto dir = test::temp_dir("demo");
   const CliRun r = run("demo --out " + (dir / "out").string(), dir);
@@ -166,4 +206,6 @@ TEST(Cli, DemoRunsOnGeneratedData) {
   EXPECT_NE(r.out.find("tube_quads: SUCCESS"), std::string::npos);
   EXPECT_NE(r.out.find("tube_tris: SUCCESS"), std::string::npos);
   EXPECT_TRUE(fs::exists(dir / "out" / "tube_quads.regions.ply"));
+  EXPECT_NE(r.out.find("embeds on 2/2 tessellations"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "tube_starter.cnrig.json"));
 }

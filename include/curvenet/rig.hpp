@@ -56,6 +56,9 @@ struct Rig {
   bool has_skeleton = false;
   /// node id -> (joint name -> weight)
   std::map<std::string, std::map<std::string, double>> weights;
+  /// Top-level extensions (keys starting with `x_`) as JSON text, kept
+  /// through a read and a write.
+  std::map<std::string, std::string> extensions;
 
   [[nodiscard]] int node_index(const std::string& id) const; ///< -1 when absent
 };

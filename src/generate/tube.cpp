@@ -159,4 +159,17 @@ Rig make_tube_net(const TubeNetSpec& s) {
   return rig;
 }
 
+std::vector<Joint> make_tube_skeleton(const std::vector<double>& heights) {
+  std::vector<Joint> joints;
+  for (size_t i = 0; i < heights.size(); ++i) {
+    Joint j;
+    j.name = "j" + std::to_string(i);
+    if (i > 0)
+      j.parent = "j" + std::to_string(i - 1);
+    j.bind(1, 3) = heights[i];
+    joints.push_back(j);
+  }
+  return joints;
+}
+
 } // namespace curvenet

@@ -38,4 +38,8 @@ struct TubeNetSpec {
 /// (spec), V = R N + 2 and E = R N + (R - 1) N + 2 N.
 Rig make_tube_net(const TubeNetSpec& spec = {});
 
+/// A chain of joints along the tube's axis, at the given heights (bind:
+/// translations only), named j0, j1, ...
+std::vector<Joint> make_tube_skeleton(const std::vector<double>& heights);
+
 } // namespace curvenet

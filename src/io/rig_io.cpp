@@ -188,6 +188,9 @@ public:
     }
     if (root.contains("frame"))
       rig.frame = matrix(root["frame"], "/frame");
+    for (auto it = root.begin(); it != root.end(); ++it)
+      if (it.key().rfind("x_", 0) == 0)
+        rig.extensions[it.key()] = it->dump();
 
     const Json& nodes = require(root, "", "nodes");
     if (!nodes.is_array())
@@ -380,6 +383,8 @@ std::string rig_to_json(const Rig& rig) {
     }
     root["weights"] = w;
   }
+  for (const auto& [key, text] : rig.extensions)
+    root[key] = Json::parse(text);
   return root.dump(1) + "\n";
 }
 

@@ -233,16 +233,15 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   };
   check_degenerate(raw.positions, raw.face_vertices, "point");
 
-  // Non-manifold edges and vertices in the input as given (no weld) are refused.
+  // Non-manifold edges in the input as given (no weld) are refused. A vertex
+  // that is non-manifold as given may be mended by welding (a glTF seam can
+  // split a fan); that is judged after the weld.
   {
     auto uses = edge_uses(raw.face_offsets, raw.face_vertices);
     for (const auto& [k, u] : uses)
       if (u.size() > 2)
         throw InputError(source, "edge " + std::to_string(k.first) + "-" + std::to_string(k.second),
                          "non-manifold: shared by " + std::to_string(u.size()) + " faces");
-    auto bad = non_manifold_vertices(nin, raw.face_offsets, raw.face_vertices, uses);
-    if (!bad.empty())
-      throw InputError(source, "vertex " + std::to_string(bad[0]), "non-manifold: its faces form more than one fan");
   }
 
   // Weld by exact position, then undo welds that break manifoldness.
@@ -282,9 +281,22 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
           if (fverts[b + i] == fverts[b + j])
             unweld[fverts[b + i]] = any = true;
     }
-    if (!any)
-      for (int v : non_manifold_vertices(next, raw.face_offsets, fverts, uses))
-        unweld[v] = any = true;
+    if (!any) {
+      // Non-manifold vertices: undo their weld; one that was never welded is refused.
+      std::vector<int> members(next, 0);
+      for (int v = 0; v < nin; ++v)
+        members[to_welded[v]]++;
+      for (int w : non_manifold_vertices(next, raw.face_offsets, fverts, uses)) {
+        if (members[w] > 1) {
+          unweld[w] = any = true;
+          continue;
+        }
+        int input = 0;
+        while (to_welded[input] != w)
+          ++input;
+        throw InputError(source, "vertex " + std::to_string(input), "non-manifold: its faces form more than one fan");
+      }
+    }
     if (!any)
       break;
     if (round > 64)

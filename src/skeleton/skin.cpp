@@ -51,16 +51,19 @@ SkinnedMesh load_skinned_mesh(const std::string& path) {
       throw InputError(path, "skin " + std::to_string(scene->skin), "joint hierarchy has a cycle");
   }
   SkinnedMesh out;
+  auto name_of = [&](int slot) {
+    const auto& node = model.nodes[skin.joints[slot]];
+    return node.name.empty() ? "joint" + std::to_string(skin.joints[slot]) : node.name;
+  };
   std::vector<std::string> names;
   for (int s : order) {
-    const auto& node = model.nodes[skin.joints[s]];
     Joint j;
-    j.name = node.name.empty() ? "joint" + std::to_string(skin.joints[s]) : node.name;
+    j.name = name_of(s);
     if (std::find(names.begin(), names.end(), j.name) != names.end())
       throw InputError(path, "node " + std::to_string(skin.joints[s]), "joint name '" + j.name + "' is not unique");
     names.push_back(j.name);
     if (parent_slot[s] >= 0)
-      j.parent = model.nodes[skin.joints[parent_slot[s]]].name;
+      j.parent = name_of(parent_slot[s]);
     j.bind = ibm[s].inverse();
     j.bind.row(3) << 0, 0, 0, 1;
     out.joints.push_back(j);

@@ -652,6 +652,32 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         if (unjoined > 0)
           say(std::to_string(unjoined) + " chain(s) could not be joined to their parent ring; the net has " +
               std::to_string(result.net_components) + " components, and the expected region count accounts for them");
+        // Say so in the rig itself.
+        auto quote = [](const std::string& t) {
+          std::string q = "\"";
+          for (char ch : t) {
+            if (ch == '"' || ch == '\\')
+              q += '\\';
+            if (static_cast<unsigned char>(ch) >= 0x20)
+              q += ch;
+          }
+          return q + "\"";
+        };
+        std::string ext = "{\"rings\": [";
+        for (size_t k = 0; k < active.size(); ++k)
+          ext += (k ? ", " : "") + quote(rings[active[k]].id);
+        ext += "], \"unjoined\": [";
+        bool first = true;
+        for (int c : active)
+          if (effective_parent(c) >= 0 && join_attempt[c] >= 2) {
+            ext += (first ? "" : ", ") + quote(rings[c].id);
+            first = false;
+          }
+        ext += "], \"net_components\": " + std::to_string(result.net_components) + ", \"notes\": [";
+        for (size_t k = 0; k < result.messages.size(); ++k)
+          ext += (k ? ", " : "") + quote(result.messages[k]);
+        ext += "]}";
+        result.rig.extensions["x_starter"] = ext;
         return result;
       }
       if (failure.empty())

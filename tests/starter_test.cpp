@@ -1,0 +1,185 @@
+// The starter Curvenet: plane sections, rings, joins, and the nets it makes
+// on real characters.
+
+#include "curvenet/embed.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
+#include "generate/tube.hpp"
+#include "helpers.hpp"
+#include "starter/plane_section.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <set>
+
+using namespace curvenet;
+
+namespace {
+
+SurfaceMesh tube(bool tri = false) {
+  TubeSpec s;
+  s.triangulate = tri;
+  return make_surface_mesh(make_capped_tube(s), "tube");
+}
+
+/// Exact distance from p to triangle (a, b, c) (Ericson's closest point).
+double triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0)
+    return ap.norm();
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3)
+    return bp.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0)
+    return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6)
+    return cp.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0)
+    return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double den = 1.0 / (va + vb + vc);
+  return (p - (a + ab * (vb * den) + ac * (vc * den))).norm();
+}
+
+/// Largest distance from any node or profile point to the surface.
+double off_surface(const SurfaceMesh& mesh, const Rig& rig) {
+  std::vector<Vec3> pts;
+  for (const auto& n : rig.nodes)
+    pts.push_back(n.position);
+  for (const auto& p : rig.profiles)
+    pts.insert(pts.end(), p.curve.points.begin(), p.curve.points.end());
+  double worst = 0;
+  for (const Vec3& q : pts) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int f = 0; f < mesh.num_faces(); ++f) {
+      const auto c = mesh.face(f);
+      for (size_t k = 1; k + 1 < c.size(); ++k)
+        best = std::min(best, triangle_distance(q, mesh.positions[c[0]], mesh.positions[c[k]], mesh.positions[c[k + 1]]));
+    }
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+void expect_embeds(const SurfaceMesh& mesh, const Rig& rig) {
+  const Embedding e = embed(mesh, rig);
+  EXPECT_TRUE(e.report().ok) << mesh.source << ": " << (e.report().problems.empty() ? "" : e.report().problems[0]);
+  ASSERT_TRUE(e.report().expected_regions.has_value());
+  EXPECT_EQ(e.report().regions, *e.report().expected_regions) << mesh.source;
+}
+
+} // namespace
+
+TEST(PlaneSection, CutsATubeIntoOneClosedPolygon) {
+  const SurfaceMesh m = tube();
+  const detail::SectionMesh sm(m);
+  const auto sections = detail::plane_sections(sm, {0, 2.05, 0}, {0, 1, 0});
+  ASSERT_EQ(sections.size(), 1u);
+  EXPECT_TRUE(sections[0].closed);
+  EXPECT_NEAR(sections[0].length(), 16 * 2 * std::sin(std::numbers::pi / 16), 1e-12); // the 16-gon
+  EXPECT_EQ(detail::winding_number(sections[0].points, {0, 2.05, 0}, {0, 2.05, 0}, {0, 1, 0}) != 0, true);
+  EXPECT_EQ(detail::winding_number(sections[0].points, {3, 2.05, 0}, {0, 2.05, 0}, {0, 1, 0}), 0);
+  // A plane through a ring of vertices still gives one closed loop.
+  EXPECT_EQ(detail::plane_sections(sm, {0, 2.0, 0}, {0, 1, 0}).size(), 1u);
+  // A plane along the axis cuts the tube in one loop too (side, caps, side, caps).
+  const auto along = detail::plane_sections(sm, {0, 2, 0}, {0, 0, 1});
+  ASSERT_EQ(along.size(), 1u);
+  EXPECT_NEAR(along[0].length(), 2 * 4 + 4 * 1.0, 1e-9);
+}
+
+TEST(Starter, TubeGetsARingAtEveryJointAndEmbedsOnOtherTessellations) {
+  const SurfaceMesh quads = tube();
+  StarterOptions opt;
+  const StarterResult r = make_starter(quads, make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7}), opt);
+  EXPECT_EQ(r.rings, 5);
+  EXPECT_EQ(r.net_components, 1);
+  EXPECT_EQ(r.rig.nodes.size(), 20u);            // 5 rings x 4 nodes
+  EXPECT_EQ(r.rig.profiles.size(), 20u + 4 * 4); // arcs + profiles between consecutive rings
+  EXPECT_LT(off_surface(quads, r.rig), 1e-12);
+  EXPECT_TRUE(r.rig.has_skeleton);
+  EXPECT_EQ(r.rig.weights.size(), r.rig.nodes.size());
+  EXPECT_TRUE(r.rig.extensions.count("x_starter"));
+  expect_embeds(quads, r.rig);
+  expect_embeds(tube(true), r.rig);
+  // Node i of every ring lines up (one reference direction for the chain).
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 a = r.rig.nodes[r.rig.node_index("j1_" + std::to_string(k))].position;
+    const Vec3 b = r.rig.nodes[r.rig.node_index("j3_" + std::to_string(k))].position;
+    EXPECT_LT(std::abs(std::atan2(a.z(), a.x()) - std::atan2(b.z(), b.x())), 0.05) << k;
+  }
+}
+
+TEST(Starter, MoreNodesAndRingsPerBone) {
+  StarterOptions opt;
+  opt.nodes_per_ring = 6;
+  opt.rings_per_bone = 2;
+  const StarterResult r = make_starter(tube(true), make_tube_skeleton({0.3, 1.9, 3.5}), opt);
+  EXPECT_EQ(r.rings, 5); // at the root, and two along each of the two bones
+  EXPECT_EQ(r.rig.nodes.size(), 30u);
+  expect_embeds(tube(false), r.rig);
+}
+
+TEST(Starter, RefusesASkeletonOutsideTheMesh) {
+  auto far = make_tube_skeleton({0.3, 1.2, 2.1});
+  for (auto& j : far)
+    j.bind(0, 3) = 50;
+  EXPECT_THROW(make_starter(tube(), far), InputError);
+}
+
+TEST(Starter, HandGetsAConnectedNetWithRingsOnEveryFingerSegment) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string path = test::data("xr_tools_hand/hand_l.gltf");
+  const SurfaceMesh mesh = load_mesh(path);
+  const StarterResult r = make_starter(mesh, load_skinned_mesh(path).joints);
+  std::printf("hand: %d rings, %zu nodes, %zu profiles, %d joins, %d components\n", r.rings, r.rig.nodes.size(),
+              r.rig.profiles.size(), r.joins, r.net_components);
+  EXPECT_EQ(r.net_components, 1);
+  EXPECT_EQ(r.unjoined, 0);
+  std::set<std::string> rings;
+  for (const auto& n : r.rig.nodes)
+    rings.insert(n.id.substr(0, n.id.rfind('_')));
+  for (const std::string finger : {"Index", "Middle", "Ring", "Little"})
+    for (const std::string joint : {"Intermediate", "Distal", "Tip"}) // the end of each phalanx
+      EXPECT_TRUE(rings.count(finger + "_" + joint + "_L")) << finger << " " << joint;
+  for (const std::string joint : {"Distal", "Tip"})
+    EXPECT_TRUE(rings.count("Thumb_" + joint + "_L")) << joint;
+  EXPECT_LT(off_surface(mesh, r.rig), 1e-9 * mesh.bbox_diagonal());
+  // It embeds on every closed tessellation of the hand.
+  for (const char* f : {"xr_tools_hand/hand_l.gltf", "xr_tools_hand/Hand_low_L.gltf", "xr_tools_hand/hand_l_quads.obj",
+                        "xr_tools_hand/hand_low_l_quads.obj"})
+    expect_embeds(load_mesh(test::data(f)), r.rig);
+}
+
+TEST(Starter, CharactersGetNets) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  for (const char* f : {"cesium_man/CesiumMan.glb", "rigged_simple/RiggedSimple.glb", "rigged_simple/RiggedSimple.gltf"}) {
+    SCOPED_TRACE(f);
+    const std::string path = test::data(f);
+    const SurfaceMesh mesh = load_mesh(path);
+    const StarterResult r = make_starter(mesh, load_skinned_mesh(path).joints);
+    std::printf("%s: %d rings, %zu nodes, %zu profiles, %d components, %d unjoined\n", f, r.rings, r.rig.nodes.size(),
+                r.rig.profiles.size(), r.net_components, r.unjoined);
+    EXPECT_GE(r.rings, 1);
+    EXPECT_LT(off_surface(mesh, r.rig), 1e-9 * mesh.bbox_diagonal());
+    expect_embeds(mesh, r.rig);
+    // Written and read back, it is the same net.
+    const Rig back = parse_rig(rig_to_json(r.rig), "mem");
+    EXPECT_EQ(back.profiles.size(), r.rig.profiles.size());
+    EXPECT_EQ(back.extensions.count("x_starter"), 1u);
+  }
+}
