@@ -1,5 +1,6 @@
 #include "trace/trace_mesh.hpp"
 
+#include "core/polygon.hpp"
 #include "core/predicates.hpp"
 #include "core/tolerances.hpp"
 #include "curvenet/errors.hpp"
@@ -117,43 +118,10 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
       corner[i] = cut.from(loop[i]).idx;
       edge[i] = cut.edge_origin(loop[i]);
     }
-    // Ear clipping in the face's plane (exact orientation tests).
-    const Vec3 normal = cut.face_normal(Face(f)).normalized();
-    const Vec3 axis = std::abs(normal.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
-    const Vec3 u = normal.cross(axis).normalized(), w = normal.cross(u);
-    std::vector<Eigen::Vector2d> p2(n);
+    std::vector<Vec3> pts(n);
     for (int i = 0; i < n; ++i)
-      p2[i] = {mesh.positions[corner[i]].dot(u), mesh.positions[corner[i]].dot(w)};
-    std::vector<int> ring(n);
-    for (int i = 0; i < n; ++i)
-      ring[i] = i;
-    std::vector<std::array<int, 3>> tris; // polygon-local corner indices
-    while (ring.size() > 3) {
-      const int m = static_cast<int>(ring.size());
-      int ear = -1;
-      for (int i = 0; i < m && ear < 0; ++i) {
-        const int a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
-        if (orient2d(p2[a], p2[b], p2[c]) <= 0)
-          continue;
-        bool empty = true;
-        for (int j : ring) {
-          if (j == a || j == b || j == c)
-            continue;
-          if (orient2d(p2[a], p2[b], p2[j]) >= 0 && orient2d(p2[b], p2[c], p2[j]) >= 0 &&
-              orient2d(p2[c], p2[a], p2[j]) >= 0) {
-            empty = false;
-            break;
-          }
-        }
-        if (empty)
-          ear = i;
-      }
-      if (ear < 0)
-        ear = 0; // a non-planar polygon with no clean ear: cut the first corner
-      tris.push_back({ring[(ear + m - 1) % m], ring[ear], ring[(ear + 1) % m]});
-      ring.erase(ring.begin() + ear);
-    }
-    tris.push_back({ring[0], ring[1], ring[2]});
+      pts[i] = mesh.positions[corner[i]];
+    const auto tris = triangulate_polygon(pts); // polygon-local corner indices
     for (const auto& lt : tris) {
       const int t = static_cast<int>(tri_.size());
       tri_.push_back({corner[lt[0]], corner[lt[1]], corner[lt[2]]});

@@ -1,0 +1,56 @@
+#include "core/polygon.hpp"
+
+#include "core/predicates.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+namespace curvenet::detail {
+
+std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vector3d>& corners) {
+  const int n = static_cast<int>(corners.size());
+  if (n == 3)
+    return {{0, 1, 2}};
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero(); // Newell
+  for (int i = 0; i < n; ++i)
+    normal += corners[i].cross(corners[(i + 1) % n]);
+  normal.normalize();
+  const Eigen::Vector3d axis = std::abs(normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d u = normal.cross(axis).normalized(), w = normal.cross(u);
+  std::vector<Eigen::Vector2d> p2(n);
+  for (int i = 0; i < n; ++i)
+    p2[i] = {corners[i].dot(u), corners[i].dot(w)};
+  std::vector<int> ring(n);
+  for (int i = 0; i < n; ++i)
+    ring[i] = i;
+  std::vector<std::array<int, 3>> tris;
+  while (ring.size() > 3) {
+    const int m = static_cast<int>(ring.size());
+    int ear = -1;
+    for (int i = 0; i < m && ear < 0; ++i) {
+      const int a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
+      if (orient2d(p2[a], p2[b], p2[c]) <= 0)
+        continue;
+      bool empty = true;
+      for (int j : ring) {
+        if (j == a || j == b || j == c)
+          continue;
+        if (orient2d(p2[a], p2[b], p2[j]) >= 0 && orient2d(p2[b], p2[c], p2[j]) >= 0 &&
+            orient2d(p2[c], p2[a], p2[j]) >= 0) {
+          empty = false;
+          break;
+        }
+      }
+      if (empty)
+        ear = i;
+    }
+    if (ear < 0)
+      ear = 0;
+    tris.push_back({ring[(ear + m - 1) % m], ring[ear], ring[(ear + 1) % m]});
+    ring.erase(ring.begin() + ear);
+  }
+  tris.push_back({ring[0], ring[1], ring[2]});
+  return tris;
+}
+
+} // namespace curvenet::detail
