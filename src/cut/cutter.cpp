@@ -184,6 +184,7 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
     const auto& pts = in.traces[p].points;
     CutChain& chain = res.chains[p];
     chain.vertices.push_back(vertex_of(pts[0]));
+    chain.point.push_back(0);
     for (size_t k = 1; k < pts.size(); ++k) {
       const Vertex va = chain.vertices.back(), vb = vertex_of(pts[k]);
       if (va == vb)
@@ -222,6 +223,7 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
                                (it->second >= 0 ? "'" + in.profile_ids[it->second] + "'" : std::string("a node")) +
                                " cross or touch on " + describe_edge(along) + ", away from any node");
           chain.vertices.push_back(cur);
+          chain.point.push_back(static_cast<int>(k));
         }
         continue;
       }
@@ -233,6 +235,7 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
       chords[common[0]].push_back({p, chain.halfedges.size(), {va, vb, {p, true}}});
       chain.halfedges.emplace_back();
       chain.vertices.push_back(vb);
+      chain.point.push_back(static_cast<int>(k));
     }
   }
   // 5. Split each crossed face along its chords, after checking that no two cross.
@@ -309,8 +312,8 @@ std::optional<std::string> validate_chains(const CutMesh& mesh, const CutInput& 
     const std::string name = "chain '" + in.profile_ids[p] + "'";
     if (c.halfedges.empty())
       return name + ": no half-edges";
-    if (c.vertices.size() != c.halfedges.size() + 1)
-      return name + ": vertex and half-edge counts disagree";
+    if (c.vertices.size() != c.halfedges.size() + 1 || c.point.size() != c.vertices.size())
+      return name + ": vertex, half-edge and path point counts disagree";
     if (c.vertices.front() != cut.node_vertex[in.profile_from[p]])
       return name + ": does not start at its from-node's vertex";
     if (c.vertices.back() != cut.node_vertex[in.profile_to[p]])

@@ -17,6 +17,7 @@ namespace curvenet::detail {
 struct CutChain {
   std::vector<Vertex> vertices;    ///< #halfedges + 1
   std::vector<Halfedge> halfedges; ///< to(h[i]) == from(h[i+1])
+  std::vector<int> point;          ///< per vertex: the index of its path point in the trace
 };
 
 struct CutInput {

@@ -32,6 +32,22 @@ std::string RegionInfo::key() const {
 }
 
 Embedding::Embedding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+
+double Embedding::Impl::chain_t(int p, size_t i) const {
+  const auto& chain = result.chains[p];
+  const auto& pts = input.traces[p].points;
+  const int k = chain.point[i];
+  if (k == 0)
+    return 0.0;
+  if (k + 1 == static_cast<int>(pts.size()))
+    return 1.0;
+  // Between the samples the walk went from and to.
+  const int s = std::clamp(pts[k].sample, 1, static_cast<int>(samples[p].size()) - 1);
+  const Vec3 a = samples[p][s - 1], b = samples[p][s], q = pts[k].at.pos;
+  const double len2 = (b - a).squaredNorm();
+  const double lambda = len2 > 0 ? std::clamp((q - a).dot(b - a) / len2, 0.0, 1.0) : 0.0;
+  return sample_t[p][s - 1] + lambda * (sample_t[p][s] - sample_t[p][s - 1]);
+}
 const EmbedReport& Embedding::report() const {
   return impl_->report;
 }
@@ -135,6 +151,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     in.profile_ids.push_back(pr.id);
     in.profile_from.push_back(a);
     in.profile_to.push_back(b);
+    impl->samples.push_back(s.points);
     tin[p] = {pr.id, std::move(s.points), in.node_points[a], in.node_points[b], a, b};
     impl->sample_t[p] = std::move(s.t);
     rep.samples += static_cast<int>(tin[p].samples.size());

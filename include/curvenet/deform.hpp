@@ -1,0 +1,90 @@
+#pragma once
+/// \file deform.hpp
+/// Binding a rig to a mesh, and deforming the mesh through the Curvenet.
+///
+/// Everything that does not depend on the pose is computed once, by bind():
+/// the embedding, the constraints (every CutChain vertex, skinned with its
+/// profile's interpolated node weights), the Laplacian of the cut mesh and
+/// its factorisation, and from it, per input vertex, the harmonic joint
+/// weights s_j = H(w_j) and the harmonic rest terms Y_j = H(w_j p). A frame
+/// is then a sum over each vertex's joints, with no solve, no factorisation
+/// and no allocation (docs/deform.md).
+
+#include "curvenet/embed.hpp"
+#include "curvenet/rig.hpp"
+#include "curvenet/surface_mesh.hpp"
+#include "curvenet/weights.hpp"
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+enum class LaplacianChoice { Uniform, IntrinsicDelaunay };
+enum class RigidMode {
+  /// Each vertex's detail moves with the harmonic blend of its joints'
+  /// transforms, sum_j s_j A_j: linear in the joint matrices, exact at rest
+  /// and for rigid poses, and it cannot pop.
+  PerVertex,
+  /// The thesis's mode: one rigid transform fitted (Horn) to the whole net,
+  /// switched off when the fit is poor.
+  Horn,
+};
+
+struct BindOptions {
+  LaplacianChoice laplacian = LaplacianChoice::IntrinsicDelaunay;
+  RigidMode rigid = RigidMode::PerVertex;
+  AutoWeightOptions weights; ///< for nodes the rig gives no weights
+  EmbedOptions embed;
+  /// Horn mode: the fit is switched off when its RMS residual exceeds this
+  /// fraction of the net's RMS spread.
+  double horn_tolerance = 0.1;
+};
+
+struct BindReport {
+  int vertices = 0;            ///< input (welded) vertices
+  int constrained = 0;         ///< cut-mesh vertices on CutChains
+  int free = 0;                ///< cut-mesh vertices solved for
+  int rigid = 0;               ///< vertices of parts no profile touches
+  int influences = 0;          ///< joint influences over all input vertices
+  double mean_influences = 0;  ///< per input vertex
+  int negative_weights_before = 0, negative_weights_after = 0, flips = 0;
+  std::vector<std::pair<std::string, double>> timings_ms;
+  std::vector<std::string> notes;
+};
+
+class Binding {
+public:
+  struct Impl;
+  explicit Binding(std::shared_ptr<const Impl> impl);
+
+  /// The joints, in mesh space (the rig's bind matrices through its frame).
+  [[nodiscard]] const std::vector<Joint>& joints() const;
+  [[nodiscard]] const BindReport& report() const;
+  [[nodiscard]] const Embedding& embedding() const;
+  /// Node weights after completion (given, or automatic), by node id.
+  [[nodiscard]] const std::map<std::string, std::map<std::string, double>>& node_weights() const;
+  [[nodiscard]] int num_input_vertices() const;
+
+  /// Deforms the mesh: `skinning` holds one matrix per joint (M_j = G_j B_j^-1
+  /// in the rig's coordinates), `out` receives one position per vertex of the
+  /// input file, in its order. Thread-safe; allocates nothing.
+  /// \pre skinning.size() == joints().size(), out.size() == num_input_vertices().
+  void deform(std::span<const Mat4> skinning, std::span<Eigen::Vector3d> out) const;
+
+private:
+  std::shared_ptr<const Impl> impl_;
+};
+
+/// Binds `rig` to `mesh`.
+/// \throw EmbedError when the rig does not embed with ok.
+/// \throw InputError when the rig has no skeleton, or its weights name joints it lacks.
+Binding bind(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options = {});
+
+/// The rig with every node's weights filled in (automatic weights where the
+/// rig gives none), normalised.
+Rig complete_weights(const Rig& rig, const AutoWeightOptions& options = {});
+
+} // namespace curvenet

@@ -1,0 +1,43 @@
+#pragma once
+/// \file pose.hpp
+/// Poses: per-joint local transforms relative to the rest pose (pose files,
+/// or sampled from glTF clips), and the skinning matrices they give.
+
+#include "curvenet/rig.hpp"
+#include "curvenet/skin.hpp"
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+/// A joint's pose entry L = T R S, in the joint's own rest frame.
+struct JointPose {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  [[nodiscard]] Mat4 matrix() const;
+};
+
+/// Joint name -> pose entry. Joints that are not listed stay at rest.
+using Pose = std::map<std::string, JointPose>;
+
+/// Reads a pose file (`"format": "curvenet-pose"`).
+/// \throw InputError with the JSON path of the fault: unknown keys, a
+///   rotation whose norm is not within 1e-6 of 1, malformed JSON.
+Pose read_pose(const std::string& path);
+Pose parse_pose(const std::string& text, const std::string& source);
+
+/// Skinning matrices M_j = G_j B_j^-1 with G_j = G_p (B_p^-1 B_j) L_j (for a
+/// root, G_j = B_j L_j), one per joint.
+/// \throw InputError when the pose names a joint the skeleton lacks.
+std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose& pose, const std::string& source = "pose");
+
+/// The pose of a glTF clip at time t, as entries against the rest pose that
+/// the file's own inverse bind matrices define, for the file's joints (by
+/// name). Applied to a rig's own bind matrices, it drives that rig the same
+/// way, even on another mesh.
+Pose pose_from_clip(const SkinnedMesh& file, int clip, double t);
+
+} // namespace curvenet

@@ -1,0 +1,389 @@
+// Binding: constraints on the CutChains, the factored harmonic system, and
+// per input vertex the harmonic joint weights and rest terms. Deforming: a
+// sum over each vertex's joints (docs/deform.md).
+
+#include "curvenet/deform.hpp"
+
+#include "bind/laplacian.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/pose.hpp"
+#include "embed/embedding_impl.hpp"
+
+#include <Eigen/SVD>
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+namespace curvenet {
+
+using namespace detail;
+
+struct Binding::Impl {
+  std::vector<Joint> joints; ///< mesh space
+  BindReport report;
+  Embedding embedding{nullptr};
+  std::map<std::string, std::map<std::string, double>> node_weights;
+  std::vector<int> input_to_welded;
+  RigidMode mode = RigidMode::PerVertex;
+  double horn_tolerance = 0.1;
+  // Per welded vertex: influences (joint, s_j, Y_j), and the detail delta = X - H p.
+  std::vector<int> offset;
+  std::vector<int> joint;
+  std::vector<double> s;
+  std::vector<Eigen::Vector3d> Y;
+  std::vector<Eigen::Vector3d> delta;
+  // Horn mode: the constraints (rest position, weights).
+  std::vector<Eigen::Vector3d> c_rest;
+  std::vector<int> c_offset, c_joint;
+  std::vector<double> c_weight;
+};
+
+Binding::Binding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+const std::vector<Joint>& Binding::joints() const { return impl_->joints; }
+const BindReport& Binding::report() const { return impl_->report; }
+const Embedding& Binding::embedding() const { return impl_->embedding; }
+const std::map<std::string, std::map<std::string, double>>& Binding::node_weights() const { return impl_->node_weights; }
+int Binding::num_input_vertices() const { return static_cast<int>(impl_->input_to_welded.size()); }
+
+Rig complete_weights(const Rig& rig, const AutoWeightOptions& options) {
+  if (!rig.has_skeleton || rig.joints.empty())
+    throw InputError("rig", "/skeleton", "binding needs a skeleton");
+  Rig out = rig;
+  out.weights.clear();
+  for (const Node& n : rig.nodes) {
+    std::map<std::string, double> w;
+    auto it = rig.weights.find(n.id);
+    double sum = 0;
+    if (it != rig.weights.end())
+      for (const auto& [j, v] : it->second)
+        sum += v;
+    if (sum > 0) {
+      for (const auto& [j, v] : it->second)
+        if (v > 0)
+          w[j] = v / sum;
+    } else {
+      for (const auto& [j, v] : auto_weights(rig.joints, n.position, options))
+        w[rig.joints[j].name] = v;
+    }
+    out.weights[n.id] = w;
+  }
+  return out;
+}
+
+Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& opt) {
+  auto impl = std::make_shared<Binding::Impl>();
+  BindReport& rep = impl->report;
+  auto t0 = std::chrono::steady_clock::now();
+  auto lap = [&](const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    rep.timings_ms.emplace_back(stage, std::chrono::duration<double, std::milli>(now - t0).count());
+    t0 = now;
+  };
+  const Rig rig = complete_weights(input_rig, opt.weights);
+  impl->node_weights = rig.weights;
+  std::map<std::string, int> joint_index;
+  for (size_t j = 0; j < rig.joints.size(); ++j) {
+    joint_index[rig.joints[j].name] = static_cast<int>(j);
+    Joint jt = rig.joints[j];
+    jt.bind = rig.frame * jt.bind; // into mesh space
+    impl->joints.push_back(jt);
+  }
+  const int nj = static_cast<int>(rig.joints.size());
+  lap("weights");
+
+  impl->embedding = embed(mesh, rig, opt.embed);
+  const EmbedReport& er = impl->embedding.report();
+  if (!er.ok)
+    throw EmbedError("bind: the rig does not embed on " + mesh.source + ": " +
+                     (er.problems.empty() ? std::string("not ok") : er.problems[0]));
+  lap("embed");
+  const Embedding::Impl& emb = impl->embedding.impl();
+  const CutMesh& cut = emb.cut;
+  const int nc = cut.num_vertices();
+
+  // Constraints: every CutChain vertex, with its profile's interpolated weights.
+  std::vector<std::map<int, double>> cw(nc);
+  std::vector<char> constrained(nc, 0);
+  auto node_w = [&](int node) {
+    std::map<int, double> w;
+    for (const auto& [name, v] : rig.weights.at(rig.nodes[node].id))
+      w[joint_index.at(name)] = v;
+    return w;
+  };
+  for (size_t p = 0; p < emb.result.chains.size(); ++p) {
+    const auto& chain = emb.result.chains[p];
+    const auto wa = node_w(emb.input.profile_from[p]), wb = node_w(emb.input.profile_to[p]);
+    for (size_t i = 0; i < chain.vertices.size(); ++i) {
+      const int v = chain.vertices[i].idx;
+      if (constrained[v])
+        continue; // a node, already set (nodes come first and last in their chains)
+      constrained[v] = 1;
+      std::map<int, double> w;
+      if (i == 0) {
+        w = wa;
+      } else if (i + 1 == chain.vertices.size()) {
+        w = wb;
+      } else {
+        const double t = emb.chain_t(static_cast<int>(p), i);
+        for (const auto& [j, x] : wa)
+          w[j] += (1 - t) * x;
+        for (const auto& [j, x] : wb)
+          w[j] += t * x;
+        double sum = 0;
+        for (const auto& [j, x] : w)
+          sum += x;
+        for (auto& [j, x] : w)
+          x /= sum;
+      }
+      cw[v] = std::move(w);
+    }
+  }
+  for (int v = 0; v < nc; ++v)
+    rep.constrained += constrained[v];
+  lap("constraints");
+
+  LaplacianStats ls;
+  const Eigen::SparseMatrix<double> L = cut_mesh_laplacian(
+      cut, opt.laplacian == LaplacianChoice::Uniform ? LaplacianKind::Uniform : LaplacianKind::IntrinsicDelaunay, &ls);
+  rep.negative_weights_before = ls.negative_before;
+  rep.negative_weights_after = ls.negative_after;
+  rep.flips = ls.flips;
+  lap("laplacian");
+
+  // Free vertices; those in parts that touch no constraint follow one joint rigidly.
+  std::vector<int> comp(nc, -1);
+  std::vector<char> comp_constrained;
+  for (int s0 = 0; s0 < nc; ++s0) {
+    if (constrained[s0] || comp[s0] >= 0)
+      continue;
+    const int c = static_cast<int>(comp_constrained.size());
+    comp_constrained.push_back(0);
+    std::vector<int> stack{s0};
+    comp[s0] = c;
+    while (!stack.empty()) {
+      const int v = stack.back();
+      stack.pop_back();
+      for (Eigen::SparseMatrix<double>::InnerIterator it(L, v); it; ++it) {
+        const int u = static_cast<int>(it.row());
+        if (u == v || it.value() == 0)
+          continue;
+        if (constrained[u])
+          comp_constrained[c] = 1;
+        else if (comp[u] < 0) {
+          comp[u] = c;
+          stack.push_back(u);
+        }
+      }
+    }
+  }
+  std::vector<int> free_index(nc, -1), free_vertices;
+  std::map<int, int> rigid_joint_of_comp;
+  int named_rigid = -1;
+  if (auto it = rig.extensions.find("x_rigid_joint"); it != rig.extensions.end()) {
+    std::string name = it->second;
+    if (name.size() >= 2 && name.front() == '"')
+      name = name.substr(1, name.size() - 2);
+    auto j = joint_index.find(name);
+    if (j == joint_index.end())
+      throw InputError("rig", "/x_rigid_joint", "names joint '" + name + "', which the skeleton lacks");
+    named_rigid = j->second;
+  }
+  for (int v = 0; v < nc; ++v) {
+    if (constrained[v])
+      continue;
+    if (comp_constrained[comp[v]]) {
+      free_index[v] = static_cast<int>(free_vertices.size());
+      free_vertices.push_back(v);
+    } else if (!rigid_joint_of_comp.count(comp[v])) {
+      int best = named_rigid;
+      if (best < 0) {
+        double bd = std::numeric_limits<double>::infinity();
+        for (int j = 0; j < nj; ++j) {
+          const double d = (impl->joints[j].bind.block<3, 1>(0, 3) - cut.position(Vertex(v))).norm();
+          if (d < bd) {
+            bd = d;
+            best = j;
+          }
+        }
+      }
+      rigid_joint_of_comp[comp[v]] = best;
+      rep.notes.push_back("a part of the mesh that no profile touches follows joint '" + impl->joints[best].name + "' rigidly");
+    }
+  }
+  const int nf = static_cast<int>(free_vertices.size());
+  rep.free = nf;
+
+  // H: the harmonic extension of constraint values, L_ff x_f = -L_fc x_c.
+  std::vector<Eigen::Triplet<double>> ff;
+  std::vector<std::vector<std::pair<int, double>>> fc(nf); // free row -> (constrained vertex, L entry)
+  for (int k = 0; k < nf; ++k) {
+    const int v = free_vertices[k];
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, v); it; ++it) {
+      const int u = static_cast<int>(it.row());
+      if (free_index[u] >= 0)
+        ff.emplace_back(k, free_index[u], it.value());
+      else if (constrained[u])
+        fc[k].emplace_back(u, it.value());
+    }
+  }
+  Eigen::SparseMatrix<double> Lff(nf, nf);
+  Lff.setFromTriplets(ff.begin(), ff.end());
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  if (nf > 0) {
+    solver.compute(Lff);
+    if (solver.info() != Eigen::Success)
+      throw EmbedError("bind: the harmonic system could not be factored (the Laplacian is singular on " + mesh.source + ")");
+  }
+  lap("factor");
+
+  // Right-hand sides per joint: w_j and w_j p on the constraints.
+  std::vector<std::vector<std::pair<int, double>>> joint_constraints(nj); // joint -> (vertex, weight)
+  for (int v = 0; v < nc; ++v)
+    for (const auto& [j, w] : cw[v])
+      joint_constraints[j].emplace_back(v, w);
+  std::vector<Eigen::VectorXd> sj(nj), yj[3];
+  for (auto& y : yj)
+    y.resize(nj);
+  Eigen::MatrixXd rhs(nf, 4), sol;
+  for (int j = 0; j < nj; ++j) {
+    if (joint_constraints[j].empty() || nf == 0)
+      continue;
+    rhs.setZero();
+    std::vector<double> wv(nc, 0.0);
+    for (const auto& [v, w] : joint_constraints[j])
+      wv[v] = w;
+    for (int k = 0; k < nf; ++k)
+      for (const auto& [u, l] : fc[k]) {
+        if (wv[u] == 0)
+          continue;
+        const Eigen::Vector3d& p = cut.position(Vertex(u));
+        rhs(k, 0) -= l * wv[u];
+        rhs(k, 1) -= l * wv[u] * p.x();
+        rhs(k, 2) -= l * wv[u] * p.y();
+        rhs(k, 3) -= l * wv[u] * p.z();
+      }
+    sol = solver.solve(rhs);
+    if (solver.info() != Eigen::Success || !sol.allFinite())
+      throw EmbedError("bind: the harmonic solve failed for joint '" + impl->joints[j].name + "'");
+    sj[j] = sol.col(0);
+    for (int c = 0; c < 3; ++c)
+      yj[c][j] = sol.col(c + 1);
+  }
+  lap("solve");
+
+  // Per input (welded) vertex: influences and detail.
+  const int nv = mesh.num_vertices();
+  impl->input_to_welded = mesh.input_to_welded;
+  impl->offset.push_back(0);
+  impl->delta.assign(nv, Eigen::Vector3d::Zero());
+  for (int v = 0; v < nv; ++v) {
+    const Eigen::Vector3d X = cut.position(Vertex(v));
+    if (constrained[v]) {
+      for (const auto& [j, w] : cw[v]) {
+        impl->joint.push_back(j);
+        impl->s.push_back(w);
+        impl->Y.push_back(w * X);
+      }
+    } else if (free_index[v] < 0) {
+      impl->joint.push_back(rigid_joint_of_comp.at(comp[v]));
+      impl->s.push_back(1.0);
+      impl->Y.push_back(X);
+      ++rep.rigid;
+    } else {
+      const int k = free_index[v];
+      Eigen::Vector3d Hp = Eigen::Vector3d::Zero();
+      for (int j = 0; j < nj; ++j) {
+        if (sj[j].size() == 0 || sj[j][k] == 0)
+          continue; // exactly zero: joint j bounds none of this vertex's region
+        const Eigen::Vector3d y(yj[0][j][k], yj[1][j][k], yj[2][j][k]);
+        impl->joint.push_back(j);
+        impl->s.push_back(sj[j][k]);
+        impl->Y.push_back(y);
+        Hp += y;
+      }
+      impl->delta[v] = X - Hp;
+    }
+    impl->offset.push_back(static_cast<int>(impl->joint.size()));
+  }
+  rep.vertices = nv;
+  rep.influences = static_cast<int>(impl->joint.size());
+  rep.mean_influences = nv > 0 ? static_cast<double>(rep.influences) / nv : 0;
+  // Horn mode needs the constraints themselves.
+  impl->mode = opt.rigid;
+  impl->horn_tolerance = opt.horn_tolerance;
+  impl->c_offset.push_back(0);
+  for (int v = 0; v < nc; ++v)
+    if (constrained[v]) {
+      impl->c_rest.push_back(cut.position(Vertex(v)));
+      for (const auto& [j, w] : cw[v]) {
+        impl->c_joint.push_back(j);
+        impl->c_weight.push_back(w);
+      }
+      impl->c_offset.push_back(static_cast<int>(impl->c_joint.size()));
+    }
+  lap("tables");
+  return Binding(impl);
+}
+
+void Binding::deform(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) const {
+  const Impl& b = *impl_;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  if (b.mode == RigidMode::Horn && !b.c_rest.empty()) {
+    // Fit one rotation to the whole net (Horn / Kabsch), rest -> posed.
+    const size_t n = b.c_rest.size();
+    Eigen::Vector3d pc = Eigen::Vector3d::Zero(), qc = Eigen::Vector3d::Zero();
+    auto posed = [&](size_t c) {
+      Eigen::Vector3d q = Eigen::Vector3d::Zero();
+      for (int k = b.c_offset[c]; k < b.c_offset[c + 1]; ++k)
+        q += b.c_weight[k] * (M[b.c_joint[k]].topLeftCorner<3, 3>() * b.c_rest[c] + M[b.c_joint[k]].block<3, 1>(0, 3));
+      return q;
+    };
+    for (size_t c = 0; c < n; ++c) {
+      pc += b.c_rest[c];
+      qc += posed(c);
+    }
+    pc /= static_cast<double>(n);
+    qc /= static_cast<double>(n);
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    double spread = 0;
+    for (size_t c = 0; c < n; ++c) {
+      const Eigen::Vector3d p = b.c_rest[c] - pc, q = posed(c) - qc;
+      H += p * q.transpose();
+      spread += p.squaredNorm();
+    }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+    R = svd.matrixV() * D * svd.matrixU().transpose();
+    double residual = 0;
+    for (size_t c = 0; c < n; ++c)
+      residual += (R * (b.c_rest[c] - pc) - (posed(c) - qc)).squaredNorm();
+    if (spread > 0 && std::sqrt(residual / spread) > b.horn_tolerance)
+      R.setIdentity(); // a poor fit: the thesis switches the rigid part off
+  }
+  const size_t nin = b.input_to_welded.size();
+  for (size_t i = 0; i < nin; ++i) {
+    const int v = b.input_to_welded[i];
+    const Eigen::Vector3d& d = b.delta[v];
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    if (b.mode == RigidMode::PerVertex) {
+      for (int k = b.offset[v]; k < b.offset[v + 1]; ++k) {
+        const Mat4& m = M[b.joint[k]];
+        x.noalias() += m.topLeftCorner<3, 3>() * (b.Y[k] + b.s[k] * d) + b.s[k] * m.block<3, 1>(0, 3);
+      }
+    } else {
+      for (int k = b.offset[v]; k < b.offset[v + 1]; ++k) {
+        const Mat4& m = M[b.joint[k]];
+        x.noalias() += m.topLeftCorner<3, 3>() * b.Y[k] + b.s[k] * m.block<3, 1>(0, 3);
+      }
+      x.noalias() += R * d;
+    }
+    out[i] = x;
+  }
+}
+
+} // namespace curvenet

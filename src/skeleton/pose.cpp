@@ -1,0 +1,148 @@
+#include "curvenet/pose.hpp"
+
+#include "curvenet/errors.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace curvenet {
+
+Mat4 JointPose::matrix() const {
+  Eigen::Affine3d a = Eigen::Affine3d::Identity();
+  a.translate(translation);
+  a.rotate(rotation);
+  a.scale(scale);
+  return a.matrix();
+}
+
+Pose parse_pose(const std::string& text, const std::string& source) {
+  nlohmann::json root;
+  try {
+    root = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(source, "byte " + std::to_string(e.byte), std::string("malformed JSON: ") + e.what());
+  }
+  auto fail = [&](const std::string& path, const std::string& msg) { throw InputError(source, path, msg); };
+  if (!root.is_object())
+    fail("/", "expected an object");
+  for (auto it = root.begin(); it != root.end(); ++it)
+    if (it.key() != "format" && it.key() != "version" && it.key() != "joints" && it.key().rfind("x_", 0) != 0)
+      fail("/" + it.key(), "unknown key '" + it.key() + "'");
+  if (!root.contains("format") || root["format"] != "curvenet-pose")
+    fail("/format", "must be \"curvenet-pose\"");
+  if (!root.contains("version") || root["version"] != 1)
+    fail("/version", "only version 1 is supported");
+  Pose pose;
+  if (!root.contains("joints"))
+    return pose;
+  const auto& joints = root["joints"];
+  if (!joints.is_object())
+    fail("/joints", "expected an object");
+  auto numbers = [&](const nlohmann::json& j, size_t n, const std::string& path) {
+    if (!j.is_array() || j.size() != n)
+      fail(path, "expected an array of " + std::to_string(n) + " numbers");
+    std::vector<double> v;
+    for (size_t i = 0; i < n; ++i) {
+      if (!j[i].is_number() || !std::isfinite(j[i].get<double>()))
+        fail(path + "/" + std::to_string(i), "expected a finite number");
+      v.push_back(j[i].get<double>());
+    }
+    return v;
+  };
+  for (auto it = joints.begin(); it != joints.end(); ++it) {
+    const std::string path = "/joints/" + it.key();
+    if (!it->is_object())
+      fail(path, "expected an object");
+    JointPose jp;
+    for (auto k = it->begin(); k != it->end(); ++k) {
+      const std::string kp = path + "/" + k.key();
+      if (k.key() == "rotation") {
+        const auto q = numbers(*k, 4, kp);
+        const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        if (std::abs(norm - 1) > 1e-6)
+          fail(kp, "not a unit quaternion (norm " + std::to_string(norm) + ")");
+        jp.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+      } else if (k.key() == "translation") {
+        const auto t = numbers(*k, 3, kp);
+        jp.translation = {t[0], t[1], t[2]};
+      } else if (k.key() == "scale") {
+        const auto s = numbers(*k, 3, kp);
+        jp.scale = {s[0], s[1], s[2]};
+      } else if (k.key().rfind("x_", 0) != 0) {
+        fail(kp, "unknown key '" + k.key() + "'");
+      }
+    }
+    pose[it.key()] = jp;
+  }
+  return pose;
+}
+
+Pose read_pose(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError(path, "", "cannot open the pose file");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return parse_pose(s.str(), path);
+}
+
+std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose& pose, const std::string& source) {
+  std::map<std::string, int> index;
+  for (size_t j = 0; j < joints.size(); ++j)
+    index[joints[j].name] = static_cast<int>(j);
+  for (const auto& [name, entry] : pose)
+    if (!index.count(name))
+      throw InputError(source, "/joints/" + name, "names joint '" + name + "', which the skeleton lacks");
+  std::vector<Mat4> world(joints.size()), out(joints.size());
+  for (size_t j = 0; j < joints.size(); ++j) {
+    auto it = pose.find(joints[j].name);
+    const Mat4 local = it == pose.end() ? Mat4::Identity() : it->second.matrix();
+    if (joints[j].parent) {
+      const int p = index.at(*joints[j].parent);
+      world[j] = world[p] * (joints[p].bind.inverse() * joints[j].bind) * local;
+    } else {
+      world[j] = joints[j].bind * local;
+    }
+    out[j] = world[j] * joints[j].bind.inverse();
+  }
+  return out;
+}
+
+Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
+  const auto world = file.joint_world(clip, t);
+  std::map<std::string, int> index;
+  for (size_t j = 0; j < file.joints.size(); ++j)
+    index[file.joints[j].name] = static_cast<int>(j);
+  Pose pose;
+  for (size_t j = 0; j < file.joints.size(); ++j) {
+    const Joint& jt = file.joints[j];
+    Mat4 local;
+    if (jt.parent) {
+      const int p = index.at(*jt.parent);
+      local = (file.joints[p].bind.inverse() * jt.bind).inverse() * (world[p].inverse() * world[j]);
+    } else {
+      local = jt.bind.inverse() * world[j];
+    }
+    // Back to translation, rotation, scale (no shear in a joint's motion).
+    JointPose e;
+    e.translation = local.block<3, 1>(0, 3);
+    Eigen::Matrix3d m = local.block<3, 3>(0, 0);
+    for (int c = 0; c < 3; ++c) {
+      e.scale[c] = m.col(c).norm();
+      if (e.scale[c] > 0)
+        m.col(c) /= e.scale[c];
+    }
+    if (m.determinant() < 0) {
+      e.scale[0] = -e.scale[0];
+      m.col(0) = -m.col(0);
+    }
+    e.rotation = Eigen::Quaterniond(m).normalized();
+    pose[jt.name] = e;
+  }
+  return pose;
+}
+
+} // namespace curvenet

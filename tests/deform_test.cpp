@@ -1,0 +1,235 @@
+// Binding and deforming: the invariants, the maths, and the thesis's tube.
+
+#include "bind/laplacian.hpp"
+#include "curvenet/deform.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
+#include "curvenet/skin.hpp"
+#include "generate/tube.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/SparseCholesky>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <random>
+
+using namespace curvenet;
+
+namespace {
+
+SurfaceMesh tube(int around, int along, int caps, bool tri) {
+  TubeSpec s;
+  s.around = around;
+  s.along = along;
+  s.cap_rings = caps;
+  s.triangulate = tri;
+  return make_surface_mesh(make_capped_tube(s), "tube");
+}
+
+std::vector<Vec3> input_positions(const SurfaceMesh& m) {
+  std::vector<Vec3> p;
+  for (int w : m.input_to_welded)
+    p.push_back(m.positions[w]);
+  return p;
+}
+
+std::vector<Vec3> deform(const Binding& b, const Pose& pose) {
+  std::vector<Vec3> out(b.num_input_vertices());
+  const auto M = skinning_matrices(b.joints(), pose);
+  b.deform(M, out);
+  return out;
+}
+
+JointPose rotation(double degrees, Vec3 axis) {
+  JointPose j;
+  j.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(degrees * std::numbers::pi / 180, axis.normalized()));
+  return j;
+}
+
+struct Variant {
+  LaplacianChoice laplacian;
+  RigidMode rigid;
+};
+const Variant kVariants[] = {{LaplacianChoice::IntrinsicDelaunay, RigidMode::PerVertex},
+                             {LaplacianChoice::Uniform, RigidMode::PerVertex},
+                             {LaplacianChoice::IntrinsicDelaunay, RigidMode::Horn},
+                             {LaplacianChoice::Uniform, RigidMode::Horn}};
+
+BindOptions options(const Variant& v) {
+  BindOptions o;
+  o.laplacian = v.laplacian;
+  o.rigid = v.rigid;
+  return o;
+}
+
+} // namespace
+
+TEST(Laplacian, IntrinsicDelaunayReproducesLinearFieldsOnAPlane) {
+  // A planar mesh with badly shaped (obtuse) triangles.
+  RawMesh raw = test::grid(8, 8, true);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.35, 0.35);
+  for (auto& p : raw.positions)
+    if (p.x() > 0 && p.x() < 8 && p.y() > 0 && p.y() < 8)
+      p += Vec3(jitter(rng), jitter(rng), 0);
+  const SurfaceMesh m = make_surface_mesh(raw, "plane");
+  std::vector<std::array<int, 3>> tris;
+  for (int f = 0; f < m.num_faces(); ++f)
+    tris.push_back({m.face(f)[0], m.face(f)[1], m.face(f)[2]});
+  detail::LaplacianStats st;
+  const auto L = detail::intrinsic_delaunay_laplacian(m.num_vertices(), m.positions, tris, &st);
+  std::printf("plane: %d negative cotangent weights before the flips, %d after, %d flips\n", st.negative_before,
+              st.negative_after, st.flips);
+  EXPECT_GT(st.negative_before, 0);
+  EXPECT_EQ(st.negative_after, 0);
+  // Boundary values from a linear function; the interior solve must give it back.
+  auto f = [](const Vec3& p) { return 0.7 * p.x() - 1.3 * p.y() + 2.0; };
+  std::vector<int> idx(m.num_vertices(), -1), interior;
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    const Vec3& p = m.positions[v];
+    if (p.x() > 0 && p.x() < 8 && p.y() > 0 && p.y() < 8) {
+      idx[v] = static_cast<int>(interior.size());
+      interior.push_back(v);
+    }
+  }
+  std::vector<Eigen::Triplet<double>> trip;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(interior.size());
+  for (size_t k = 0; k < interior.size(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, interior[k]); it; ++it) {
+      const int u = static_cast<int>(it.row());
+      if (idx[u] >= 0)
+        trip.emplace_back(k, idx[u], it.value());
+      else
+        rhs[k] -= it.value() * f(m.positions[u]);
+    }
+  Eigen::SparseMatrix<double> A(interior.size(), interior.size());
+  A.setFromTriplets(trip.begin(), trip.end());
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+  const Eigen::VectorXd x = ldlt.solve(rhs);
+  for (size_t k = 0; k < interior.size(); ++k)
+    EXPECT_NEAR(x[k], f(m.positions[interior[k]]), 1e-10);
+}
+
+TEST(Deform, RestPoseReturnsTheInput) {
+  const SurfaceMesh m = tube(16, 16, 4, false);
+  const auto X = input_positions(m);
+  const double diag = m.bbox_diagonal();
+  for (const Variant& v : kVariants) {
+    const Binding b = bind(m, make_tube_net(), options(v));
+    const auto out = deform(b, {});
+    for (size_t i = 0; i < X.size(); ++i)
+      ASSERT_LT((out[i] - X[i]).norm(), 1e-9 * diag) << i;
+  }
+}
+
+TEST(Deform, ARigidPoseMovesEveryVertexRigidly) {
+  const SurfaceMesh m = tube(24, 20, 6, true);
+  const auto X = input_positions(m);
+  const double diag = m.bbox_diagonal();
+  Pose pose;
+  pose["root"] = rotation(37, {1, 2, 0.5});
+  pose["root"].translation = {0.3, -1.2, 2.5};
+  for (const Variant& v : kVariants) {
+    const Binding b = bind(m, make_tube_net(), options(v));
+    const Mat4 T = skinning_matrices(b.joints(), pose)[0];
+    const auto out = deform(b, pose);
+    for (size_t i = 0; i < X.size(); ++i)
+      ASSERT_LT((out[i] - (T * X[i].homogeneous()).head<3>()).norm(), 1e-9 * diag) << i;
+  }
+}
+
+TEST(Deform, OutputIsAlwaysFiniteAndResetsToNeutral) {
+  const SurfaceMesh m = tube(20, 12, 4, true);
+  const Binding b = bind(m, make_tube_net());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> angle(-170, 170), axis(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    Pose pose;
+    for (const char* j : {"root", "mid", "tip"})
+      pose[j] = rotation(angle(rng), {axis(rng), axis(rng), axis(rng) + 1e-3});
+    pose["tip"].scale = {1.5, 0.5, 1};
+    for (const auto& p : deform(b, pose))
+      ASSERT_TRUE(p.allFinite());
+  }
+  // After any pose, the rest pose gives the input back: no state is kept.
+  const auto X = input_positions(m);
+  const auto out = deform(b, {});
+  for (size_t i = 0; i < X.size(); ++i)
+    ASSERT_LT((out[i] - X[i]).norm(), 1e-9 * m.bbox_diagonal());
+}
+
+TEST(Deform, TubeBendsTheSameOnTwoTessellations) {
+  // Bend the tube's two joints and look at its far end, the top cap's centre.
+  Pose pose;
+  pose["mid"] = rotation(40, {0, 0, 1});
+  pose["tip"] = rotation(30, {0, 0, 1});
+  std::vector<double> angles;
+  std::vector<Vec3> tips;
+  for (const SurfaceMesh& m : {tube(16, 16, 4, false), tube(30, 24, 7, true)}) {
+    const Binding b = bind(m, make_tube_net());
+    const auto out = deform(b, pose);
+    const auto X = input_positions(m);
+    // The top cap's centre vertex, and the direction of the tube's last quarter.
+    size_t top = 0;
+    for (size_t i = 0; i < X.size(); ++i)
+      if ((X[i] - Vec3(0, 4, 0)).norm() < (X[top] - Vec3(0, 4, 0)).norm())
+        top = i;
+    size_t ring = 0; // a vertex on the axis side at y = 3: the centre of the ring there
+    Vec3 centre3 = Vec3::Zero();
+    int count = 0;
+    for (size_t i = 0; i < X.size(); ++i)
+      if (std::abs(X[i].y() - 3.0) < 1e-9) {
+        centre3 += out[i];
+        ++count;
+        ring = i;
+      }
+    (void)ring;
+    ASSERT_GT(count, 0);
+    centre3 /= count;
+    const Vec3 dir = (out[top] - centre3).normalized();
+    angles.push_back(std::acos(std::clamp(dir.y(), -1.0, 1.0)) * 180 / std::numbers::pi);
+    tips.push_back(out[top]);
+  }
+  std::printf("bend at the tube's end: %.2f and %.2f degrees; tips %.4f apart\n", angles[0], angles[1],
+              (tips[0] - tips[1]).norm());
+  EXPECT_GT(angles[0], 40.0); // the end turns with both joints
+  EXPECT_NEAR(angles[0], angles[1], 2.0);
+  EXPECT_LT((tips[0] - tips[1]).norm(), 0.05);
+}
+
+TEST(Deform, HandClipsFollowTheSkeleton) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string path = test::data("xr_tools_hand/hand_l_poses.glb");
+  const SkinnedMesh clips = load_skinned_mesh(path);
+  const SurfaceMesh mesh = load_mesh(path);
+  const Binding b = bind(mesh, read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json")));
+  const RawMesh raw = read_raw_mesh(path);
+  const double diag = mesh.bbox_diagonal();
+  std::printf("hand bind: %d constrained, %d free, %.2f influences per vertex, %d/%d negative weights before/after\n",
+              b.report().constrained, b.report().free, b.report().mean_influences, b.report().negative_weights_before,
+              b.report().negative_weights_after);
+  double worst_mean = 0;
+  for (const char* name : {"Grip", "Pinch", "Peace", "Thumb", "Sign 3"}) {
+    const int c = clips.find_clip(name);
+    if (c < 0)
+      continue;
+    const double t = clips.clip_range(c).second;
+    std::vector<Vec3> out(b.num_input_vertices());
+    b.deform(skinning_matrices(b.joints(), pose_from_clip(clips, c, t)), out);
+    const auto lbs = skin_positions(clips, raw.positions, clips.skinning_matrices(c, t));
+    double mean = 0;
+    for (size_t i = 0; i < out.size(); ++i) {
+      ASSERT_TRUE(out[i].allFinite());
+      mean += (out[i] - lbs[i]).norm();
+    }
+    mean /= static_cast<double>(out.size());
+    std::printf("clip %-8s: mean distance from the file's own skinning %.3f%% of the diagonal\n", name, 100 * mean / diag);
+    worst_mean = std::max(worst_mean, mean / diag);
+  }
+  EXPECT_LT(worst_mean, 0.05); // a sanity bound, not a target
+}
