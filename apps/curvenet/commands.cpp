@@ -3,6 +3,9 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/deform.hpp"
+#include "curvenet/mesh_output.hpp"
+#include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
 #include "generate/tube.hpp"
@@ -10,10 +13,14 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
+#include <set>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <tbb/parallel_for.h>
+
 #include <unistd.h>
 
 namespace curvenet::cli {
@@ -98,6 +105,171 @@ int run_embed(const EmbedArgs& a) {
     write_file_atomic(a.cut_mesh, cut_text);
   print_summary(std::cout, std::filesystem::path(a.mesh).filename().string(), rep);
   return rep.ok ? 0 : 1;
+}
+
+namespace {
+
+std::string lower_ext(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+/// Joints from a rig file or a skinned glTF.
+std::vector<Joint> load_skeleton(const std::string& path) {
+  const std::string ext = lower_ext(path);
+  if (ext == ".gltf" || ext == ".glb")
+    return load_skinned_mesh(path).joints;
+  const Rig rig = read_rig(path);
+  if (!rig.has_skeleton)
+    throw InputError(path, "/skeleton", "the rig file has no skeleton");
+  return rig.joints;
+}
+
+/// The rig, with its skeleton replaced by --skeleton when given (joints matched by name).
+Rig rig_for(const DeformArgs& a) {
+  Rig rig = read_rig(a.rig);
+  if (!a.skeleton.empty()) {
+    rig.joints = load_skeleton(a.skeleton);
+    rig.has_skeleton = true;
+    std::set<std::string> names;
+    for (const auto& j : rig.joints)
+      names.insert(j.name);
+    for (const auto& [node, w] : rig.weights)
+      for (const auto& [joint, v] : w)
+        if (!names.count(joint))
+          throw InputError(a.skeleton, joint, "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
+  }
+  if (!rig.has_skeleton)
+    throw InputError(a.rig, "/skeleton", "the rig has no skeleton: give one in the rig or with --skeleton");
+  return rig;
+}
+
+BindOptions bind_options(const DeformArgs& a) {
+  BindOptions o;
+  o.laplacian = a.laplacian == "uniform" ? LaplacianChoice::Uniform : LaplacianChoice::IntrinsicDelaunay;
+  o.rigid = a.rigid == "horn" ? RigidMode::Horn : RigidMode::PerVertex;
+  return o;
+}
+
+void print_bind(std::ostream& out, const Binding& b) {
+  const BindReport& r = b.report();
+  out << "binding: " << r.vertices << " vertices, " << r.constrained << " constrained, " << r.free << " free, " << r.rigid
+      << " rigid\n";
+  out << "influences per vertex: " << std::fixed << std::setprecision(2) << r.mean_influences << std::defaultfloat << std::setprecision(6) << "\n";
+  out << "negative Laplacian weights: " << r.negative_weights_before << " before, " << r.negative_weights_after
+      << " after " << r.flips << " intrinsic flips\n";
+  double total = 0;
+  for (const auto& [s, ms] : r.timings_ms)
+    total += ms;
+  out << "bind time: " << std::fixed << std::setprecision(1) << total << " ms\n" << std::defaultfloat << std::setprecision(6);
+  for (const auto& n : r.notes)
+    out << "note: " << n << "\n";
+}
+
+} // namespace
+
+int run_bind(const BindArgs& a) {
+  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const Rig rig = rig_for(a);
+  const Binding b = bind(mesh, rig, bind_options(a));
+  Rig out = rig;
+  out.weights = b.node_weights();
+  write_rig(out, a.out);
+  std::cout << "Curvenet bind: SUCCESS\n";
+  print_bind(std::cout, b);
+  std::cout << "rig: " << a.out << "\n";
+  return 0;
+}
+
+int run_pose(const PoseArgs& a) {
+  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const InputTopology topo = read_input_topology(a.mesh);
+  const Rig rig = rig_for(a);
+  const Pose pose = read_pose(a.pose);
+  const Binding b = bind(mesh, rig, bind_options(a));
+  const auto M = skinning_matrices(b.joints(), pose, a.pose);
+  std::vector<Vec3> out(b.num_input_vertices());
+  b.deform(M, out);
+  write_file_atomic(a.out, posed_obj(topo, out)); // deform() returns the file's own vertex order
+  std::cout << "Curvenet pose: SUCCESS\n";
+  print_bind(std::cout, b);
+  std::cout << "output: " << a.out << " (" << out.size() << " vertices)\n";
+  return 0;
+}
+
+int run_animate(const AnimateArgs& a) {
+  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const Rig rig = rig_for(a);
+  const SkinnedMesh clips = load_skinned_mesh(a.clip_file);
+  if (clips.num_clips() == 0)
+    throw InputError(a.clip_file, "/animations", "the file has no animation clips");
+  const int clip = a.clip.empty() ? 0 : clips.find_clip(a.clip);
+  if (clip < 0)
+    throw InputError(a.clip_file, "clip '" + a.clip + "'", "no clip has this name or index");
+  const auto [t0, t1] = clips.clip_range(clip);
+  int first = static_cast<int>(std::floor(t0 * a.fps + 1e-9)), last = static_cast<int>(std::ceil(t1 * a.fps - 1e-9));
+  if (!a.frames.empty()) {
+    const auto colon = a.frames.find(':');
+    try {
+      if (colon == std::string::npos)
+        throw std::invalid_argument("no colon");
+      first = std::stoi(a.frames.substr(0, colon));
+      last = std::stoi(a.frames.substr(colon + 1));
+    } catch (const std::exception&) {
+      throw InputError("--frames", a.frames, "expected A:B, two whole frame numbers");
+    }
+    if (last < first)
+      throw InputError("--frames", a.frames, "the last frame comes before the first");
+  }
+  std::set<std::string> rig_joints;
+  for (const auto& j : rig.joints)
+    rig_joints.insert(j.name);
+  int matched = 0;
+  for (const auto& j : clips.joints)
+    matched += rig_joints.count(j.name) > 0;
+  if (matched == 0)
+    throw InputError(a.clip_file, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
+  const Binding b = bind(mesh, rig, bind_options(a));
+  const int frames = last - first + 1, nv = b.num_input_vertices();
+  auto frame_positions = [&](int f, std::vector<Vec3>& out) {
+    Pose pose;
+    for (auto& [name, entry] : pose_from_clip(clips, clip, (first + f) / a.fps))
+      if (rig_joints.count(name))
+        pose[name] = entry;
+    b.deform(skinning_matrices(b.joints(), pose, a.clip_file), out);
+  };
+  // Frames are independent: each is computed in parallel into its own slot,
+  // so the result does not depend on the number of threads.
+  if (!a.obj_sequence.empty()) {
+    const InputTopology topo = read_input_topology(a.mesh);
+    std::filesystem::create_directories(a.obj_sequence);
+    tbb::parallel_for(0, frames, [&](int f) {
+      std::vector<Vec3> out(nv);
+      frame_positions(f, out);
+      std::ostringstream name;
+      name << "frame_" << std::setw(4) << std::setfill('0') << first + f << ".obj";
+      write_file_atomic((std::filesystem::path(a.obj_sequence) / name.str()).string(), posed_obj(topo, out));
+    });
+  } else {
+    std::vector<float> data(static_cast<size_t>(frames) * nv * 3);
+    tbb::parallel_for(0, frames, [&](int f) {
+      std::vector<Vec3> out(nv);
+      frame_positions(f, out);
+      float* dst = data.data() + static_cast<size_t>(f) * nv * 3;
+      for (int i = 0; i < nv; ++i)
+        for (int c = 0; c < 3; ++c)
+          dst[3 * i + c] = static_cast<float>(out[i][c]);
+    });
+    write_file_atomic(a.out, pc2_cache(nv, frames, static_cast<float>(first), data));
+  }
+  std::cout << "Curvenet animate: SUCCESS\n";
+  print_bind(std::cout, b);
+  std::cout << "clip: " << clips.clip_names[clip] << " (" << clip << "), frames " << first << ":" << last << " at " << a.fps
+            << " fps\n";
+  std::cout << "output: " << (a.obj_sequence.empty() ? a.out : a.obj_sequence) << " (" << frames << " frames, " << nv
+            << " vertices)\n";
+  return 0;
 }
 
 int run_starter(const StarterArgs& a) {

@@ -20,6 +20,26 @@ struct StarterArgs {
 };
 int run_starter(const StarterArgs& args);
 
+struct DeformArgs {
+  std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex";
+};
+
+struct BindArgs : DeformArgs {
+  std::string out;
+};
+int run_bind(const BindArgs& args);
+
+struct PoseArgs : DeformArgs {
+  std::string pose, out;
+};
+int run_pose(const PoseArgs& args);
+
+struct AnimateArgs : DeformArgs {
+  std::string clip_file, clip, frames, out, obj_sequence;
+  double fps = 24;
+};
+int run_animate(const AnimateArgs& args);
+
 struct DemoArgs {
   std::string out = "out/demo";
 };

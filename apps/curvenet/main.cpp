@@ -47,6 +47,39 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"full", "local"}));
 
+  auto deform_options = [](CLI::App* cmd, curvenet::cli::DeformArgs& a) {
+    cmd->add_option("MESH", a.mesh, "Mesh file")->required();
+    cmd->add_option("RIG", a.rig, "Rig file (.cnrig.json)")->required();
+    cmd->add_option("--skeleton", a.skeleton, "Take the skeleton from this rig file or skinned glTF, joints matched by name");
+    cmd->add_option("--laplacian", a.laplacian, "Laplacian of the cut mesh")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"intrinsic", "uniform"}));
+    cmd->add_option("--rigid", a.rigid, "How each vertex's detail follows the joints")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"per-vertex", "horn"}));
+  };
+  curvenet::cli::BindArgs bind_args;
+  auto* bind = app.add_subcommand("bind", "Bind a rig to a mesh and write the rig with every node's weights filled in");
+  deform_options(bind, bind_args);
+  bind->add_option("-o,--output", bind_args.out, "Rig file to write")->required();
+
+  curvenet::cli::PoseArgs pose_args;
+  auto* pose = app.add_subcommand("pose", "Deform a mesh through its rig into one pose, written as OBJ on the input's topology");
+  deform_options(pose, pose_args);
+  pose->add_option("POSE", pose_args.pose, "Pose file (.pose.json)")->required();
+  pose->add_option("-o,--output", pose_args.out, "OBJ file to write")->required();
+
+  curvenet::cli::AnimateArgs anim_args;
+  auto* animate = app.add_subcommand("animate", "Deform a mesh through its rig by a glTF clip, into a PC2 point cache");
+  deform_options(animate, anim_args);
+  animate->add_option("CLIP", anim_args.clip_file, "glTF or GLB file with skins and animations")->required();
+  animate->add_option("--clip", anim_args.clip, "Clip name or index (default: the first)");
+  animate->add_option("--fps", anim_args.fps, "Frames per second")->capture_default_str()->check(CLI::PositiveNumber);
+  animate->add_option("--frames", anim_args.frames, "Frames A:B, inclusive (default: the clip's range)");
+  auto* out_opt = animate->add_option("-o,--output", anim_args.out, "PC2 file to write");
+  auto* seq_opt = animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
+  out_opt->excludes(seq_opt);
+
   curvenet::cli::DemoArgs demo_args;
   auto* demo =
       app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
@@ -60,6 +93,15 @@ int main(int argc, char** argv) {
   try {
     if (*embed)
       return curvenet::cli::run_embed(embed_args);
+    if (*bind)
+      return curvenet::cli::run_bind(bind_args);
+    if (*pose)
+      return curvenet::cli::run_pose(pose_args);
+    if (*animate) {
+      if (anim_args.out.empty() && anim_args.obj_sequence.empty())
+        throw curvenet::Error("animate: give -o OUT.pc2 or --obj-sequence DIR");
+      return curvenet::cli::run_animate(anim_args);
+    }
     if (*starter)
       return curvenet::cli::run_starter(starter_args);
     if (*demo)

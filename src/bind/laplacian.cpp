@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
-#include <map>
+#include <unordered_map>
 
 namespace curvenet::detail {
 namespace {
@@ -53,17 +53,19 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
   m.twin.assign(3 * nt, -1);
   m.next.resize(3 * nt);
   m.length.resize(3 * nt);
-  std::map<std::pair<int, int>, int> directed;
+  std::unordered_map<long long, int> directed;
+  directed.reserve(3 * tris.size());
+  auto key = [nv](int a, int b) { return static_cast<long long>(a) * nv + b; };
   for (int t = 0; t < nt; ++t)
     for (int k = 0; k < 3; ++k) {
       const int h = 3 * t + k, a = tris[t][k], b = tris[t][(k + 1) % 3];
       m.origin[h] = a;
       m.next[h] = 3 * t + (k + 1) % 3;
       m.length[h] = (pos[a] - pos[b]).norm();
-      directed[{a, b}] = h;
+      directed[key(a, b)] = h;
     }
-  for (const auto& [ab, h] : directed) {
-    auto it = directed.find({ab.second, ab.first});
+  for (int h = 0; h < 3 * nt; ++h) {
+    auto it = directed.find(key(m.origin[m.next[h]], m.origin[h]));
     if (it != directed.end())
       m.twin[h] = it->second;
   }

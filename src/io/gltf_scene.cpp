@@ -130,6 +130,16 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   // Skin influences (JOINTS_0 / WEIGHTS_0), when this primitive is skinned.
   scene.vertex_joint.resize(raw.positions.size(), {-1, -1, -1, -1});
   scene.vertex_weight.resize(raw.positions.size(), {0, 0, 0, 0});
+  if (auto uvs = prim.attributes.find("TEXCOORD_0"); uvs != prim.attributes.end()) {
+    AccessorReader uv(model, uvs->second, path, what + " TEXCOORD_0");
+    if (uv.count() == pos.count() && uv.ncomp == 2) {
+      scene.uv.resize(base, Eigen::Vector2d::Zero());
+      for (size_t i = 0; i < uv.count(); ++i)
+        scene.uv.emplace_back(uv.get(i, 0), 1.0 - uv.get(i, 1)); // glTF's v runs down, OBJ's up
+    }
+  }
+  if (!scene.uv.empty())
+    scene.uv.resize(raw.positions.size(), Eigen::Vector2d::Zero());
   auto jt = prim.attributes.find("JOINTS_0"), wt = prim.attributes.find("WEIGHTS_0");
   if (skinned && jt != prim.attributes.end() && wt != prim.attributes.end()) {
     AccessorReader joints(model, jt->second, path, what + " JOINTS_0");
@@ -217,7 +227,8 @@ GltfScene read_gltf_scene(const std::string& path) {
   // Walk the default scene. A skinned mesh's node transform is ignored, as
   // glTF requires: its vertices stay in the mesh's object space, which is
   // where rigs are authored.
-  const auto world = node_world_matrices({path, model, {}, scene.node_parent}, -1, 0);
+  scene.model = model;
+  const auto world = node_world_matrices(scene, -1, 0);
   std::vector<int> stack;
   const auto roots = scene_roots(*model, scene.node_parent);
   for (auto it = roots.rbegin(); it != roots.rend(); ++it)

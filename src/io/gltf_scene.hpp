@@ -22,6 +22,7 @@ struct GltfScene {
   std::string path;
   std::shared_ptr<const tinygltf::Model> model;
   RawMesh mesh;                  ///< every triangle primitive, in traversal order
+  std::vector<Eigen::Vector2d> uv; ///< per mesh vertex (TEXCOORD_0), empty when no primitive has one
   std::vector<int> node_parent;  ///< per node, -1 for roots
   int skin = -1;                 ///< the skin of the first skinned mesh node, or -1
   /// Per mesh vertex: up to 4 (skin joint slot, weight); slot -1 when unused.

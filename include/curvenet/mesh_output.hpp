@@ -1,0 +1,37 @@
+#pragma once
+/// \file mesh_output.hpp
+/// Writing results on the input's own topology: the input file's faces,
+/// vertex order and UVs, with normals recomputed from the new positions but
+/// split where the input's normals were split; and point caches.
+
+#include "curvenet/surface_mesh.hpp"
+
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+/// The input file's faces on its own vertices, with its per-corner UVs and
+/// normal slots (OBJ: its `vt` and `vn` indices; glTF: one UV and one normal
+/// per vertex; other formats: none).
+struct InputTopology {
+  RawMesh faces; ///< positions are the rest positions, faces as in the file
+  std::vector<Eigen::Vector2d> uv;
+  std::vector<int> corner_uv;     ///< per face corner, -1 for none
+  std::vector<int> corner_normal; ///< per face corner, a normal slot
+  int num_normals = 0;
+};
+
+/// \throw InputError for an unreadable file.
+InputTopology read_input_topology(const std::string& path);
+
+/// OBJ text of the input topology at `positions` (one per input vertex),
+/// coordinates with 17 significant digits so they read back exactly.
+std::string posed_obj(const InputTopology& topology, const std::vector<Eigen::Vector3d>& positions);
+
+/// A PC2 point cache (Blender's Mesh Cache modifier): float32 positions of
+/// `points` vertices for each of `frames` samples, starting at `start_frame`,
+/// one sample per frame. `data` holds frames * points * 3 floats.
+std::string pc2_cache(int points, int frames, float start_frame, const std::vector<float>& data);
+
+} // namespace curvenet

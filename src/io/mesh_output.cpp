@@ -1,0 +1,122 @@
+#include "curvenet/mesh_output.hpp"
+
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "io/gltf_scene.hpp"
+
+#include <tiny_obj_loader.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+namespace curvenet {
+
+InputTopology read_input_topology(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  InputTopology out;
+  if (ext == ".obj") {
+    tinyobj::ObjReaderConfig config;
+    config.triangulate = false;
+    tinyobj::ObjReader reader;
+    if (!reader.ParseFromFile(path, config))
+      throw InputError(path, "", "cannot read OBJ: " + reader.Error());
+    const auto& a = reader.GetAttrib();
+    for (size_t v = 0; v < a.vertices.size() / 3; ++v)
+      out.faces.positions.emplace_back(a.vertices[3 * v], a.vertices[3 * v + 1], a.vertices[3 * v + 2]);
+    for (size_t t = 0; t < a.texcoords.size() / 2; ++t)
+      out.uv.emplace_back(a.texcoords[2 * t], a.texcoords[2 * t + 1]);
+    const bool has_normals = !a.normals.empty();
+    out.num_normals = has_normals ? static_cast<int>(a.normals.size() / 3) : static_cast<int>(out.faces.positions.size());
+    std::vector<int> corners;
+    for (const auto& shape : reader.GetShapes()) {
+      size_t k = 0;
+      for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+        corners.clear();
+        for (int i = 0; i < shape.mesh.num_face_vertices[f]; ++i, ++k) {
+          const auto& idx = shape.mesh.indices[k];
+          corners.push_back(idx.vertex_index);
+          out.corner_uv.push_back(idx.texcoord_index);
+          out.corner_normal.push_back(has_normals && idx.normal_index >= 0 ? idx.normal_index : idx.vertex_index);
+        }
+        out.faces.add_face(corners);
+      }
+    }
+    return out;
+  }
+  if (ext == ".gltf" || ext == ".glb") {
+    const detail::GltfScene scene = detail::read_gltf_scene(path);
+    out.faces = scene.mesh;
+    out.uv = scene.uv;
+    out.num_normals = static_cast<int>(out.faces.positions.size());
+    for (int v : out.faces.face_vertices) {
+      out.corner_uv.push_back(out.uv.empty() ? -1 : v);
+      out.corner_normal.push_back(v);
+    }
+    return out;
+  }
+  out.faces = read_raw_mesh(path);
+  out.num_normals = static_cast<int>(out.faces.positions.size());
+  for (int v : out.faces.face_vertices) {
+    out.corner_uv.push_back(-1);
+    out.corner_normal.push_back(v);
+  }
+  return out;
+}
+
+std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>& positions) {
+  const RawMesh& f = t.faces;
+  // Normals: area-weighted face normals summed into each normal slot.
+  std::vector<Eigen::Vector3d> normals(t.num_normals, Eigen::Vector3d::Zero());
+  for (size_t face = 0; face + 1 < f.face_offsets.size(); ++face) {
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    const int b = f.face_offsets[face], e = f.face_offsets[face + 1];
+    for (int k = b; k < e; ++k)
+      n += positions[f.face_vertices[k]].cross(positions[f.face_vertices[k + 1 < e ? k + 1 : b]]);
+    for (int k = b; k < e; ++k)
+      normals[t.corner_normal[k]] += n;
+  }
+  std::ostringstream out;
+  out << std::setprecision(17);
+  out << "# curvenet: posed on the input's topology\n";
+  for (const auto& p : positions)
+    out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
+  for (const auto& uv : t.uv)
+    out << "vt " << uv.x() << ' ' << uv.y() << '\n';
+  for (auto n : normals) {
+    if (n.norm() > 0)
+      n.normalize();
+    out << "vn " << n.x() << ' ' << n.y() << ' ' << n.z() << '\n';
+  }
+  for (size_t face = 0; face + 1 < f.face_offsets.size(); ++face) {
+    out << 'f';
+    for (int k = f.face_offsets[face]; k < f.face_offsets[face + 1]; ++k) {
+      out << ' ' << f.face_vertices[k] + 1 << '/';
+      if (t.corner_uv[k] >= 0)
+        out << t.corner_uv[k] + 1;
+      out << '/' << t.corner_normal[k] + 1;
+    }
+    out << '\n';
+  }
+  return out.str();
+}
+
+std::string pc2_cache(int points, int frames, float start_frame, const std::vector<float>& data) {
+  std::string out(32 + data.size() * sizeof(float), '\0');
+  char* p = out.data();
+  std::memcpy(p, "POINTCACHE2\0", 12);
+  const int32_t version = 1, n = points, samples = frames;
+  const float rate = 1.0f;
+  std::memcpy(p + 12, &version, 4);
+  std::memcpy(p + 16, &n, 4);
+  std::memcpy(p + 20, &start_frame, 4);
+  std::memcpy(p + 24, &rate, 4);
+  std::memcpy(p + 28, &samples, 4);
+  std::memcpy(p + 32, data.data(), data.size() * sizeof(float));
+  return out;
+}
+
+} // namespace curvenet
