@@ -9,6 +9,7 @@ packages=(
   libtinygltf-dev libtinyobjloader-dev libassimp-dev libembree-dev
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  blender
 )
 
 missing=()

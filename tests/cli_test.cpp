@@ -1,5 +1,6 @@
 // End-to-end: the curvenet command on real data and on bad input.
 
+#include "curvenet/io.hpp"
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -197,6 +198,90 @@ TEST(Cli, StarterRefusesAMeshWithoutASkeleton) {
   EXPECT_NE(r.err.find("outside the mesh"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
   EXPECT_EQ(run("starter --help", dir).code, 0);
+}
+
+TEST(Cli, PoseAndAnimateOnTheInputTopology) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("pose");
+  const std::string hand = test::data("xr_tools_hand/example/hand_l_welded.obj");
+  const std::string rig = test::data("xr_tools_hand/example/hand_l.cnrig.json");
+  // A rigid pose reproduces the example's own linear-blend reference exactly.
+  CliRun r = run("pose " + hand + " " + rig + " " + test::data("xr_tools_hand/example/wrist_rigid.pose.json") + " -o " +
+                     (dir / "wrist.obj").string(),
+                 dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const RawMesh posed = read_raw_mesh((dir / "wrist.obj").string());
+  const RawMesh reference = read_raw_mesh(test::data("xr_tools_hand/example/wrist_rigid_lbs.obj"));
+  ASSERT_EQ(posed.positions.size(), reference.positions.size());
+  EXPECT_EQ(posed.face_vertices, reference.face_vertices);
+  for (size_t i = 0; i < posed.positions.size(); ++i)
+    EXPECT_LT((posed.positions[i] - reference.positions[i]).norm(), 1e-9) << i;
+  // A glTF input keeps its own (unwelded) vertices and its UVs.
+  r = run("pose " + test::data("xr_tools_hand/hand_l.gltf") + " " + rig + " " +
+              test::data("xr_tools_hand/example/fist.pose.json") + " -o " + (dir / "fist.obj").string(),
+          dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream fist(dir / "fist.obj");
+  std::string text((std::istreambuf_iterator<char>(fist)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(read_raw_mesh((dir / "fist.obj").string()).positions.size(), 1764u);
+  EXPECT_NE(text.find("\nvt "), std::string::npos);
+  EXPECT_NE(text.find("\nvn "), std::string::npos);
+  // Bad input: a pose naming a joint the skeleton lacks.
+  write(dir / "bad.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{"NoSuchJoint":{"rotation":[1,0,0,0]}}})");
+  r = run("pose " + hand + " " + rig + " " + (dir / "bad.pose.json").string() + " -o " + (dir / "bad.obj").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("NoSuchJoint"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "bad.obj"));
+  write(dir / "norm.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{"Wrist_L":{"rotation":[1,0.1,0,0]}}})");
+  r = run("pose " + hand + " " + rig + " " + (dir / "norm.pose.json").string() + " -o " + (dir / "bad.obj").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("/joints/Wrist_L/rotation"), std::string::npos) << r.err;
+}
+
+TEST(Cli, BlenderReadsThePointCache) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  ASSERT_EQ(std::system("command -v blender >/dev/null"), 0) << "blender is missing: scripts/install-deps.sh installs it";
+  const auto dir = test::temp_dir("blender");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
+  ASSERT_EQ(run("starter " + gltf + " --rings-per-bone 2 -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
+  write(dir / "rest.pose.json", R"({"format":"curvenet-pose","version":1})");
+  ASSERT_EQ(run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + (dir / "rest.pose.json").string() + " -o " +
+                    (dir / "rest.obj").string(),
+                dir)
+                .code,
+            0);
+  const std::string common = "animate " + (dir / "rest.obj").string() + " " + (dir / "rs.cnrig.json").string() + " " + gltf +
+                             " --fps 24 --frames 10:14 ";
+  ASSERT_EQ(run(common + "-o " + (dir / "anim.pc2").string(), dir).code, 0);
+  ASSERT_EQ(run(common + "--obj-sequence " + (dir / "seq").string(), dir).code, 0);
+  // The frames really differ, so the frame mapping is tested too.
+  const RawMesh f10 = read_raw_mesh((dir / "seq" / "frame_0010.obj").string());
+  const RawMesh f14 = read_raw_mesh((dir / "seq" / "frame_0014.obj").string());
+  double moved = 0;
+  for (size_t i = 0; i < f10.positions.size(); ++i)
+    moved = std::max(moved, (f10.positions[i] - f14.positions[i]).norm());
+  EXPECT_GT(moved, 1e-3);
+  const std::string cmd = "blender -b --factory-startup --python " + std::string(CURVENET_SOURCE_DIR) +
+                          "/tests/blender/check_mesh_cache.py -- " + (dir / "rest.obj").string() + " " +
+                          (dir / "anim.pc2").string() + " " + (dir / "seq").string() + " 10 14 > " +
+                          (dir / "blender.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream log(dir / "blender.txt");
+  std::string line, result;
+  while (std::getline(log, line))
+    if (line.rfind("CURVENET_CHECK", 0) == 0)
+      result = line;
+  ASSERT_FALSE(result.empty()) << "the Blender script printed no result";
+  std::istringstream fields(result);
+  std::string tag, k1, k2, k3;
+  double err = 1, scale = 0;
+  int frames = 0;
+  fields >> tag >> k1 >> err >> k2 >> scale >> k3 >> frames;
+  std::printf("Blender Mesh Cache: largest difference %.3g (coordinates up to %.3g) over %d frames\n", err, scale, frames);
+  EXPECT_EQ(frames, 5);
+  EXPECT_LT(err, 1e-6 * scale);
 }
 
 TEST(Cli, DemoRunsOnGeneratedData) {

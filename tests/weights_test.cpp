@@ -52,8 +52,9 @@ TEST(Weights, BlendZoneKeepsMidBoneRigidAndMeetsHalfWayAtJoints) {
   EXPECT_LT(before, 0.5);
   EXPECT_GT(after, 0.5);
   EXPECT_LT(after, 1.0);
-  // The last bone ends at a tip joint that drives nothing: no blend there.
-  EXPECT_NEAR(weight_of(auto_weights(joints, {2.99, 0, 0}), 2), 1.0, 1e-12);
+  // Past the last joint, points follow it.
+  EXPECT_NEAR(weight_of(auto_weights(joints, {3.0, 0.2, 0}), 3), 0.5, 1e-12);
+  EXPECT_NEAR(weight_of(auto_weights(joints, {3.5, 0.1, 0}), 3), 1.0, 1e-12);
 }
 
 TEST(Weights, AlwaysNormalisedAndNonNegative) {

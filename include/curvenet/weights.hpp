@@ -18,7 +18,8 @@ enum class WeightRule {
   Segment,
   /// The nearest bone follows its parent joint rigidly, except in a zone
   /// around each joint where it blends smoothly toward the neighbouring
-  /// bone's joint, reaching 1/2 and 1/2 at the joint itself.
+  /// bone's joint, reaching 1/2 and 1/2 at the joint itself. Past a joint
+  /// with no child bone, points follow that joint.
   BlendZone,
 };
 const char* to_string(WeightRule rule);

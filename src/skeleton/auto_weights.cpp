@@ -23,18 +23,20 @@ std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joint
   auto origin = [&](int j) -> Eigen::Vector3d { return joints[j].bind.block<3, 1>(0, 3); };
   // The nearest bone (parent[c] -> c), or the nearest lone joint.
   int best_c = -1;
-  double best_d = std::numeric_limits<double>::infinity(), best_t = 0;
+  double best_d = std::numeric_limits<double>::infinity(), best_t = 0, best_raw = 0;
   for (int c = 0; c < n; ++c) {
     if (parent[c] < 0)
       continue;
     const Eigen::Vector3d a = origin(parent[c]), b = origin(c);
     const double len2 = (b - a).squaredNorm();
-    const double t = len2 > 0 ? std::clamp((p - a).dot(b - a) / len2, 0.0, 1.0) : 0.0;
+    const double raw = len2 > 0 ? (p - a).dot(b - a) / len2 : 0.0;
+    const double t = std::clamp(raw, 0.0, 1.0);
     const double d = (a + t * (b - a) - p).norm();
     if (d < best_d) {
       best_d = d;
       best_c = c;
       best_t = t;
+      best_raw = raw;
     }
   }
   std::map<int, double> w;
@@ -55,12 +57,16 @@ std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joint
       x = std::clamp(x, 0.0, 1.0);
       return x * x * (3 - 2 * x);
     };
-    const double to_end = (1 - best_t) * len, from_start = best_t * len;
+    // Signed distance to the child joint along the bone: negative past it,
+    // where a joint with no child bone drives what lies beyond it.
+    const double to_end = (1 - best_raw) * len, from_start = best_t * len;
     double w_child = 0, w_grand = 0;
-    if (children[best_c] > 0 && to_end < zone)
-      w_child = 0.5 * ramp(1 - to_end / zone); // the child drives the next bone
+    if (to_end < zone)
+      w_child = to_end >= 0 ? 0.5 * ramp(1 - to_end / zone) : 0.5 + 0.5 * ramp(-to_end / zone);
     if (parent[pj] >= 0 && from_start < zone)
       w_grand = 0.5 * ramp(1 - from_start / zone); // the previous bone's joint
+    if (w_child + w_grand > 1)
+      w_grand = 1 - w_child;
     w[pj] += 1 - w_child - w_grand;
     if (w_child > 0)
       w[best_c] += w_child;

@@ -285,7 +285,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   std::vector<int> kept;
   for (int i : order) {
     Ring& r = rings[i];
-    if (r.perimeter < 0.5 * N * h) {
+    if (static_cast<int>(r.loop.size()) < N) {
       say("ring '" + r.id + "' dropped: too small for " + std::to_string(N) + " nodes at this mesh resolution");
       continue;
     }
