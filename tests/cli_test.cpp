@@ -293,4 +293,7 @@ TEST(Cli, DemoRunsOnGeneratedData) {
   EXPECT_TRUE(fs::exists(dir / "out" / "tube_quads.regions.ply"));
   EXPECT_NE(r.out.find("embeds on 2/2 tessellations"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(dir / "out" / "tube_starter.cnrig.json"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "tube_tris.bend.pc2"));
+  EXPECT_EQ(fs::file_size(dir / "out" / "tube_tris.bend.pc2"),
+            32u + 24u * 3u * sizeof(float) * read_raw_mesh((dir / "out" / "tube_tris.obj").string()).positions.size());
 }
