@@ -201,6 +201,32 @@ TEST(Deform, TubeBendsTheSameOnTwoTessellations) {
   EXPECT_LT((tips[0] - tips[1]).norm(), 0.05);
 }
 
+TEST(Deform, BindingCacheRoundTrips) {
+  const SurfaceMesh m = tube(20, 12, 4, true);
+  const auto dir = test::temp_dir("cache");
+  const std::string path = (dir / "tube.cnbind").string();
+  Pose pose;
+  pose["mid"] = rotation(50, {0, 0, 1});
+  bool reused = true;
+  const Binding first = bind_cached(m, make_tube_net(), {}, path, &reused);
+  EXPECT_FALSE(reused);
+  const Binding second = bind_cached(m, make_tube_net(), {}, path, &reused);
+  EXPECT_TRUE(reused);
+  EXPECT_FALSE(second.has_embedding());
+  const auto a = deform(first, pose), b = deform(second, pose);
+  for (size_t i = 0; i < a.size(); ++i)
+    ASSERT_EQ(a[i], b[i]);
+  // Another rig, or other options, do not reuse it.
+  TubeNetSpec other;
+  other.first_angle_deg = 10;
+  bind_cached(m, make_tube_net(other), {}, path, &reused);
+  EXPECT_FALSE(reused);
+  BindOptions horn;
+  horn.rigid = RigidMode::Horn;
+  bind_cached(m, make_tube_net(other), horn, path, &reused);
+  EXPECT_FALSE(reused);
+}
+
 TEST(Deform, HandClipsFollowTheSkeleton) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

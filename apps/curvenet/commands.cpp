@@ -145,6 +145,14 @@ Rig rig_for(const DeformArgs& a) {
   return rig;
 }
 
+BindOptions bind_options(const DeformArgs& a);
+
+Binding bind_for(const SurfaceMesh& mesh, const Rig& rig, const DeformArgs& a) {
+  if (a.binding_cache.empty())
+    return bind(mesh, rig, bind_options(a));
+  return bind_cached(mesh, rig, bind_options(a), a.binding_cache);
+}
+
 BindOptions bind_options(const DeformArgs& a) {
   BindOptions o;
   o.laplacian = a.laplacian == "uniform" ? LaplacianChoice::Uniform : LaplacianChoice::IntrinsicDelaunay;
@@ -172,7 +180,7 @@ void print_bind(std::ostream& out, const Binding& b) {
 int run_bind(const BindArgs& a) {
   const SurfaceMesh mesh = load_mesh(a.mesh);
   const Rig rig = rig_for(a);
-  const Binding b = bind(mesh, rig, bind_options(a));
+  const Binding b = bind_for(mesh, rig, a);
   Rig out = rig;
   out.weights = b.node_weights();
   write_rig(out, a.out);
@@ -187,7 +195,7 @@ int run_pose(const PoseArgs& a) {
   const InputTopology topo = read_input_topology(a.mesh);
   const Rig rig = rig_for(a);
   const Pose pose = read_pose(a.pose);
-  const Binding b = bind(mesh, rig, bind_options(a));
+  const Binding b = bind_for(mesh, rig, a);
   const auto M = skinning_matrices(b.joints(), pose, a.pose);
   std::vector<Vec3> out(b.num_input_vertices());
   b.deform(M, out);
@@ -230,7 +238,7 @@ int run_animate(const AnimateArgs& a) {
     matched += rig_joints.count(j.name) > 0;
   if (matched == 0)
     throw InputError(a.clip_file, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
-  const Binding b = bind(mesh, rig, bind_options(a));
+  const Binding b = bind_for(mesh, rig, a);
   const int frames = last - first + 1, nv = b.num_input_vertices();
   auto frame_positions = [&](int f, std::vector<Vec3>& out) {
     Pose pose;

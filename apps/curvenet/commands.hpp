@@ -21,7 +21,7 @@ struct StarterArgs {
 int run_starter(const StarterArgs& args);
 
 struct DeformArgs {
-  std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex";
+  std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex", binding_cache;
 };
 
 struct BindArgs : DeformArgs {

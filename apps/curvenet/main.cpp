@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
     cmd->add_option("--laplacian", a.laplacian, "Laplacian of the cut mesh")
         ->capture_default_str()
         ->check(CLI::IsMember({"intrinsic", "uniform"}));
+    cmd->add_option("--binding-cache", a.binding_cache,
+                    "Reuse the binding stored in this file when it was made for the same mesh, rig and options; "
+                    "otherwise bind and store it there");
     cmd->add_option("--rigid", a.rigid, "How each vertex's detail follows the joints")
         ->capture_default_str()
         ->check(CLI::IsMember({"per-vertex", "horn"}));

@@ -63,6 +63,8 @@ public:
   /// The joints, in mesh space (the rig's bind matrices through its frame).
   [[nodiscard]] const std::vector<Joint>& joints() const;
   [[nodiscard]] const BindReport& report() const;
+  /// The embedding it was made from. A binding read from a cache file has none.
+  [[nodiscard]] bool has_embedding() const;
   [[nodiscard]] const Embedding& embedding() const;
   /// Node weights after completion (given, or automatic), by node id.
   [[nodiscard]] const std::map<std::string, std::map<std::string, double>>& node_weights() const;
@@ -74,6 +76,9 @@ public:
   /// \pre skinning.size() == joints().size(), out.size() == num_input_vertices().
   void deform(std::span<const Mat4> skinning, std::span<Eigen::Vector3d> out) const;
 
+  /// Writes the binding to a cache file (atomically).
+  void save(const std::string& path) const;
+
 private:
   std::shared_ptr<const Impl> impl_;
 };
@@ -82,6 +87,12 @@ private:
 /// \throw EmbedError when the rig does not embed with ok.
 /// \throw InputError when the rig has no skeleton, or its weights name joints it lacks.
 Binding bind(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options = {});
+
+/// A binding from a cache file, if the file was written for this mesh, rig
+/// and options; otherwise bind() anew and write the cache. `reused` says
+/// which happened.
+Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options, const std::string& cache_path,
+                    bool* reused = nullptr);
 
 /// The rig with every node's weights filled in (automatic weights where the
 /// rig gives none), normalised.

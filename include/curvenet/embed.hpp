@@ -81,6 +81,7 @@ public:
   /// Region index of each cut-mesh face: -1 outside a local net.
   [[nodiscard]] const std::vector<int>& face_regions() const;
   [[nodiscard]] const Impl& impl() const { return *impl_; }
+  [[nodiscard]] bool has_impl() const { return impl_ != nullptr; }
 
 private:
   std::shared_ptr<const Impl> impl_;

@@ -7,6 +7,7 @@
 #include "bind/laplacian.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/pose.hpp"
+#include "curvenet/io.hpp"
 #include "embed/embedding_impl.hpp"
 
 #include <Eigen/SVD>
@@ -16,13 +17,17 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <cstring>
+#include <fstream>
 #include <numeric>
+#include <sstream>
 
 namespace curvenet {
 
 using namespace detail;
 
 struct Binding::Impl {
+  std::uint64_t fingerprint = 0; ///< of the mesh, rig and options it was made from
   std::vector<Joint> joints; ///< mesh space
   BindReport report;
   Embedding embedding{nullptr};
@@ -45,7 +50,12 @@ struct Binding::Impl {
 Binding::Binding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
 const std::vector<Joint>& Binding::joints() const { return impl_->joints; }
 const BindReport& Binding::report() const { return impl_->report; }
-const Embedding& Binding::embedding() const { return impl_->embedding; }
+bool Binding::has_embedding() const { return impl_->embedding.has_impl(); }
+const Embedding& Binding::embedding() const {
+  if (!has_embedding())
+    throw Error("this binding was read from a cache file and has no embedding");
+  return impl_->embedding;
+}
 const std::map<std::string, std::map<std::string, double>>& Binding::node_weights() const { return impl_->node_weights; }
 int Binding::num_input_vertices() const { return static_cast<int>(impl_->input_to_welded.size()); }
 
@@ -74,8 +84,122 @@ Rig complete_weights(const Rig& rig, const AutoWeightOptions& options) {
   return out;
 }
 
+namespace {
+
+/// FNV-1a over the mesh, the rig as written, and the options.
+std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt) {
+  std::uint64_t h = 1469598103934665603ULL;
+  auto eat = [&](const void* data, size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i)
+      h = (h ^ p[i]) * 1099511628211ULL;
+  };
+  for (const auto& p : mesh.positions)
+    eat(p.data(), 3 * sizeof(double));
+  eat(mesh.face_offsets.data(), mesh.face_offsets.size() * sizeof(int));
+  eat(mesh.face_vertices.data(), mesh.face_vertices.size() * sizeof(int));
+  eat(mesh.input_to_welded.data(), mesh.input_to_welded.size() * sizeof(int));
+  const std::string text = rig_to_json(rig);
+  eat(text.data(), text.size());
+  const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid), static_cast<int>(opt.weights.rule)};
+  eat(options, sizeof(options));
+  const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
+  eat(numbers, sizeof(numbers));
+  return h;
+}
+
+constexpr char kMagic[8] = {'C', 'N', 'B', 'I', 'N', 'D', '0', '1'};
+
+template <class T>
+void put(std::string& out, const std::vector<T>& v) {
+  const std::uint64_t n = v.size();
+  out.append(reinterpret_cast<const char*>(&n), sizeof(n));
+  out.append(reinterpret_cast<const char*>(v.data()), n * sizeof(T));
+}
+
+template <class T>
+bool get(std::istream& in, std::vector<T>& v) {
+  std::uint64_t n = 0;
+  if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n > (1ULL << 34) / sizeof(T))
+    return false;
+  v.resize(n);
+  return static_cast<bool>(in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T))));
+}
+
+} // namespace
+
+void Binding::save(const std::string& path) const {
+  const Impl& b = *impl_;
+  std::string out(kMagic, sizeof(kMagic));
+  out.append(reinterpret_cast<const char*>(&b.fingerprint), sizeof(b.fingerprint));
+  const int mode = static_cast<int>(b.mode);
+  out.append(reinterpret_cast<const char*>(&mode), sizeof(mode));
+  out.append(reinterpret_cast<const char*>(&b.horn_tolerance), sizeof(double));
+  std::vector<double> binds;
+  for (const auto& j : b.joints)
+    for (int k = 0; k < 16; ++k)
+      binds.push_back(j.bind(k / 4, k % 4));
+  put(out, binds);
+  put(out, b.input_to_welded);
+  put(out, b.offset);
+  put(out, b.joint);
+  put(out, b.s);
+  put(out, b.Y);
+  put(out, b.delta);
+  put(out, b.c_rest);
+  put(out, b.c_offset);
+  put(out, b.c_joint);
+  put(out, b.c_weight);
+  write_file_atomic(path, out);
+}
+
+Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt, const std::string& path, bool* reused) {
+  const std::uint64_t fp = fingerprint(mesh, rig, opt);
+  std::ifstream in(path, std::ios::binary);
+  if (in) {
+    char magic[sizeof(kMagic)];
+    std::uint64_t file_fp = 0;
+    auto impl = std::make_shared<Binding::Impl>();
+    int mode = 0;
+    std::vector<double> binds;
+    bool ok = in.read(magic, sizeof(magic)) && std::memcmp(magic, kMagic, sizeof(kMagic)) == 0 &&
+              in.read(reinterpret_cast<char*>(&file_fp), sizeof(file_fp)) && file_fp == fp &&
+              in.read(reinterpret_cast<char*>(&mode), sizeof(mode)) &&
+              in.read(reinterpret_cast<char*>(&impl->horn_tolerance), sizeof(double)) && get(in, binds) &&
+              get(in, impl->input_to_welded) && get(in, impl->offset) && get(in, impl->joint) && get(in, impl->s) &&
+              get(in, impl->Y) && get(in, impl->delta) && get(in, impl->c_rest) && get(in, impl->c_offset) &&
+              get(in, impl->c_joint) && get(in, impl->c_weight);
+    ok = ok && binds.size() == 16 * rig.joints.size() && impl->input_to_welded == mesh.input_to_welded &&
+         impl->offset.size() == static_cast<size_t>(mesh.num_vertices()) + 1;
+    if (ok) {
+      impl->fingerprint = fp;
+      impl->mode = static_cast<RigidMode>(mode);
+      for (size_t j = 0; j < rig.joints.size(); ++j) {
+        Joint jt = rig.joints[j];
+        for (int k = 0; k < 16; ++k)
+          jt.bind(k / 4, k % 4) = binds[16 * j + k];
+        impl->joints.push_back(jt);
+      }
+      impl->report.vertices = mesh.num_vertices();
+      impl->report.influences = static_cast<int>(impl->joint.size());
+      impl->report.mean_influences = mesh.num_vertices() > 0 ? static_cast<double>(impl->joint.size()) / mesh.num_vertices() : 0;
+      impl->report.notes.push_back("read from the binding cache " + path);
+      impl->node_weights = complete_weights(rig, opt.weights).weights;
+      if (reused)
+        *reused = true;
+      return Binding(impl);
+    }
+  }
+  Binding b = bind(mesh, rig, opt);
+  b.save(path);
+  if (reused)
+    *reused = false;
+  return b;
+}
+
 Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& opt) {
   auto impl = std::make_shared<Binding::Impl>();
+  impl->fingerprint = fingerprint(mesh, input_rig, opt);
   BindReport& rep = impl->report;
   auto t0 = std::chrono::steady_clock::now();
   auto lap = [&](const char* stage) {
