@@ -3,11 +3,13 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
+#include "curvenet/transfer.hpp"
 #include "generate/tube.hpp"
 
 #include <algorithm>
@@ -280,6 +282,90 @@ int run_animate(const AnimateArgs& a) {
   return 0;
 }
 
+namespace {
+Mat4 parse_matrix(const std::string& text, const char* option) {
+  std::string t = text;
+  std::replace(t.begin(), t.end(), ',', ' ');
+  std::istringstream in(t);
+  std::vector<double> v;
+  double x = 0;
+  while (in >> x)
+    v.push_back(x);
+  if (v.size() != 16 || !in.eof())
+    throw InputError(option, text, "expected 16 numbers (a 4x4 matrix, row by row)");
+  Mat4 m;
+  for (int k = 0; k < 16; ++k)
+    m(k / 4, k % 4) = v[k];
+  if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1)
+    throw InputError(option, text, "the last row of the matrix must be 0 0 0 1");
+  return m;
+}
+} // namespace
+
+int run_transfer(const TransferArgs& a) {
+  const Rig rig = read_rig(a.rig);
+  const SurfaceMesh source = load_mesh(a.from), target = load_mesh(a.to);
+  TransferOptions opt;
+  if (!a.source_frame.empty())
+    opt.source_frame = parse_matrix(a.source_frame, "--source-frame");
+  if (!a.target_frame.empty())
+    opt.target_frame = parse_matrix(a.target_frame, "--target-frame");
+  const TransferResult r = transfer(rig, source, target, opt);
+  const TransferReport& rep = r.report;
+  if (!a.report.empty())
+    write_file_atomic(a.report, transfer_report_json(rep));
+  if (rep.ok)
+    write_rig(r.rig, a.out);
+  std::cout << "Curvenet transfer: " << (rep.ok ? "SUCCESS" : "FAILED") << "\n";
+  std::cout << "source: " << std::filesystem::path(a.from).filename().string() << " (" << source.num_faces() << " faces), "
+            << rep.source.regions << " regions\n";
+  std::cout << "target: " << std::filesystem::path(a.to).filename().string() << " (" << target.num_faces() << " faces), "
+            << rep.target.regions << " regions, expected "
+            << (rep.target.expected_regions ? std::to_string(*rep.target.expected_regions) : "not determined") << "\n";
+  std::cout << "logical nodes: " << rep.target.logical_nodes << "\nprofiles: " << rep.target.profiles << "\n";
+  std::cout << "unmapped faces: " << rep.target.unmapped_faces << "\n";
+  std::cout << std::fixed << std::setprecision(2) << "region agreement: " << 100 * rep.agreement << "% of the area\n";
+  const RegionAgreement* worst = nullptr;
+  for (const auto& g : rep.regions)
+    if (!worst || g.agree < worst->agree)
+      worst = &g;
+  if (worst)
+    std::cout << "least agreeing region: " << 100 * worst->agree << "% (" << worst->key << ")\n";
+  std::cout << "largest node move onto the target: " << rep.max_node_offset << "% of the diagonal\n"
+            << std::defaultfloat << std::setprecision(6);
+  for (const auto& p : rep.problems)
+    std::cout << "problem: " << p << "\n";
+  if (rep.ok)
+    std::cout << "rig: " << a.out << "\n";
+  return rep.ok ? 0 : 1;
+}
+
+int run_compare(const CompareArgs& a) {
+  const SurfaceMesh ma = load_mesh(a.a), mb = load_mesh(a.b);
+  const SurfaceDistance d = surface_distance(ma, mb);
+  std::ostringstream out;
+  out << std::setprecision(6);
+  if (a.json) {
+    auto one = [&](const char* key, const OneWayDistance& o) {
+      out << "  \"" << key << "\": {\"mean\": " << o.mean << ", \"rms\": " << o.rms << ", \"max\": " << o.max << "},\n";
+    };
+    out << "{\n";
+    one("a_to_b", d.a_to_b);
+    one("b_to_a", d.b_to_a);
+    out << "  \"mean\": " << d.mean << ", \"rms\": " << d.rms << ", \"max\": " << d.max << ",\n";
+    out << "  \"diagonal\": " << d.diagonal << ",\n";
+    out << "  \"mean_percent\": " << d.percent(d.mean) << ", \"rms_percent\": " << d.percent(d.rms)
+        << ", \"max_percent\": " << d.percent(d.max) << "\n}\n";
+  } else {
+    out << "A: " << a.a << " (diagonal " << d.diagonal << ")\nB: " << a.b << "\n";
+    out << "mean: " << d.mean << " (" << d.percent(d.mean) << "% of A's diagonal)\n";
+    out << "rms: " << d.rms << " (" << d.percent(d.rms) << "%)\n";
+    out << "max: " << d.max << " (" << d.percent(d.max) << "%, Hausdorff)\n";
+  }
+  std::cout << out.str();
+  return 0;
+}
+
 int run_starter(const StarterArgs& a) {
   const SurfaceMesh mesh = load_mesh(a.mesh);
   std::vector<Joint> joints;
@@ -304,6 +390,7 @@ int run_starter(const StarterArgs& a) {
   StarterOptions opt;
   opt.nodes_per_ring = a.nodes_per_ring;
   opt.rings_per_bone = a.rings_per_bone;
+  opt.first_angle_deg = a.first_angle;
   opt.coverage = a.coverage == "local" ? Coverage::Local : Coverage::Full;
   opt.message = [](const std::string& m) { std::cout << "note: " << m << "\n"; };
   const StarterResult r = make_starter(mesh, joints, opt);

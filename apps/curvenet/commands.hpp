@@ -17,6 +17,7 @@ struct StarterArgs {
   std::string mesh, skeleton, out, coverage = "full";
   int nodes_per_ring = 4;
   int rings_per_bone = 1;
+  double first_angle = 0;
 };
 int run_starter(const StarterArgs& args);
 
@@ -39,6 +40,17 @@ struct AnimateArgs : DeformArgs {
   double fps = 24;
 };
 int run_animate(const AnimateArgs& args);
+
+struct TransferArgs {
+  std::string rig, from, to, out, report, source_frame, target_frame;
+};
+int run_transfer(const TransferArgs& args);
+
+struct CompareArgs {
+  std::string a, b;
+  bool json = false;
+};
+int run_compare(const CompareArgs& args);
 
 struct DemoArgs {
   std::string out = "out/demo";

@@ -43,6 +43,9 @@ int main(int argc, char** argv) {
   starter->add_option("--rings-per-bone", starter_args.rings_per_bone, "Rings per bone (one at its end joint)")
       ->capture_default_str()
       ->check(CLI::Range(1, 16));
+  starter->add_option("--first-angle", starter_args.first_angle,
+                      "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")
+      ->capture_default_str();
   starter->add_option("--coverage", starter_args.coverage, "Coverage of the net")
       ->capture_default_str()
       ->check(CLI::IsMember({"full", "local"}));
@@ -83,6 +86,24 @@ int main(int argc, char** argv) {
   auto* seq_opt = animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
   out_opt->excludes(seq_opt);
 
+  curvenet::cli::TransferArgs transfer_args;
+  auto* transfer = app.add_subcommand("transfer", "Transfer a rig to another mesh of the same character, by logical ids only");
+  transfer->add_option("RIG", transfer_args.rig, "Rig authored on the source mesh")->required();
+  transfer->add_option("--from", transfer_args.from, "Source mesh")->required();
+  transfer->add_option("--to", transfer_args.to, "Target mesh")->required();
+  transfer->add_option("-o,--output", transfer_args.out, "Rig file to write for the target")->required();
+  transfer->add_option("--report", transfer_args.report, "Write the transfer report as JSON");
+  transfer->add_option("--source-frame", transfer_args.source_frame,
+                       "4x4 matrix (16 numbers, row by row) from the source mesh's space to the world");
+  transfer->add_option("--target-frame", transfer_args.target_frame,
+                       "4x4 matrix (16 numbers, row by row) from the target mesh's space to the world");
+
+  curvenet::cli::CompareArgs compare_args;
+  auto* compare = app.add_subcommand("compare", "Symmetric surface distance between two meshes (mean, RMS, max), point to surface");
+  compare->add_option("A", compare_args.a, "First mesh (percentages are of its bounding-box diagonal)")->required();
+  compare->add_option("B", compare_args.b, "Second mesh")->required();
+  compare->add_flag("--json", compare_args.json, "Print JSON instead of text");
+
   curvenet::cli::DemoArgs demo_args;
   auto* demo =
       app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
@@ -105,6 +126,10 @@ int main(int argc, char** argv) {
         throw curvenet::Error("animate: give -o OUT.pc2 or --obj-sequence DIR");
       return curvenet::cli::run_animate(anim_args);
     }
+    if (*transfer)
+      return curvenet::cli::run_transfer(transfer_args);
+    if (*compare)
+      return curvenet::cli::run_compare(compare_args);
     if (*starter)
       return curvenet::cli::run_starter(starter_args);
     if (*demo)

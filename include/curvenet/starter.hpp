@@ -20,6 +20,9 @@ struct StarterOptions {
   /// more spread along the bone.
   int rings_per_bone = 1;
   Coverage coverage = Coverage::Full;
+  /// Angle of node 0 from the chain's reference direction (its root joint's
+  /// local X axis), about the bone, in degrees.
+  double first_angle_deg = 0;
   AutoWeightOptions weights;
   /// Rings closer than this (as a fraction of the bounding-box diagonal, and
   /// at least half a mean edge length) are too close: the larger is dropped.

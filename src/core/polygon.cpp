@@ -20,6 +20,17 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vec
   std::vector<Eigen::Vector2d> p2(n);
   for (int i = 0; i < n; ++i)
     p2[i] = {corners[i].dot(u), corners[i].dot(w)};
+  if (n == 4) {
+    // A quad: the shorter diagonal, when both splits are valid in the plane
+    // (the common "beauty" choice, and what most exporters do).
+    const bool split02 = orient2d(p2[0], p2[1], p2[2]) > 0 && orient2d(p2[0], p2[2], p2[3]) > 0;
+    const bool split13 = orient2d(p2[1], p2[2], p2[3]) > 0 && orient2d(p2[1], p2[3], p2[0]) > 0;
+    const bool shorter02 = (corners[0] - corners[2]).squaredNorm() <= (corners[1] - corners[3]).squaredNorm();
+    if (split02 && (!split13 || shorter02))
+      return {{0, 1, 2}, {0, 2, 3}};
+    if (split13)
+      return {{1, 2, 3}, {1, 3, 0}};
+  }
   std::vector<int> ring(n);
   for (int i = 0; i < n; ++i)
     ring[i] = i;

@@ -327,7 +327,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     const Vec3 side = r.axis.cross(ref);
     std::vector<double> pos;
     for (int k = 0; k < N; ++k) {
-      const double ang = 2 * std::numbers::pi * k / N;
+      const double ang = 2 * std::numbers::pi * k / N + opt.first_angle_deg * std::numbers::pi / 180;
       const Vec3 dir = std::cos(ang) * ref + std::sin(ang) * side;
       const Vec3 perp = r.axis.cross(dir);
       // Nearest crossing of the ray from the centre with the loop.

@@ -226,7 +226,7 @@ std::vector<int> TraceMesh::faces_of(const SurfacePoint& p) const {
   return out;
 }
 
-SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
+TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
   QueryData data{this, q};
   data.slack = bvh_->slack;
   RTCPointQuery query;
@@ -240,18 +240,23 @@ SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
   rtcPointQuery(bvh_->scene, &query, &context, nullptr, &data);
   if (data.tri < 0)
     throw EmbedError("closest point: the surface has no triangle");
+  return {data.tri, data.hit.point, data.hit.bary};
+}
+
+SurfacePoint TraceMesh::closest_point(const Vec3& q) const {
+  const Nearest data = nearest(q);
   const int t = data.tri;
   const auto& c = tri_[t];
   // Classify: within Tolerances::crossing_min_param (relative) of a corner
   // or of an input edge, the point is on it.
-  const auto& l = data.hit.bary;
+  const auto& l = data.bary;
   const double d = Tolerances::crossing_min_param;
   for (int k = 0; k < 3; ++k)
     if (l[k] > 1 - d)
       return vertex_point(c[k]);
   SurfacePoint sp;
   sp.tri = t;
-  sp.pos = data.hit.point;
+  sp.pos = data.point;
   for (int k = 0; k < 3; ++k) {
     const int e = side_edge_[t][k];
     if (e < 0 || !(l[(k + 2) % 3] < d))

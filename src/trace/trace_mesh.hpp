@@ -70,6 +70,15 @@ public:
   /// closest-point region (a vertex, an edge, or the inside of a triangle).
   [[nodiscard]] SurfacePoint closest_point(const Vec3& q) const;
 
+  /// The exact closest point of the surface to q, without any snapping.
+  struct Nearest {
+    int tri = -1;
+    Vec3 point = Vec3::Zero();
+    std::array<double, 3> bary{};
+    [[nodiscard]] double distance(const Vec3& q) const { return (point - q).norm(); }
+  };
+  [[nodiscard]] Nearest nearest(const Vec3& q) const;
+
 private:
   const SurfaceMesh& mesh_;
   std::vector<std::array<int, 2>> edge_ends_;

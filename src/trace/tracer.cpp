@@ -4,6 +4,7 @@
 #include "curvenet/errors.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <sstream>
 #include <unordered_map>
@@ -406,13 +407,35 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   out.samples = n;
   out.points.push_back({in.from, in.from_node, 0});
   Walker walker(mesh, in, mean_edge, tol, out);
+  // Walks from a to b; when that fails (around a thin part, the samples'
+  // closest points can land on opposite sides), the segment is halved at its
+  // projected midpoint, up to four times.
+  std::function<void(const SurfacePoint&, const Vec3&, const SurfacePoint&, const Vec3&, int, int)> segment =
+      [&](const SurfacePoint& a, const Vec3& ra, const SurfacePoint& b, const Vec3& rb, int sample, int depth) {
+        const size_t mark = out.points.size();
+        try {
+          walker.walk(a, b, sample);
+        } catch (const EmbedError&) {
+          if (depth >= 4)
+            throw;
+          out.points.resize(mark);
+          const Vec3 rm = (ra + rb) / 2;
+          const SurfacePoint m = mesh.closest_point(rm);
+          segment(a, ra, m, rm, sample, depth + 1);
+          walker.emit(m, sample);
+          segment(m, rm, b, rb, sample, depth + 1);
+        }
+      };
   SurfacePoint prev = in.from;
+  Vec3 prev_raw = in.from.pos;
   for (int i = 1; i < n; ++i) {
-    const SurfacePoint cur = (i == n - 1) ? in.to : mesh.closest_point(in.samples[i]);
-    walker.walk(prev, cur, i);
+    const Vec3 raw = (i == n - 1) ? in.to.pos : in.samples[i];
+    const SurfacePoint cur = (i == n - 1) ? in.to : mesh.closest_point(raw);
+    segment(prev, prev_raw, cur, raw, i, 0);
     if (i < n - 1)
       walker.emit(cur, i);
     prev = cur;
+    prev_raw = raw;
   }
   // A path that comes back to a vertex it already passed made an excursion
   // shorter than a face or two around it (rounding near a vertex): drop the

@@ -1,0 +1,57 @@
+#pragma once
+/// \file transfer.hpp
+/// Transfer a rig to another mesh of the same character: keyed by logical
+/// ids only, no vertex, edge or face index crosses from one mesh to the other.
+
+#include "curvenet/embed.hpp"
+#include "curvenet/rig.hpp"
+#include "curvenet/surface_mesh.hpp"
+
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+struct TransferOptions {
+  /// Maps the source mesh's space to a common world, and the target's too.
+  /// The rig's coordinates reach the target through
+  /// target_frame^-1 * source_frame * rig.frame.
+  Mat4 source_frame = Mat4::Identity();
+  Mat4 target_frame = Mat4::Identity();
+  /// A node or profile point farther than this fraction of the target's
+  /// bounding-box diagonal from the target surface is refused.
+  double max_offset = 0.05;
+  EmbedOptions embed;
+};
+
+struct RegionAgreement {
+  std::string key; ///< the region's identity: its (profile, side) pairs
+  double area = 0; ///< on the target
+  double agree = 0; ///< fraction of that area whose source region has the same identity
+};
+
+struct TransferReport {
+  EmbedReport source, target;
+  std::vector<RegionAgreement> regions;
+  double agreement = 0;   ///< over the whole target area
+  double max_node_offset = 0; ///< largest distance a node moved onto the target, as % of its diagonal
+  bool ok = false;        ///< the target embedding is ok with the same logical counts
+  std::vector<std::string> problems;
+};
+
+struct TransferResult {
+  Rig rig; ///< in the target's space (frame = identity), same ids, skeleton and weights
+  TransferReport report;
+};
+
+/// \throw EmbedError when the rig does not embed on the source, or a node or
+///   profile cannot be placed on the target (it lies too far off the surface,
+///   or its projection jumps to another part of the surface); the message
+///   names it and says why.
+TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target,
+                        const TransferOptions& options = {});
+
+/// The transfer report as JSON text.
+std::string transfer_report_json(const TransferReport& report);
+
+} // namespace curvenet

@@ -1,0 +1,217 @@
+// Transfer (docs/transfer.md): map the rig through the frames, project it
+// onto the target, embed it there, and check that regions of the same
+// identity cover the same surface.
+
+#include "curvenet/transfer.hpp"
+
+#include "core/polygon.hpp"
+#include "curvenet/errors.hpp"
+#include "embed/embedding_impl.hpp"
+#include "trace/trace_mesh.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <map>
+#include <sstream>
+
+namespace curvenet {
+
+using namespace detail;
+
+namespace {
+
+Vec3 apply(const Mat4& m, const Vec3& p) { return (m * p.homogeneous()).head<3>(); }
+
+std::string percent(double x) {
+  std::ostringstream s;
+  s.precision(3);
+  s << 100 * x << "%";
+  return s.str();
+}
+
+/// Which cut face of an embedding holds a point of its input mesh.
+class RegionLocator {
+public:
+  RegionLocator(const SurfaceMesh& mesh, const Embedding& e) : mesh_(mesh), emb_(e), cut_(CutMesh::from_surface(mesh)), tm_(mesh, cut_) {
+    const CutMesh& cm = e.impl().cut;
+    pieces_.resize(mesh.num_faces());
+    for (int f = 0; f < cm.num_faces(); ++f)
+      pieces_[cm.face_origin(Face(f))].push_back(f);
+  }
+
+  /// The region key at the surface point nearest to p ("" outside a local net).
+  std::string key_at(const Vec3& p) const {
+    const auto n = tm_.nearest(p);
+    const int f = tm_.tri_face(n.tri);
+    const CutMesh& cm = emb_.impl().cut;
+    int face = pieces_[f].front();
+    if (pieces_[f].size() > 1) {
+      // Point in polygon, in the input face's plane.
+      const auto c = mesh_.face(f);
+      Vec3 normal = Vec3::Zero();
+      for (size_t i = 0; i < c.size(); ++i)
+        normal += mesh_.positions[c[i]].cross(mesh_.positions[c[(i + 1) % c.size()]]);
+      const Vec3 u = normal.unitOrthogonal(), w = normal.normalized().cross(u);
+      auto to2 = [&](const Vec3& q) { return Eigen::Vector2d(q.dot(u), q.dot(w)); };
+      const Eigen::Vector2d q = to2(n.point);
+      double best = -1;
+      for (int piece : pieces_[f]) {
+        // Winding via the signed angle sum is robust enough for a sample at a centroid.
+        const auto loop = cm.face_loop(Face(piece));
+        double angle = 0;
+        for (Halfedge h : loop) {
+          const Eigen::Vector2d a = to2(cm.position(cm.from(h))) - q, b = to2(cm.position(cm.to(h))) - q;
+          angle += std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
+        }
+        if (std::abs(angle) > best) {
+          best = std::abs(angle);
+          face = piece;
+        }
+      }
+    }
+    const int r = emb_.face_regions()[face];
+    return r < 0 ? std::string() : emb_.report().region_list[r].key();
+  }
+
+private:
+  const SurfaceMesh& mesh_;
+  const Embedding& emb_;
+  CutMesh cut_;
+  TraceMesh tm_;
+  std::vector<std::vector<int>> pieces_;
+};
+
+} // namespace
+
+TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt) {
+  TransferResult result;
+  TransferReport& rep = result.report;
+  const Mat4 to_target = opt.target_frame.inverse() * opt.source_frame * rig.frame;
+  const Mat4 to_source = opt.source_frame.inverse() * opt.target_frame; // target space -> source space
+
+  const Embedding src = embed(source, rig, opt.embed);
+  rep.source = src.report();
+  if (!rep.source.ok)
+    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
+                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
+
+  const CutMesh tcut = CutMesh::from_surface(target);
+  const TraceMesh ttm(target, tcut);
+  const double diag = target.bbox_diagonal(), h = target.mean_edge_length();
+  Rig out = rig;
+  out.frame = Mat4::Identity();
+  for (auto& j : out.joints)
+    j.bind = to_target * j.bind;
+  std::map<std::string, Vec3> node_at;
+  for (auto& n : out.nodes) {
+    const Vec3 p = apply(to_target, n.position);
+    const auto near = ttm.nearest(p);
+    const double offset = near.distance(p);
+    if (offset > opt.max_offset * diag)
+      throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) + " of the diagonal off the target " +
+                       target.source + " (the frames do not line the meshes up, or the target is another shape)");
+    rep.max_node_offset = std::max(rep.max_node_offset, 100 * offset / diag);
+    n.position = near.point;
+    node_at[n.id] = near.point;
+  }
+  for (auto& p : out.profiles) {
+    std::vector<Vec3> placed;
+    const auto& pts = p.curve.points;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const Vec3 q = apply(to_target, pts[i]);
+      const auto near = ttm.nearest(q);
+      if (near.distance(q) > opt.max_offset * diag)
+        throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + " lies " +
+                         percent(near.distance(q) / diag) + " of the diagonal off the target: the profile leaves the surface");
+      if (i > 0) {
+        const double before = (apply(to_target, pts[i - 1]) - q).norm(), after = (placed.back() - near.point).norm();
+        if (after > 3 * before + 2 * h)
+          throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + ": the projection jumped " +
+                           percent(after / diag) + " of the diagonal to another part of the surface (another finger?)");
+      }
+      placed.push_back(near.point);
+    }
+    // A Bezier or NURBS curve becomes the polyline of its projected control
+    // points only when it is a polyline; otherwise its shape is kept and mapped.
+    if (p.curve.kind == Curve::Kind::Polyline) {
+      p.curve.points = placed;
+      p.curve.points.front() = node_at[p.from];
+      p.curve.points.back() = node_at[p.to];
+    } else {
+      for (auto& q : p.curve.points)
+        q = apply(to_target, q);
+    }
+  }
+  result.rig = out;
+
+  const Embedding tgt = embed(target, out, opt.embed);
+  rep.target = tgt.report();
+  const EmbedReport &a = rep.source, &b = rep.target;
+  if (!b.ok)
+    for (const auto& pr : b.problems)
+      rep.problems.push_back("target: " + pr);
+  if (a.logical_nodes != b.logical_nodes || a.profiles != b.profiles || a.components != b.components)
+    rep.problems.push_back("the logical counts differ between source and target");
+  if (a.regions != b.regions)
+    rep.problems.push_back("the region counts differ: " + std::to_string(a.regions) + " on the source, " +
+                           std::to_string(b.regions) + " on the target");
+
+  // Region correspondence: the target's area, sampled at the centroid of
+  // every triangle of its cut faces, against the source region found there.
+  const RegionLocator locate(source, src);
+  std::map<std::string, std::pair<double, double>> by_key; // key -> (area, agreeing area)
+  const CutMesh& cm = tgt.impl().cut;
+  double total = 0, agreeing = 0;
+  for (int f = 0; f < cm.num_faces(); ++f) {
+    const int r = tgt.face_regions()[f];
+    if (r < 0)
+      continue;
+    const std::string key = b.region_list[r].key();
+    std::vector<Vec3> corners;
+    for (Halfedge hh : cm.face_loop(Face(f)))
+      corners.push_back(cm.position(cm.from(hh)));
+    for (const auto& t : triangulate_polygon(corners)) {
+      const double area = 0.5 * (corners[t[1]] - corners[t[0]]).cross(corners[t[2]] - corners[t[0]]).norm();
+      if (!(area > 0))
+        continue;
+      const Vec3 centroid = (corners[t[0]] + corners[t[1]] + corners[t[2]]) / 3;
+      const bool same = locate.key_at(apply(to_source, centroid)) == key;
+      by_key[key].first += area;
+      by_key[key].second += same ? area : 0;
+      total += area;
+      agreeing += same ? area : 0;
+    }
+  }
+  for (const auto& [key, v] : by_key)
+    rep.regions.push_back({key, v.first, v.first > 0 ? v.second / v.first : 0});
+  rep.agreement = total > 0 ? agreeing / total : 0;
+  rep.ok = rep.problems.empty();
+  return result;
+}
+
+std::string transfer_report_json(const TransferReport& r) {
+  nlohmann::ordered_json j;
+  j["ok"] = r.ok;
+  j["agreement"] = r.agreement;
+  j["max_node_offset_percent"] = r.max_node_offset;
+  auto counts = [](const EmbedReport& e) {
+    return nlohmann::ordered_json{{"ok", e.ok},
+                                  {"logical_nodes", e.logical_nodes},
+                                  {"profiles", e.profiles},
+                                  {"components", e.components},
+                                  {"regions", e.regions},
+                                  {"expected_regions", e.expected_regions ? nlohmann::ordered_json(*e.expected_regions) : nlohmann::ordered_json(nullptr)},
+                                  {"unmapped_faces", e.unmapped_faces}};
+  };
+  j["source"] = counts(r.source);
+  j["target"] = counts(r.target);
+  nlohmann::ordered_json regions = nlohmann::ordered_json::array();
+  for (const auto& g : r.regions)
+    regions.push_back({{"key", g.key}, {"area", g.area}, {"agree", g.agree}});
+  j["regions"] = regions;
+  j["problems"] = r.problems;
+  return j.dump(2) + "\n";
+}
+
+} // namespace curvenet

@@ -1,0 +1,191 @@
+#pragma once
+// The transfer end-to-end check, shared by transfer_test and
+// bench/transfer_table: author a rig on one mesh of a family with the
+// starter net, transfer it to the family's other meshes, pose them all with
+// the same poses, and compare each posed target with the posed source.
+
+#include "curvenet/compare.hpp"
+#include "curvenet/deform.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
+#include "curvenet/transfer.hpp"
+
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace curvenet::check {
+
+struct Row {
+  std::string pair, clip;
+  SurfaceDistance rest, posed;
+  double agreement = 0; ///< region agreement of the transfer
+  /// posed <= max(1.5 x rest, 0.5 % of the diagonal), for the mean and for the max
+  [[nodiscard]] double bound(double rest_value) const { return std::max(1.5 * rest_value, 0.005 * rest.diagonal); }
+  [[nodiscard]] bool pass_mean() const { return posed.mean <= bound(rest.mean); }
+  [[nodiscard]] bool pass_max() const { return posed.max <= bound(rest.max); }
+};
+
+struct Family {
+  std::string source;
+  std::vector<std::string> targets;
+  std::vector<Joint> joints;
+  std::vector<std::pair<std::string, Pose>> poses;
+  StarterOptions starter;
+  Mat4 source_frame = Mat4::Identity(); ///< the source mesh's space to the targets'
+};
+
+inline SurfaceMesh transformed(SurfaceMesh m, const Mat4& t) {
+  for (auto& p : m.positions)
+    p = (t * p.homogeneous()).head<3>();
+  return m;
+}
+
+/// A two-joint skeleton along the mesh's longest bounding-box axis, and
+/// poses that bend at the second joint and turn the first.
+inline void two_joint_family(const SurfaceMesh& mesh, Family& f) {
+  Vec3 lo = mesh.positions[0], hi = lo;
+  for (const auto& p : mesh.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  int axis = 0;
+  for (int k = 1; k < 3; ++k)
+    if (hi[k] - lo[k] > hi[axis] - lo[axis])
+      axis = k;
+  const Vec3 centre = (lo + hi) / 2;
+  Vec3 a = centre, b = centre;
+  a[axis] = lo[axis] + 0.25 * (hi[axis] - lo[axis]);
+  b[axis] = lo[axis] + 0.6 * (hi[axis] - lo[axis]);
+  f.joints.resize(2);
+  f.joints[0].name = "root";
+  f.joints[0].bind.block<3, 1>(0, 3) = a;
+  f.joints[1].name = "bend";
+  f.joints[1].parent = "root";
+  f.joints[1].bind.block<3, 1>(0, 3) = b;
+  const Vec3 side = Vec3::Unit((axis + 1) % 3);
+  for (const double deg : {30.0, 60.0}) {
+    Pose p;
+    p["bend"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(deg * std::numbers::pi / 180, side));
+    f.poses.emplace_back("bend " + std::to_string(static_cast<int>(deg)), p);
+  }
+  Pose twist;
+  twist["root"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Vec3::Unit(axis)));
+  twist["bend"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(-0.5, Vec3::Unit((axis + 2) % 3)));
+  f.poses.emplace_back("turn+bend", twist);
+  f.starter.rings_per_bone = 3;
+  f.starter.first_angle_deg = 45; // keep nodes off the side fins and the spine of a fish or a cow
+}
+
+inline Family make_family(const std::string& name, const std::string& data, const std::vector<std::string>& clips) {
+  Family f;
+  if (name == "hand") {
+    const std::string d = data + "/xr_tools_hand/";
+    f.source = d + "hand_l.gltf";
+    f.targets = {d + "Hand_low_L.gltf", d + "hand_l_quads.obj", d + "hand_low_l_quads.obj"};
+    f.joints = load_skinned_mesh(f.source).joints;
+    const SkinnedMesh poses = load_skinned_mesh(d + "hand_l_poses.glb");
+    std::vector<std::string> names = clips;
+    if (names.empty())
+      names = poses.clip_names;
+    for (const auto& n : names) {
+      const int c = poses.find_clip(n);
+      if (c >= 0)
+        f.poses.emplace_back(n, pose_from_clip(poses, c, poses.clip_range(c).second));
+    }
+  } else if (name == "spot") {
+    const std::string d = data + "/spot/";
+    f.source = d + "spot_quadrangulated.obj";
+    f.targets = {d + "spot_triangulated.obj", d + "spot_low_resolution.obj", d + "spot_control_mesh.obj"};
+    two_joint_family(load_mesh(f.source), f);
+  } else if (name == "blub") {
+    const std::string d = data + "/blub/";
+    f.source = d + "fish.obj";
+    f.targets = {d + "fish_low_resolution.obj", d + "fish_control_mesh.obj"};
+    two_joint_family(load_mesh(f.source), f);
+    // fish.obj sits 3.4 units along +x from the other two: its frame moves it
+    // onto them (the difference of the bounding-box centres along x).
+    auto centre_x = [](const SurfaceMesh& m) {
+      double lo = m.positions[0].x(), hi = lo;
+      for (const auto& p : m.positions) {
+        lo = std::min(lo, p.x());
+        hi = std::max(hi, p.x());
+      }
+      return (lo + hi) / 2;
+    };
+    f.source_frame(0, 3) = centre_x(load_mesh(f.targets[0])) - centre_x(load_mesh(f.source));
+  }
+  return f;
+}
+
+inline SurfaceMesh posed_mesh(const SurfaceMesh& mesh, const Binding& b, const Pose& pose) {
+  std::vector<Vec3> out(b.num_input_vertices());
+  b.deform(skinning_matrices(b.joints(), pose), out);
+  SurfaceMesh m = mesh;
+  for (size_t i = 0; i < out.size(); ++i)
+    m.positions[mesh.input_to_welded[i]] = out[i];
+  return m;
+}
+
+inline std::string short_name(const std::string& path) { return path.substr(path.find_last_of('/') + 1); }
+
+/// Rows for every target and pose; targets the transfer refuses get a row
+/// with the refusal in `clip` and no distances.
+inline std::vector<Row> run_family(const std::string& name, const std::string& data, const std::vector<std::string>& clips,
+                                   std::vector<std::string>* refusals = nullptr) {
+  const Family f = make_family(name, data, clips);
+  const SurfaceMesh source = load_mesh(f.source);
+  TransferOptions topt;
+  topt.source_frame = f.source_frame;
+  const Rig rig = make_starter(source, f.joints, f.starter).rig;
+  const Binding sb = bind(source, rig);
+  std::vector<SurfaceMesh> posed_source;
+  for (const auto& [n, p] : f.poses)
+    posed_source.push_back(posed_mesh(source, sb, p));
+  std::vector<Row> rows;
+  for (const auto& t : f.targets) {
+    const SurfaceMesh target = load_mesh(t);
+    TransferResult tr;
+    try {
+      tr = transfer(rig, source, target, topt);
+    } catch (const Error& e) {
+      if (refusals)
+        refusals->push_back(short_name(t) + ": " + e.what());
+      continue;
+    }
+    if (!tr.report.ok) {
+      if (refusals)
+        refusals->push_back(short_name(t) + ": " + (tr.report.problems.empty() ? "not ok" : tr.report.problems[0]));
+      continue;
+    }
+    const Binding tb = bind(target, tr.rig);
+    const SurfaceDistance rest = surface_distance(transformed(source, f.source_frame), target);
+    for (size_t k = 0; k < f.poses.size(); ++k) {
+      Row r;
+      r.pair = short_name(f.source) + " -> " + short_name(t);
+      r.clip = f.poses[k].first;
+      r.rest = rest;
+      r.posed = surface_distance(transformed(posed_source[k], f.source_frame), posed_mesh(target, tb, f.poses[k].second));
+      r.posed.diagonal = rest.diagonal; // percentages of the source's rest diagonal
+      r.agreement = tr.report.agreement;
+      rows.push_back(r);
+    }
+  }
+  return rows;
+}
+
+inline void print_table(const std::vector<Row>& rows, FILE* out) {
+  std::fprintf(out, "%-44s %-12s %9s %9s %9s %9s %8s %5s\n", "pair", "clip", "rest_mean", "posed_mean", "rest_max",
+               "posed_max", "regions", "pass");
+  for (const Row& r : rows)
+    std::fprintf(out, "%-44s %-12s %8.3f%% %8.3f%% %8.3f%% %8.3f%% %7.2f%% %5s\n", r.pair.c_str(), r.clip.c_str(),
+                 r.rest.percent(r.rest.mean), r.rest.percent(r.posed.mean), r.rest.percent(r.rest.max),
+                 r.rest.percent(r.posed.max), 100 * r.agreement, r.pass_mean() && r.pass_max() ? "yes" : "NO");
+}
+
+} // namespace curvenet::check
