@@ -284,6 +284,45 @@ TEST(Cli, BlenderReadsThePointCache) {
   EXPECT_LT(err, 1e-6 * scale);
 }
 
+TEST(Cli, TransferAndCompare) {
+  const auto dir = test::temp_dir("transfer");
+  ASSERT_EQ(run("demo --out " + (dir / "demo").string(), dir).code, 0);
+  const fs::path quads = dir / "demo" / "tube_quads.obj", tris = dir / "demo" / "tube_tris.obj";
+  const fs::path out = dir / "tris.cnrig.json", report = dir / "transfer.json";
+  CliRun r = run("transfer " + (dir / "demo" / "tube.cnrig.json").string() + " --from " + quads.string() + " --to " +
+                     tris.string() + " -o " + out.string() + " --report " + report.string(),
+                 dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("Curvenet transfer: SUCCESS"), std::string::npos);
+  EXPECT_NE(r.out.find("region agreement: "), std::string::npos);
+  ASSERT_TRUE(fs::exists(out));
+  std::ifstream in(report);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["ok"].get<bool>());
+  EXPECT_GT(j["agreement"].get<double>(), 0.99);
+  EXPECT_EQ(j["target"]["regions"], 16);
+  // The transferred rig embeds on the target as it is.
+  EXPECT_EQ(run("embed " + tris.string() + " " + out.string(), dir).code, 0);
+  // A frame that is not a matrix.
+  r = run("transfer " + (dir / "demo" / "tube.cnrig.json").string() + " --from " + quads.string() + " --to " + tris.string() +
+              " -o " + (dir / "bad.json").string() + " --target-frame 1,2,3",
+          dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--target-frame"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "bad.json"));
+  // Compare, as text and as JSON.
+  r = run("compare " + quads.string() + " " + tris.string() + " --json", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto c = nlohmann::json::parse(r.out);
+  EXPECT_GT(c["max"].get<double>(), 0.0);
+  EXPECT_LT(c["max_percent"].get<double>(), 2.0);
+  EXPECT_TRUE(c.contains("a_to_b") && c.contains("b_to_a") && c.contains("rms"));
+  r = run("compare " + quads.string() + " " + quads.string(), dir);
+  EXPECT_NE(r.out.find("max: "), std::string::npos) << r.out;
+  const double self = std::stod(r.out.substr(r.out.find("max: ") + 5));
+  EXPECT_LT(self, 1e-12);
+}
+
 TEST(Cli, DemoRunsOnGeneratedData) {
   const auto dir = test::temp_dir("demo");
   const CliRun r = run("demo --out " + (dir / "out").string(), dir);
@@ -294,6 +333,7 @@ TEST(Cli, DemoRunsOnGeneratedData) {
   EXPECT_NE(r.out.find("embeds on 2/2 tessellations"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(dir / "out" / "tube_starter.cnrig.json"));
   EXPECT_TRUE(fs::exists(dir / "out" / "tube_tris.bend.pc2"));
+  EXPECT_NE(r.out.find("transfer tube_quads -> tube_tris: SUCCESS"), std::string::npos) << r.out;
   EXPECT_EQ(fs::file_size(dir / "out" / "tube_tris.bend.pc2"),
             32u + 24u * 3u * sizeof(float) * read_raw_mesh((dir / "out" / "tube_tris.obj").string()).positions.size());
 }

@@ -466,6 +466,20 @@ int run_demo(const DemoArgs& a) {
       << " profiles from a 5-joint skeleton; embeds on " << ok << "/2 tessellations";
     lines.push_back(s.str());
   }
+  // Transfer the net from the quad tube to the triangle tube, by ids only.
+  {
+    const SurfaceMesh from = make_surface_mesh(make_capped_tube(quads), "tube_quads");
+    const SurfaceMesh to = make_surface_mesh(make_capped_tube(tris), "tube_tris");
+    const TransferResult tr = transfer(rig, from, to);
+    write_rig(tr.rig, (out / "tube_tris.transferred.cnrig.json").string());
+    write_file_atomic((out / "transfer.report.json").string(), transfer_report_json(tr.report));
+    all_ok = all_ok && tr.report.ok;
+    std::ostringstream s;
+    s << "transfer tube_quads -> tube_tris: " << (tr.report.ok ? "SUCCESS" : "FAILED") << ", " << tr.report.target.regions
+      << "/" << tr.report.source.regions << " regions, " << std::fixed << std::setprecision(2) << 100 * tr.report.agreement
+      << "% of the area in the region of the same identity" << std::defaultfloat << std::setprecision(6);
+    lines.push_back(s.str());
+  }
   // Bend the tube's two joints over 24 frames, through the tube net, on both
   // tessellations: a PC2 cache each, and the last frame as OBJ.
   {

@@ -1,0 +1,127 @@
+// Transfer: one rig, authored once, on every mesh of the same shape.
+
+#include "curvenet/errors.hpp"
+#include "curvenet/transfer.hpp"
+#include "generate/tube.hpp"
+#include "helpers.hpp"
+#include "transfer_check.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+using namespace curvenet;
+
+namespace {
+SurfaceMesh tube(int around, int along, int caps, bool tri, const Mat4& m = Mat4::Identity()) {
+  TubeSpec s;
+  s.around = around;
+  s.along = along;
+  s.cap_rings = caps;
+  s.triangulate = tri;
+  RawMesh raw = make_capped_tube(s);
+  for (auto& p : raw.positions)
+    p = (m * p.homogeneous()).head<3>();
+  return make_surface_mesh(raw, "tube");
+}
+
+void expect_rows_pass(const std::vector<check::Row>& rows) {
+  check::print_table(rows, stdout);
+  for (const auto& r : rows) {
+    EXPECT_TRUE(r.pass_mean()) << r.pair << " " << r.clip;
+    EXPECT_TRUE(r.pass_max()) << r.pair << " " << r.clip;
+    EXPECT_GT(r.agreement, 0.95) << r.pair;
+  }
+}
+} // namespace
+
+TEST(Transfer, TubeNetFromQuadsToTriangles) {
+  const SurfaceMesh quads = tube(16, 16, 4, false), tris = tube(30, 24, 7, true);
+  const TransferResult r = transfer(make_tube_net(), quads, tris);
+  EXPECT_TRUE(r.report.ok);
+  EXPECT_EQ(r.report.target.regions, 16);
+  EXPECT_EQ(r.report.target.unmapped_faces, 0);
+  EXPECT_EQ(r.rig.nodes.size(), 14u);
+  EXPECT_EQ(r.rig.profiles.size(), 28u);
+  EXPECT_EQ(r.report.regions.size(), 16u);
+  EXPECT_GT(r.report.agreement, 0.99);
+  for (const auto& g : r.report.regions)
+    EXPECT_GT(g.agree, 0.95) << g.key;
+  // Ids, skeleton and weights travel unchanged.
+  const Rig src = make_tube_net();
+  for (size_t i = 0; i < src.nodes.size(); ++i)
+    EXPECT_EQ(r.rig.nodes[i].id, src.nodes[i].id);
+  EXPECT_EQ(r.rig.joints.size(), src.joints.size());
+}
+
+TEST(Transfer, ATargetMovedInItsSceneWorksThroughItsFrame) {
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Vec3(5, -2, 1));
+  t.rotate(Eigen::AngleAxisd(0.7, Vec3(1, 1, 0).normalized()));
+  t.scale(2.5);
+  const Mat4 frame = t.matrix();
+  const SurfaceMesh quads = tube(16, 16, 4, false), moved = tube(24, 20, 6, true, frame.inverse());
+  // The moved tube's own space reaches the world through `frame`.
+  TransferOptions opt;
+  opt.target_frame = frame;
+  const TransferResult r = transfer(make_tube_net(), quads, moved, opt);
+  EXPECT_TRUE(r.report.ok);
+  EXPECT_EQ(r.report.target.regions, 16);
+  EXPECT_GT(r.report.agreement, 0.99);
+  // The skeleton went through the same mapping.
+  const Vec3 tip = r.rig.joints[2].bind.block<3, 1>(0, 3);
+  EXPECT_LT((tip - (frame.inverse() * Vec3(0, 4, 0).homogeneous()).head<3>()).norm(), 1e-9);
+  // Without the frame the rig lies off the target, and the refusal names a node.
+  try {
+    transfer(make_tube_net(), quads, moved);
+    FAIL() << "accepted a target that does not line up";
+  } catch (const EmbedError& e) {
+    EXPECT_NE(std::string(e.what()).find("node '"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Transfer, HandAuthoredOnceAgreesWhenPosedOnEveryTessellation) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  std::vector<std::string> refusals;
+  const auto rows = check::run_family("hand", CURVENET_DATA_DIR, {"Grip", "Peace", "Thumb", "Sign 3", "Cup", "Hold"}, &refusals);
+  EXPECT_TRUE(refusals.empty()) << refusals.front();
+  EXPECT_EQ(rows.size(), 3u * 6u);
+  expect_rows_pass(rows);
+}
+
+TEST(Transfer, NailedHandIsRefusedCleanly) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string d = test::data("xr_tools_hand/");
+  const SurfaceMesh source = load_mesh(d + "hand_l.gltf");
+  const Rig rig = make_starter(source, load_skinned_mesh(d + "hand_l.gltf").joints).rig;
+  try {
+    const TransferResult r = transfer(rig, source, load_mesh(d + "Hand_Nails_L.gltf"));
+    EXPECT_FALSE(r.report.ok);
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("profile '"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Transfer, SpotQuadsToTrianglesAgreeWhenPosed) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  std::vector<std::string> refusals;
+  const auto rows = check::run_family("spot", CURVENET_DATA_DIR, {}, &refusals);
+  EXPECT_TRUE(refusals.empty()) << refusals.front();
+  EXPECT_EQ(rows.size(), 3u * 3u);
+  expect_rows_pass(rows);
+}
+
+TEST(Transfer, BlubRefusalsNameWhatFailed) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  std::vector<std::string> refusals;
+  const auto rows = check::run_family("blub", CURVENET_DATA_DIR, {}, &refusals);
+  expect_rows_pass(rows);
+  for (const auto& r : refusals) {
+    std::printf("refused: %s\n", r.c_str());
+    EXPECT_NE(r.find("profile"), std::string::npos) << r;
+  }
+}
