@@ -21,14 +21,6 @@ using namespace curvenet;
 
 namespace {
 
-SurfaceMesh tube(int around, int along, int caps, bool tri) {
-  TubeSpec s;
-  s.around = around;
-  s.along = along;
-  s.cap_rings = caps;
-  s.triangulate = tri;
-  return make_surface_mesh(make_capped_tube(s), "tube");
-}
 
 std::vector<Vec3> input_positions(const SurfaceMesh& m) {
   std::vector<Vec3> p;
@@ -115,7 +107,7 @@ TEST(Laplacian, IntrinsicDelaunayReproducesLinearFieldsOnAPlane) {
 }
 
 TEST(Deform, RestPoseReturnsTheInput) {
-  const SurfaceMesh m = tube(16, 16, 4, false);
+  const SurfaceMesh m = test::tube(16, 16, 4, false);
   const auto X = input_positions(m);
   const double diag = m.bbox_diagonal();
   for (const Variant& v : kVariants) {
@@ -127,7 +119,7 @@ TEST(Deform, RestPoseReturnsTheInput) {
 }
 
 TEST(Deform, ARigidPoseMovesEveryVertexRigidly) {
-  const SurfaceMesh m = tube(24, 20, 6, true);
+  const SurfaceMesh m = test::tube(24, 20, 6, true);
   const auto X = input_positions(m);
   const double diag = m.bbox_diagonal();
   Pose pose;
@@ -143,7 +135,7 @@ TEST(Deform, ARigidPoseMovesEveryVertexRigidly) {
 }
 
 TEST(Deform, OutputIsAlwaysFiniteAndResetsToNeutral) {
-  const SurfaceMesh m = tube(20, 12, 4, true);
+  const SurfaceMesh m = test::tube(20, 12, 4, true);
   const Binding b = bind(m, make_tube_net());
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> angle(-170, 170), axis(-1, 1);
@@ -169,7 +161,7 @@ TEST(Deform, TubeBendsTheSameOnTwoTessellations) {
   pose["tip"] = rotation(30, {0, 0, 1});
   std::vector<double> angles;
   std::vector<Vec3> tips;
-  for (const SurfaceMesh& m : {tube(16, 16, 4, false), tube(30, 24, 7, true)}) {
+  for (const SurfaceMesh& m : {test::tube(16, 16, 4, false), test::tube(30, 24, 7, true)}) {
     const Binding b = bind(m, make_tube_net());
     const auto out = deform(b, pose);
     const auto X = input_positions(m);
@@ -202,7 +194,7 @@ TEST(Deform, TubeBendsTheSameOnTwoTessellations) {
 }
 
 TEST(Deform, BindingCacheRoundTrips) {
-  const SurfaceMesh m = tube(20, 12, 4, true);
+  const SurfaceMesh m = test::tube(20, 12, 4, true);
   const auto dir = test::temp_dir("cache");
   const std::string path = (dir / "tube.cnbind").string();
   Pose pose;

@@ -47,14 +47,6 @@ std::vector<Vec3> arc(double y, double a0, double a1, int n = 32) {
   return out;
 }
 
-SurfaceMesh tube(int around, int along, int cap_rings, bool tri) {
-  TubeSpec s;
-  s.around = around;
-  s.along = along;
-  s.cap_rings = cap_rings;
-  s.triangulate = tri;
-  return make_surface_mesh(make_capped_tube(s), "tube");
-}
 
 void expect_counts(const EmbedReport& r, int nodes, int profiles, int regions) {
   EXPECT_TRUE(r.ok) << (r.problems.empty() ? "" : r.problems[0]);
@@ -118,7 +110,7 @@ TEST(Embed, ACurveThroughAVertexAndAlongAnEdge) {
 }
 
 TEST(Embed, AClosedLoopThroughOneNode) {
-  const SurfaceMesh m = tube(16, 8, 3, true);
+  const SurfaceMesh m = test::tube(16, 8, 3, true);
   Rig rig;
   rig.nodes = {{"n", {std::cos(0.3), 2.1, std::sin(0.3)}}};
   rig.profiles = {polyline("loop", "n", "n", arc(2.1, 0.3, 0.3 + 2 * std::numbers::pi))};
@@ -129,7 +121,7 @@ TEST(Embed, AClosedLoopThroughOneNode) {
 }
 
 TEST(Embed, TwoProfilesBetweenTheSameTwoNodes) {
-  const SurfaceMesh m = tube(16, 8, 3, false);
+  const SurfaceMesh m = test::tube(16, 8, 3, false);
   Rig rig;
   rig.nodes = {{"a", {std::cos(0.2), 1.9, std::sin(0.2)}}, {"b", {std::cos(3.3), 1.9, std::sin(3.3)}}};
   rig.profiles = {polyline("front", "a", "b", arc(1.9, 0.2, 3.3)),
@@ -148,7 +140,7 @@ TEST(Embed, ProfileEndsAwayFromTheirNodesStillCloseAtTheNode) {
     a = Vec3(a.x() * 1.08, a.y(), a.z() * 1.08); // outside the tube
     b = Vec3(b.x() * 0.93, b.y(), b.z() * 0.93); // inside it
   }
-  const Embedding e = embed(tube(20, 12, 4, true), rig);
+  const Embedding e = embed(test::tube(20, 12, 4, true), rig);
   expect_counts(e.report(), 14, 28, 16);
   const auto& res = e.impl().result;
   for (size_t p = 0; p < rig.profiles.size(); ++p) {
@@ -158,7 +150,7 @@ TEST(Embed, ProfileEndsAwayFromTheirNodesStillCloseAtTheNode) {
 }
 
 TEST(Embed, ACrossingAwayFromANodeIsRefusedNamingBoth) {
-  const SurfaceMesh m = tube(16, 8, 3, true);
+  const SurfaceMesh m = test::tube(16, 8, 3, true);
   Rig rig;
   rig.nodes = {{"r", {std::cos(0.1), 2.0, std::sin(0.1)}},
                {"s", {std::cos(1.0), 1.0, std::sin(1.0)}},
@@ -186,7 +178,7 @@ TEST(Embed, TubeNetOnThreeTessellationsGivesTheSameCounts) {
   };
   for (const T& t : {T{16, 16, 4, false}, T{24, 20, 6, true}, T{96, 80, 20, true}, T{12, 8, 2, true}}) {
     SCOPED_TRACE(std::to_string(t.around) + "x" + std::to_string(t.along) + (t.tri ? " tris" : " quads"));
-    const Embedding e = embed(tube(t.around, t.along, t.cap, t.tri), rig);
+    const Embedding e = embed(test::tube(t.around, t.along, t.cap, t.tri), rig);
     expect_counts(e.report(), 14, 28, 16);
     EXPECT_EQ(e.report().components, 1);
     // Every region is bounded by profiles, and the identities agree across meshes.
@@ -210,7 +202,7 @@ TEST(Embed, TubeNetWhereNodesAndRingsSitOnVerticesAndEdges) {
                        std::to_string(along) + (tri ? " tris" : " quads"));
           TubeNetSpec spec;
           spec.first_angle_deg = angle;
-          const Embedding e = embed(tube(around, along, 3, tri), make_tube_net(spec));
+          const Embedding e = embed(test::tube(around, along, 3, tri), make_tube_net(spec));
           expect_counts(e.report(), 14, 28, 16);
         }
       }
@@ -224,8 +216,8 @@ TEST(Embed, DenserTubeNetsFollowEuler) {
   spec.nodes_per_ring = 6;
   const Rig rig = make_tube_net(spec);
   // V = 5*6 + 2 = 32, E = 30 + 24 + 12 = 66, F = 2 - 32 + 66 = 36.
-  expect_counts(embed(tube(40, 30, 8, true), rig).report(), 32, 66, 36);
-  expect_counts(embed(tube(36, 28, 6, false), rig).report(), 32, 66, 36);
+  expect_counts(embed(test::tube(40, 30, 8, true), rig).report(), 32, 66, 36);
+  expect_counts(embed(test::tube(36, 28, 6, false), rig).report(), 32, 66, 36);
 }
 
 TEST(Embed, RandomTubeNetsOnRandomTessellations) {
@@ -263,7 +255,7 @@ TEST(Embed, AdjacentRegionsHaveDifferentPreviewColours) {
   TubeNetSpec spec;
   spec.ring_heights = {0.5, 1.5, 2.5, 3.5};
   spec.nodes_per_ring = 5;
-  const Embedding e = embed(tube(30, 20, 5, true), make_tube_net(spec));
+  const Embedding e = embed(test::tube(30, 20, 5, true), make_tube_net(spec));
   const auto& cut = e.impl().cut;
   const auto& fr = e.face_regions();
   const auto& regions = e.report().region_list;
@@ -289,7 +281,7 @@ TEST(Embed, RegionIdentitiesDoNotDependOnTheMesh) {
       k.insert(r.key());
     return k;
   };
-  EXPECT_EQ(keys(tube(16, 16, 4, false)), keys(tube(40, 30, 9, true)));
+  EXPECT_EQ(keys(test::tube(16, 16, 4, false)), keys(test::tube(40, 30, 9, true)));
 }
 
 TEST(Embed, NodesThatSitOnOrOffTheCentreOfATriangleFan) {
@@ -297,14 +289,14 @@ TEST(Embed, NodesThatSitOnOrOffTheCentreOfATriangleFan) {
   for (const Vec3 offset : {Vec3(0, 0, 0), Vec3(0.05, 0, 0.03), Vec3(0.21, 0, -0.13)}) {
     TubeNetSpec spec;
     spec.cap_offset = offset;
-    const Embedding e = embed(tube(24, 20, 6, true), make_tube_net(spec));
+    const Embedding e = embed(test::tube(24, 20, 6, true), make_tube_net(spec));
     expect_counts(e.report(), 14, 28, 16);
   }
 }
 
 TEST(Embed, ValidatorHoldsAfterEveryMutation) {
   using namespace curvenet::detail;
-  const SurfaceMesh m = tube(24, 20, 6, true);
+  const SurfaceMesh m = test::tube(24, 20, 6, true);
   const Rig rig = make_tube_net();
   CutMesh cut = CutMesh::from_surface(m);
   TraceMesh tm(m, cut);

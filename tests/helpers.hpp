@@ -3,6 +3,7 @@
 
 #include "curvenet/io.hpp"
 #include "curvenet/surface_mesh.hpp"
+#include "generate/tube.hpp"
 
 #include <filesystem>
 #include <string>
@@ -36,6 +37,19 @@ inline RawMesh grid(int n, int m, bool triangles = false) {
       }
     }
   return r;
+}
+
+/// A validated capped tube (generate/tube.hpp), moved by `m` when given.
+inline SurfaceMesh tube(int around, int along, int cap_rings, bool triangulate, const Mat4& m = Mat4::Identity()) {
+  TubeSpec s;
+  s.around = around;
+  s.along = along;
+  s.cap_rings = cap_rings;
+  s.triangulate = triangulate;
+  RawMesh raw = make_capped_tube(s);
+  for (auto& p : raw.positions)
+    p = (m * p.homogeneous()).head<3>();
+  return make_surface_mesh(raw, "tube");
 }
 
 /// A fresh temporary folder for one test.

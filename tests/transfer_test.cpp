@@ -13,17 +13,6 @@
 using namespace curvenet;
 
 namespace {
-SurfaceMesh tube(int around, int along, int caps, bool tri, const Mat4& m = Mat4::Identity()) {
-  TubeSpec s;
-  s.around = around;
-  s.along = along;
-  s.cap_rings = caps;
-  s.triangulate = tri;
-  RawMesh raw = make_capped_tube(s);
-  for (auto& p : raw.positions)
-    p = (m * p.homogeneous()).head<3>();
-  return make_surface_mesh(raw, "tube");
-}
 
 void expect_rows_pass(const std::vector<check::Row>& rows) {
   check::print_table(rows, stdout);
@@ -36,7 +25,7 @@ void expect_rows_pass(const std::vector<check::Row>& rows) {
 } // namespace
 
 TEST(Transfer, TubeNetFromQuadsToTriangles) {
-  const SurfaceMesh quads = tube(16, 16, 4, false), tris = tube(30, 24, 7, true);
+  const SurfaceMesh quads = test::tube(16, 16, 4, false), tris = test::tube(30, 24, 7, true);
   const TransferResult r = transfer(make_tube_net(), quads, tris);
   EXPECT_TRUE(r.report.ok);
   EXPECT_EQ(r.report.target.regions, 16);
@@ -60,7 +49,7 @@ TEST(Transfer, ATargetMovedInItsSceneWorksThroughItsFrame) {
   t.rotate(Eigen::AngleAxisd(0.7, Vec3(1, 1, 0).normalized()));
   t.scale(2.5);
   const Mat4 frame = t.matrix();
-  const SurfaceMesh quads = tube(16, 16, 4, false), moved = tube(24, 20, 6, true, frame.inverse());
+  const SurfaceMesh quads = test::tube(16, 16, 4, false), moved = test::tube(24, 20, 6, true, frame.inverse());
   // The moved tube's own space reaches the world through `frame`.
   TransferOptions opt;
   opt.target_frame = frame;
