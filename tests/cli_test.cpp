@@ -239,6 +239,24 @@ TEST(Cli, PoseAndAnimateOnTheInputTopology) {
   EXPECT_NE(r.err.find("/joints/Wrist_L/rotation"), std::string::npos) << r.err;
 }
 
+TEST(Cli, AnimationDoesNotDependOnTheThreadCount) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("threads");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
+  ASSERT_EQ(run("starter " + gltf + " --rings-per-bone 2 -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
+  const std::string args = "animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " --frames 0:40 -o ";
+  ASSERT_EQ(run(args + (dir / "many.pc2").string(), dir).code, 0);
+  // oneTBB follows the process's CPU affinity: one CPU, one worker.
+  const std::string one = "taskset -c 0 " + std::string(CURVENET_CLI) + " " + args + (dir / "one.pc2").string() + " >/dev/null";
+  ASSERT_EQ(std::system(one.c_str()), 0);
+  std::ifstream a(dir / "many.pc2", std::ios::binary), b(dir / "one.pc2", std::ios::binary);
+  const std::string sa((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+  const std::string sb((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+  EXPECT_GT(sa.size(), 32u);
+  EXPECT_EQ(sa, sb);
+}
+
 TEST(Cli, BlenderReadsThePointCache) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

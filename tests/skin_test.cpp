@@ -35,6 +35,26 @@ TEST(Skin, HandSkeletonMatchesTheExampleRig) {
   }
 }
 
+TEST(Skin, TheAssimpPathReadsTheSameSkeleton) {
+  // FBX skins go through assimp; the same code reads the glTF hand.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh a = load_skinned_mesh_assimp(test::data("xr_tools_hand/hand_l.gltf"));
+  const SkinnedMesh g = load_skinned_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  ASSERT_EQ(a.joints.size(), g.joints.size());
+  for (const auto& j : g.joints) {
+    const auto it = std::find_if(a.joints.begin(), a.joints.end(), [&](const Joint& x) { return x.name == j.name; });
+    ASSERT_NE(it, a.joints.end()) << j.name;
+    EXPECT_EQ(it->parent, j.parent) << j.name;
+    EXPECT_LT((it->bind - j.bind).cwiseAbs().maxCoeff(), 1e-5) << j.name;
+  }
+  EXPECT_GT(a.vertex_weight.size(), 1000u);
+  size_t skinned = 0;
+  for (const auto& w : a.vertex_weight)
+    skinned += w[0] > 0;
+  EXPECT_EQ(skinned, a.vertex_weight.size());
+}
+
 TEST(Skin, ClipsMoveTheHandAndRestIsTheIdentity) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -75,6 +75,8 @@ void print_summary(std::ostream& out, const std::string& mesh_name, const EmbedR
   out << "time: " << std::fixed << std::setprecision(1) << total << " ms\n" << std::defaultfloat;
   for (const auto& p : r.problems)
     out << "problem: " << p << "\n";
+  for (const auto& n : r.notes)
+    out << "note: " << n << "\n";
 }
 
 } // namespace
@@ -120,7 +122,7 @@ std::string lower_ext(const std::string& path) {
 /// Joints from a rig file or a skinned glTF.
 std::vector<Joint> load_skeleton(const std::string& path) {
   const std::string ext = lower_ext(path);
-  if (ext == ".gltf" || ext == ".glb")
+  if (ext == ".gltf" || ext == ".glb" || ext == ".fbx")
     return load_skinned_mesh(path).joints;
   const Rig rig = read_rig(path);
   if (!rig.has_skeleton)
@@ -372,7 +374,7 @@ int run_starter(const StarterArgs& a) {
   if (!a.skeleton.empty()) {
     std::string ext = std::filesystem::path(a.skeleton).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (ext == ".gltf" || ext == ".glb") {
+    if (ext == ".gltf" || ext == ".glb" || ext == ".fbx") {
       joints = load_skinned_mesh(a.skeleton).joints;
     } else {
       const Rig rig = read_rig(a.skeleton);
@@ -383,8 +385,8 @@ int run_starter(const StarterArgs& a) {
   } else {
     std::string ext = std::filesystem::path(a.mesh).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (ext != ".gltf" && ext != ".glb")
-      throw InputError(a.mesh, "", "has no skin to take a skeleton from: give one with --skeleton (a rig file or a skinned glTF)");
+    if (ext != ".gltf" && ext != ".glb" && ext != ".fbx")
+      throw InputError(a.mesh, "", "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
     joints = load_skinned_mesh(a.mesh).joints;
   }
   StarterOptions opt;

@@ -47,9 +47,13 @@ public:
   std::vector<int> joint_node; ///< glTF node of each joint
 };
 
-/// Reads the skin of the first skinned mesh of a glTF/GLB file.
+/// Reads the skin of the first skinned mesh of a glTF/GLB file (tinygltf,
+/// with its clips), or the bones of an FBX file (assimp, no clips).
 /// \throw InputError when the file cannot be read or has no skin.
 SkinnedMesh load_skinned_mesh(const std::string& path);
+
+/// The same through assimp, for any format it reads (used for FBX).
+SkinnedMesh load_skinned_mesh_assimp(const std::string& path);
 
 /// Moves `positions` (one per file vertex) by linear blend skinning.
 std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::vector<Eigen::Vector3d>& positions,

@@ -4,11 +4,9 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "io/assimp_scene.hpp"
 #include "io/gltf_scene.hpp"
 
-#include <assimp/Importer.hpp>
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
 #include <tiny_obj_loader.h>
 
 #include <Eigen/Geometry>
@@ -66,45 +64,7 @@ RawMesh read_gltf(const std::string& path) { return detail::read_gltf_scene(path
 
 // ---- assimp --------------------------------------------------------------
 
-RawMesh read_assimp(const std::string& path) {
-  Assimp::Importer importer;
-  const aiScene* scene = importer.ReadFile(path, aiProcess_JoinIdenticalVertices);
-  if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
-    throw InputError(path, "", std::string("cannot read mesh: ") + importer.GetErrorString());
-  RawMesh raw;
-  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene->mRootNode, aiMatrix4x4()}};
-  std::vector<int> corners;
-  while (!stack.empty()) {
-    auto [node, parent] = stack.back();
-    stack.pop_back();
-    const aiMatrix4x4 world = parent * node->mTransformation;
-    const bool mirrored = world.Determinant() < 0;
-    for (unsigned m = 0; m < node->mNumMeshes; ++m) {
-      const aiMesh* mesh = scene->mMeshes[node->mMeshes[m]];
-      const int base = static_cast<int>(raw.positions.size());
-      for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
-        const aiVector3D p = world * mesh->mVertices[v];
-        raw.positions.emplace_back(p.x, p.y, p.z);
-      }
-      for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
-        const aiFace& face = mesh->mFaces[f];
-        if (face.mNumIndices < 3)
-          continue; // points and lines
-        corners.clear();
-        for (unsigned k = 0; k < face.mNumIndices; ++k)
-          corners.push_back(base + static_cast<int>(face.mIndices[k]));
-        if (mirrored)
-          std::reverse(corners.begin(), corners.end());
-        raw.add_face(corners);
-      }
-    }
-    for (unsigned c = node->mNumChildren; c-- > 0;)
-      stack.emplace_back(node->mChildren[c], world);
-  }
-  if (raw.positions.empty())
-    throw InputError(path, "", "the file holds no polygon mesh");
-  return raw;
-}
+RawMesh read_assimp(const std::string& path) { return detail::read_assimp_scene(path).mesh; }
 
 } // namespace
 

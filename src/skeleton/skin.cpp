@@ -1,6 +1,7 @@
 #include "curvenet/skin.hpp"
 
 #include "curvenet/errors.hpp"
+#include "io/assimp_scene.hpp"
 #include "io/gltf_scene.hpp"
 
 #include <tiny_gltf.h>
@@ -12,11 +13,26 @@
 
 namespace curvenet {
 
+SkinnedMesh load_skinned_mesh_assimp(const std::string& path) {
+  detail::AssimpScene a = detail::read_assimp_scene(path);
+  if (a.joints.empty())
+    throw InputError(path, "", "the file has no skinned mesh (no bones to take a skeleton from)");
+  SkinnedMesh out;
+  out.joints = std::move(a.joints);
+  for (const auto& j : out.joints)
+    out.inverse_bind.push_back(j.bind.inverse());
+  out.vertex_joint = std::move(a.vertex_joint);
+  out.vertex_weight = std::move(a.vertex_weight);
+  return out; // no clips: animation comes from glTF files
+}
+
 SkinnedMesh load_skinned_mesh(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".fbx")
+    return load_skinned_mesh_assimp(path);
   if (ext != ".gltf" && ext != ".glb")
-    throw InputError(path, "", "skins and clips are read from glTF or GLB files");
+    throw InputError(path, "", "skins are read from glTF, GLB or FBX files");
   auto scene = std::make_shared<detail::GltfScene>(detail::read_gltf_scene(path));
   if (scene->skin < 0)
     throw InputError(path, "", "the file has no skinned mesh (no skin to take a skeleton from)");
@@ -124,6 +140,12 @@ std::pair<double, double> SkinnedMesh::clip_range(int clip) const {
 }
 
 std::vector<Mat4> SkinnedMesh::joint_world(int clip, double t) const {
+  if (!scene) { // a skin without clips (FBX): the rest pose
+    std::vector<Mat4> rest;
+    for (const auto& j : joints)
+      rest.push_back(j.bind);
+    return rest;
+  }
   const auto world = detail::node_world_matrices(*scene, clip, t);
   std::vector<Mat4> out;
   out.reserve(joint_node.size());
