@@ -21,6 +21,7 @@
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <unistd.h>
@@ -265,8 +266,9 @@ int run_animate(const AnimateArgs& a) {
     });
   } else {
     std::vector<float> data(static_cast<size_t>(frames) * nv * 3);
+    tbb::enumerable_thread_specific<std::vector<Vec3>> buffers([nv] { return std::vector<Vec3>(nv); });
     tbb::parallel_for(0, frames, [&](int f) {
-      std::vector<Vec3> out(nv);
+      std::vector<Vec3>& out = buffers.local(); // one buffer per thread, not per frame
       frame_positions(f, out);
       float* dst = data.data() + static_cast<size_t>(f) * nv * 3;
       for (int i = 0; i < nv; ++i)
