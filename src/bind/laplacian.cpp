@@ -92,7 +92,7 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
     if (t0 < 0 || edge_weight(h0) >= -1e-12)
       continue;
     const int h1 = m.next[h0], h2 = m.next[h1], t1 = m.next[t0], t2 = m.next[t1];
-    const int i = m.origin[h0], j = m.origin[h1], k = m.origin[h2], l = m.origin[t2];
+    const int k = m.origin[h2], l = m.origin[t2]; // the corners opposite the edge i-j
     if (k == l)
       continue;
     // Lay the two triangles out in the plane: i at 0, j on the x axis.
