@@ -14,3 +14,11 @@ find_package(embree 3 REQUIRED)
 # Its GPL packages (meshes, AABB trees, ...) are never included.
 set(CGAL_DO_NOT_WARN_ABOUT_CMAKE_BUILD_TYPE TRUE)
 find_package(CGAL REQUIRED)
+
+# OpenSubdiv (Catmull-Clark refinement of control cages). Debian's CMake
+# package for it is broken, so find the CPU library and headers directly.
+find_library(OSD_CPU_LIBRARY osdCPU REQUIRED)
+find_path(OSD_INCLUDE_DIR opensubdiv/far/topologyRefiner.h REQUIRED)
+add_library(opensubdiv::cpu UNKNOWN IMPORTED)
+set_target_properties(opensubdiv::cpu PROPERTIES IMPORTED_LOCATION "${OSD_CPU_LIBRARY}"
+                                                 INTERFACE_INCLUDE_DIRECTORIES "${OSD_INCLUDE_DIR}")

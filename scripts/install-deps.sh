@@ -7,7 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libtbb-dev
   libtinygltf-dev libtinyobjloader-dev libassimp-dev libembree-dev
-  libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  libcgal-dev libgmp-dev libmpfr-dev libboost-dev libosd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   blender
 )

@@ -3,6 +3,7 @@
 /// Transfer a rig to another mesh of the same character: keyed by logical
 /// ids only, no vertex, edge or face index crosses from one mesh to the other.
 
+#include "curvenet/compare.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/rig.hpp"
 #include "curvenet/surface_mesh.hpp"
@@ -35,6 +36,11 @@ struct TransferReport {
   std::vector<RegionAgreement> regions;
   double agreement = 0;   ///< over the whole target area
   double max_node_offset = 0; ///< largest distance a node moved onto the target, as % of its diagonal
+  /// How far apart the two surfaces are before anything is placed: the
+  /// source mapped into the target's space against the target (percentages
+  /// of the mapped source's diagonal). A transfer needs the same shape in
+  /// the same pose; a large distance says why one fails.
+  SurfaceDistance shape;
   bool ok = false;        ///< the target embedding is ok with the same logical counts
   std::vector<std::string> problems;
 };
@@ -46,8 +52,8 @@ struct TransferResult {
 
 /// \throw EmbedError when the rig does not embed on the source, or a node or
 ///   profile cannot be placed on the target (it lies too far off the surface,
-///   or its projection jumps to another part of the surface); the message
-///   names it and says why.
+///   or its projection jumps to another part of the surface) or cut into it;
+///   the message names it, says why, and says how far apart the surfaces are.
 TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target,
                         const TransferOptions& options = {});
 

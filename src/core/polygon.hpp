@@ -1,7 +1,7 @@
 #pragma once
 // Triangulating a polygon in its own plane (ear clipping, exact orientation
-// tests). Used for tracing on the input mesh and for the Laplacian of the
-// cut mesh.
+// tests), and the closest point of a triangle. Used for tracing on the
+// input mesh, for laying out faces of the cut mesh and for its Laplacian.
 
 #include <Eigen/Core>
 
@@ -16,5 +16,14 @@ namespace curvenet::detail {
 /// planar enough to have a clean ear at some step gets its first corner cut
 /// there.
 std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vector3d>& corners);
+
+/// Closest point on triangle (a, b, c) to p, with its barycentric
+/// coordinates (exact zeros where the point is clamped to a side or corner).
+struct TriClosest {
+  Eigen::Vector3d point;
+  std::array<double, 3> bary;
+};
+TriClosest closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                               const Eigen::Vector3d& c);
 
 } // namespace curvenet::detail

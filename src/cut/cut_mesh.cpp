@@ -1,10 +1,12 @@
 #include "cut/cut_mesh.hpp"
 
+#include "core/polygon.hpp"
 #include "core/predicates.hpp"
 #include "curvenet/errors.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <unordered_map>
 
@@ -39,8 +41,10 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
     for (int i = 0; i < n; ++i) {
       const int a = c[i], b = c[(i + 1) % n];
       auto [it, fresh] = edge_of.emplace(key(a, b), m.num_edges());
-      if (fresh)
+      if (fresh) {
         m.new_edge(Vertex(a), Vertex(b), it->second);
+        m.input_edge_ends_.push_back({a, b});
+      }
       Halfedge h(2 * it->second);
       if (m.to(h) != Vertex(b))
         h = twin(h);
@@ -56,7 +60,6 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
     m.face_halfedge_.push_back(loop[0]);
     m.face_origin_.push_back(f);
   }
-  m.frame_.resize(m.face_halfedge_.size());
   // Boundary loops and vertex half-edges (a boundary one where there is one).
   std::vector<Halfedge> boundary_out(nv);
   for (int h = 0; h < m.num_halfedges(); ++h) {
@@ -161,25 +164,86 @@ Vertex CutMesh::add_isolated_vertex(const Eigen::Vector3d& pos, const VertexOrig
   return Vertex(num_vertices() - 1);
 }
 
-Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
-  const Frame& fr = frame_[f.idx];
-  const Eigen::Vector3d d = p - fr.o;
-  return {d.dot(fr.u), d.dot(fr.v)};
+const CutMesh::Layout& CutMesh::layout(Face f) const {
+  const int input_face = face_origin_[f.idx];
+  if (auto it = layouts_.find(input_face); it != layouts_.end())
+    return it->second;
+  // The input face's corners, in the tracer's order (its loop still starts
+  // where the input face does: only pieces of a face laid out already move it).
+  Layout l;
+  std::vector<Eigen::Vector3d> pts;
+  for (Halfedge h : face_loop(f))
+    if (origin(from(h)).kind == VertexOrigin::Kind::Input) {
+      l.corners.push_back(from(h).idx);
+      pts.push_back(position(from(h)));
+    }
+  l.tris = triangulate_polygon(pts);
+  // Unfold the triangles across their shared diagonals (the dual of a
+  // polygon's triangulation is a tree), each placed by its edge lengths.
+  l.uv.assign(pts.size(), Eigen::Vector2d::Zero());
+  std::vector<char> placed(pts.size(), 0), done(l.tris.size(), 0);
+  const auto& t0 = l.tris[0];
+  l.uv[t0[1]] = {(pts[t0[1]] - pts[t0[0]]).norm(), 0};
+  placed[t0[0]] = placed[t0[1]] = 1;
+  for (size_t round = 0; round < l.tris.size(); ++round)
+    for (size_t t = 0; t < l.tris.size(); ++t) {
+      const auto& c = l.tris[t];
+      if (done[t])
+        continue;
+      for (int k = 0; k < 3; ++k) {
+        const int a = c[k], b = c[(k + 1) % 3], x = c[(k + 2) % 3];
+        if (!placed[a] || !placed[b])
+          continue;
+        // x to the left of a -> b (the triangle is counter-clockwise).
+        const Eigen::Vector2d ab = l.uv[b] - l.uv[a];
+        const double len = ab.norm(), ax = (pts[x] - pts[a]).norm(), bx = (pts[x] - pts[b]).norm();
+        const double along = (ax * ax - bx * bx + len * len) / (2 * len);
+        const double across = std::sqrt(std::max(0.0, ax * ax - along * along));
+        const Eigen::Vector2d dir = ab / len, left(-dir.y(), dir.x());
+        if (!placed[x])
+          l.uv[x] = l.uv[a] + along * dir + across * left;
+        placed[x] = 1;
+        done[t] = 1;
+        break;
+      }
+    }
+  return layouts_.emplace(input_face, std::move(l)).first->second;
+}
+
+Eigen::Vector2d CutMesh::to_face_plane(Face f, Vertex v) const {
+  const Layout& l = layout(f);
+  auto corner = [&](int input_vertex) {
+    const auto it = std::find(l.corners.begin(), l.corners.end(), input_vertex);
+    return it == l.corners.end() ? -1 : static_cast<int>(it - l.corners.begin());
+  };
+  const VertexOrigin& o = origin(v);
+  if (o.kind == VertexOrigin::Kind::Input)
+    if (const int i = corner(o.index); i >= 0)
+      return l.uv[i];
+  if (o.kind == VertexOrigin::Kind::OnEdge) {
+    const int a = corner(input_edge_ends_[o.index][0]), b = corner(input_edge_ends_[o.index][1]);
+    if (a >= 0 && b >= 0)
+      return (1 - o.t) * l.uv[a] + o.t * l.uv[b];
+  }
+  // A point inside the face: through the nearest of its triangles.
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d out = Eigen::Vector2d::Zero();
+  for (const auto& c : l.tris) {
+    const Eigen::Vector3d& p = position(v);
+    const TriClosest cl = closest_on_triangle(p, position(Vertex(l.corners[c[0]])), position(Vertex(l.corners[c[1]])),
+                                              position(Vertex(l.corners[c[2]])));
+    const double d = (cl.point - p).squaredNorm();
+    if (d < best) {
+      best = d;
+      out = cl.bary[0] * l.uv[c[0]] + cl.bary[1] * l.uv[c[1]] + cl.bary[2] * l.uv[c[2]];
+    }
+  }
+  return out;
 }
 
 std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> chords) {
   const std::vector<Halfedge> loop = face_loop(f);
-  {
-    // Fix the face's plane frame once; its pieces inherit it.
-    Frame& fr = frame_[f.idx];
-    if (fr.u.size() == 0 || fr.u.isZero()) {
-      Eigen::Vector3d n = face_normal(f).normalized();
-      fr.o = position(from(loop[0]));
-      Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-      fr.u = n.cross(a).normalized();
-      fr.v = n.cross(fr.u);
-    }
-  }
+  (void)layout(f); // fixed now, from the whole face, and inherited by its pieces
   struct Spoke {
     Vertex other;
     Halfedge out; // invalid: the outside of the face (incoming boundary only)
@@ -207,10 +271,10 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
   }
   // Sort each vertex's spokes counter-clockwise by exact angle comparisons.
   for (auto& [vi, list] : spokes) {
-    const Eigen::Vector2d c = to_face_plane(f, position_[vi]);
+    const Eigen::Vector2d c = to_face_plane(f, Vertex(vi));
     std::vector<Eigen::Vector2d> pts;
     for (const Spoke& s : list)
-      pts.push_back(to_face_plane(f, position(s.other)));
+      pts.push_back(to_face_plane(f, s.other));
     auto upper = [&](const Eigen::Vector2d& p) { return !(p.y() < c.y() || (p.y() == c.y() && p.x() < c.x())); };
     std::vector<int> order(list.size());
     for (size_t i = 0; i < order.size(); ++i)
@@ -248,7 +312,6 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
   std::unordered_map<int, char> seen;
   bool first = true;
   const int origin = face_origin_[f.idx];
-  const Frame frame = frame_[f.idx];
   for (Halfedge start : local) {
     if (seen[start.idx])
       continue;
@@ -265,9 +328,9 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
     // Twice the signed area, relative to the first corner (no cancellation
     // between large coordinates when the piece is a sliver).
     double area2 = 0;
-    const Eigen::Vector2d o = to_face_plane(f, position(from(piece[0])));
+    const Eigen::Vector2d o = to_face_plane(f, from(piece[0]));
     for (Halfedge g : piece) {
-      const Eigen::Vector2d p = to_face_plane(f, position(from(g))) - o, q = to_face_plane(f, position(to(g))) - o;
+      const Eigen::Vector2d p = to_face_plane(f, from(g)) - o, q = to_face_plane(f, to(g)) - o;
       area2 += p.x() * q.y() - p.y() * q.x();
     }
     if (!(area2 > 0))
@@ -278,7 +341,6 @@ std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> cho
       pf = Face(num_faces());
       face_halfedge_.emplace_back();
       face_origin_.push_back(origin);
-      frame_.push_back(frame);
     }
     first = false;
     face_halfedge_[pf.idx] = piece[0];

@@ -9,9 +9,11 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <optional>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace curvenet::detail {
@@ -107,8 +109,13 @@ public:
   ///   chord leaves the face, or a group of chords touches no other).
   std::vector<Halfedge> subdivide_face(Face f, std::span<const Chord> chords);
 
-  /// 2D coordinates of points in the plane of face f (for exact predicates).
-  [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, const Eigen::Vector3d& p) const;
+  /// 2D coordinates of a vertex of face f, or of a vertex inside it, in the
+  /// face's layout (for exact predicates). The layout is the input face's
+  /// triangulation (the tracer's) unfolded into the plane, edge lengths
+  /// kept, so a face that is far from flat keeps its shape; a flat face
+  /// lays out as itself. Fixed when first asked for, and inherited by the
+  /// pieces the face is split into.
+  [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, Vertex v) const;
 
   /// The first broken invariant, or nothing when the mesh is valid: twin
   /// symmetry, next/prev inverse, closed loops with one face, vertex
@@ -128,12 +135,16 @@ private:
   std::vector<int> edge_origin_;
   std::vector<Halfedge> face_halfedge_;
   std::vector<int> face_origin_;
-  // Per face: the plane frame used for 2D predicates (origin, u, v), fixed
-  // when the face is first subdivided and inherited by its pieces.
-  struct Frame {
-    Eigen::Vector3d o, u, v;
+  std::vector<std::array<int, 2>> input_edge_ends_; // input edge -> its two input vertices, along half-edge 2e
+  // The unfolded layout of an input face: its corners (input vertices) in
+  // the plane and its triangles, built on demand (see to_face_plane).
+  struct Layout {
+    std::vector<int> corners;
+    std::vector<Eigen::Vector2d> uv;
+    std::vector<std::array<int, 3>> tris; // indices into corners
   };
-  std::vector<Frame> frame_;
+  const Layout& layout(Face f) const;
+  mutable std::unordered_map<int, Layout> layouts_; // input face -> layout
 };
 
 } // namespace curvenet::detail

@@ -257,11 +257,9 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
                          " but no profile leaves it there");
     if (cs.empty())
       continue;
-    // Check: chords against each other and against the face boundary.
-    const Eigen::Vector3d n = mesh.face_normal(face).normalized();
-    const Eigen::Vector3d axis = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    const Eigen::Vector3d u = n.cross(axis).normalized(), w = n.cross(u);
-    auto p2 = [&](Vertex v) { return Eigen::Vector2d(mesh.position(v).dot(u), mesh.position(v).dot(w)); };
+    // Check: chords against each other and against the face boundary, in
+    // the face's layout (the same one subdivide_face uses).
+    auto p2 = [&](Vertex v) { return mesh.to_face_plane(face, v); };
     for (size_t i = 0; i < cs.size(); ++i) {
       for (size_t j = i + 1; j < cs.size(); ++j) {
         const Chord &c = cs[i], &d = cs[j];

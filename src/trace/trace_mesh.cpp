@@ -13,51 +13,6 @@
 #include <map>
 
 namespace curvenet::detail {
-namespace {
-
-/// Closest point on triangle (a, b, c) to p, with its barycentric
-/// coordinates (exact zeros where the point is clamped to a side or corner).
-struct TriClosest {
-  Vec3 point;
-  std::array<double, 3> bary;
-};
-
-TriClosest closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  // Real-Time Collision Detection, section 5.1.5 (Ericson), keeping the
-  // barycentric coordinates of every Voronoi region.
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0)
-    return {a, {1, 0, 0}};
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3)
-    return {b, {0, 1, 0}};
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double v = d1 / (d1 - d3);
-    return {a + v * ab, {1 - v, v, 0}};
-  }
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6)
-    return {c, {0, 0, 1}};
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double w = d2 / (d2 - d6);
-    return {a + w * ac, {1 - w, 0, w}};
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {b + w * (c - b), {0, 1 - w, w}};
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  const double v = vb * denom, w = vc * denom;
-  return {a + ab * v + ac * w, {1 - v - w, v, w}};
-}
-
-} // namespace
 
 struct TraceMesh::Bvh {
   RTCDevice device = nullptr;
@@ -184,10 +139,18 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
     for (int k = 0; k < 3; ++k)
       ib[3 * t + k] = static_cast<unsigned>(tri_[t][k]);
   rtcSetGeometryPointQueryFunction(geom, point_query);
+  rtcSetSceneFlags(bvh_->scene, RTC_SCENE_FLAG_ROBUST); // rays do not slip between triangles
   rtcCommitGeometry(geom);
   rtcAttachGeometry(bvh_->scene, geom);
   rtcReleaseGeometry(geom);
   rtcCommitScene(bvh_->scene);
+
+  vertex_normals_.assign(mesh.positions.size(), Vec3::Zero());
+  for (const auto& c : tri_) {
+    const Vec3 n = (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0])); // 2 x area x unit normal
+    for (int v : c)
+      vertex_normals_[v] += n;
+  }
 }
 
 TraceMesh::~TraceMesh() = default;
@@ -241,6 +204,52 @@ TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
   if (data.tri < 0)
     throw EmbedError("closest point: the surface has no triangle");
   return {data.tri, data.hit.point, data.hit.bary};
+}
+
+std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const Vec3& dir, double t_max,
+                                                     const Vec3& facing) const {
+  double t_near = 0;
+  for (int pass = 0; pass < 64; ++pass) { // each pass steps past one triangle facing away
+    RTCRayHit rh{};
+    rh.ray.org_x = static_cast<float>(origin.x());
+    rh.ray.org_y = static_cast<float>(origin.y());
+    rh.ray.org_z = static_cast<float>(origin.z());
+    rh.ray.dir_x = static_cast<float>(dir.x());
+    rh.ray.dir_y = static_cast<float>(dir.y());
+    rh.ray.dir_z = static_cast<float>(dir.z());
+    rh.ray.tnear = static_cast<float>(t_near);
+    rh.ray.tfar = static_cast<float>(t_max);
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    rtcIntersect1(bvh_->scene, &context, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+      return std::nullopt;
+    const int t = static_cast<int>(rh.hit.primID);
+    const Vec3 n = tri_normal(t);
+    if (n.dot(facing) > 0) {
+      // The hit again in double precision: the line meets the triangle's
+      // plane, then the nearest point of the triangle to that.
+      const auto& c = tri_[t];
+      const double along = n.dot(dir);
+      double s = rh.ray.tfar;
+      if (std::abs(along) > 1e-12)
+        s = n.dot(position(c[0]) - origin) / along;
+      const TriClosest cl = closest_on_triangle(origin + s * dir, position(c[0]), position(c[1]), position(c[2]));
+      return Nearest{t, cl.point, cl.bary};
+    }
+    t_near = std::nextafter(rh.ray.tfar, std::numeric_limits<float>::infinity());
+  }
+  return std::nullopt;
+}
+
+Vec3 TraceMesh::smooth_normal(int t, const std::array<double, 3>& bary) const {
+  Vec3 n = Vec3::Zero();
+  for (int k = 0; k < 3; ++k)
+    n += bary[k] * vertex_normals_[tri_[t][k]].normalized();
+  return n.norm() > 0 ? n.normalized() : tri_normal(t);
 }
 
 SurfacePoint TraceMesh::closest_point(const Vec3& q) const {

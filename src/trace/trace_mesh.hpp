@@ -7,6 +7,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace curvenet::detail {
@@ -79,6 +80,16 @@ public:
   };
   [[nodiscard]] Nearest nearest(const Vec3& q) const;
 
+  /// The first point where the ray origin + t * dir (0 <= t <= t_max, dir a
+  /// unit vector) meets a triangle whose normal points along `facing`
+  /// (positive dot product); triangles facing the other way are passed
+  /// through. The point is recomputed in double precision on the triangle.
+  [[nodiscard]] std::optional<Nearest> ray_hit(const Vec3& origin, const Vec3& dir, double t_max,
+                                               const Vec3& facing) const;
+
+  /// The area-weighted vertex normals interpolated at a point of triangle t.
+  [[nodiscard]] Vec3 smooth_normal(int t, const std::array<double, 3>& bary) const;
+
 private:
   const SurfaceMesh& mesh_;
   std::vector<std::array<int, 2>> edge_ends_;
@@ -89,6 +100,7 @@ private:
   std::vector<std::array<int, 3>> nbr_;
   std::vector<std::vector<int>> vertex_tris_;
   std::vector<std::vector<int>> edge_tris_;
+  std::vector<Vec3> vertex_normals_;
   struct Bvh;
   std::unique_ptr<Bvh> bvh_;
 };

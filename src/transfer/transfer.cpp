@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 
 namespace curvenet {
@@ -82,22 +83,85 @@ private:
   std::vector<std::vector<int>> pieces_;
 };
 
-} // namespace
+/// Places points of the source surface on the target along the source's
+/// surface normal. Closest points alone fold: where the target is a coarser
+/// tessellation lying inside the source's curved parts, every point over a
+/// convex edge or corner of the target lands on that edge or corner, and
+/// profiles that met at right angles on the source meet at shallow angles,
+/// or cross, on the target. The normal is smooth across the source, so the
+/// projection keeps the curves' order and angles.
+class Projector {
+public:
+  Projector(const SurfaceMesh& source, const TraceMesh& target, const Mat4& source_to_target)
+      : scut_(CutMesh::from_surface(source)), stm_(source, scut_), ttm_(target), map_(source_to_target),
+        normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mesh().mean_edge_length()) {}
 
-TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt) {
-  TransferResult result;
-  TransferReport& rep = result.report;
-  const Mat4 to_target = opt.target_frame.inverse() * opt.source_frame * rig.frame;
-  const Mat4 to_source = opt.source_frame.inverse() * opt.target_frame; // target space -> source space
+  /// The target point for a point in the source mesh's space, and its
+  /// distance from where the frames put it.
+  std::pair<Vec3, double> place(const Vec3& p) const {
+    const auto on_source = stm_.nearest(p);
+    const Vec3 q = apply(map_, p);
+    const auto near = ttm_.nearest(q);
+    const double d0 = near.distance(q);
+    const Vec3 n = (normal_map_ * stm_.smooth_normal(on_source.tri, on_source.bary)).normalized();
+    // Both ways along the normal, since the target may lie inside or
+    // outside; only through triangles that face the same way, so that a ray
+    // never lands on the far side of a thin fin or finger. A ray much longer
+    // than the closest distance grazes the surface: keep the closest point.
+    const double reach = kRayReach * d0 + kRaySlack * h_;
+    std::optional<Vec3> best;
+    for (const double sign : {1.0, -1.0})
+      if (const auto hit = ttm_.ray_hit(q, sign * n, reach, n))
+        if (!best || hit->distance(q) < (*best - q).norm())
+          best = hit->point;
+    return best ? std::pair{*best, (*best - q).norm()} : std::pair{near.point, d0};
+  }
 
-  const Embedding src = embed(source, rig, opt.embed);
-  rep.source = src.report();
-  if (!rep.source.ok)
-    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
-                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
+private:
+  static constexpr double kRayReach = 3;   ///< rays up to this many times the closest distance...
+  static constexpr double kRaySlack = 0.5; ///< ...plus this many target mean edge lengths
+  CutMesh scut_;
+  TraceMesh stm_;
+  const TraceMesh& ttm_;
+  Mat4 map_;
+  Eigen::Matrix3d normal_map_;
+  double h_;
+};
 
+/// The placed polyline without the points where it doubles back. Where the
+/// two surfaces are far apart (a control cage and its limit surface), the
+/// projection can swing a few points back against the curve's direction;
+/// the profile would then cross itself. A point is kept when the step to it
+/// runs the same way as the step between the same points before placing
+/// (`mapped`); the last point (the end node) is always kept, and takes back
+/// the kept points it would double back over.
+std::vector<Vec3> without_folds(const std::vector<Vec3>& placed, const std::vector<Vec3>& mapped) {
+  std::vector<size_t> kept{0};
+  auto forward = [&](size_t a, size_t b) { return (placed[b] - placed[a]).dot(mapped[b] - mapped[a]) > 0; };
+  for (size_t i = 1; i < placed.size(); ++i) {
+    if (i + 1 == placed.size()) {
+      while (kept.size() > 1 && !forward(kept.back(), i))
+        kept.pop_back();
+      kept.push_back(i);
+    } else if (forward(kept.back(), i)) {
+      kept.push_back(i);
+    }
+  }
+  std::vector<Vec3> out;
+  for (size_t i : kept)
+    out.push_back(placed[i]);
+  return out;
+}
+
+/// The rig in the target's space, every node and profile placed on the
+/// target surface (see Projector).
+Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt,
+                    double& max_node_offset) {
+  const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
+  const Mat4 to_target = source_to_target * rig.frame;
   const CutMesh tcut = CutMesh::from_surface(target);
   const TraceMesh ttm(target, tcut);
+  const Projector project(source, ttm, source_to_target);
   const double diag = target.bbox_diagonal(), h = target.mean_edge_length();
   Rig out = rig;
   out.frame = Mat4::Identity();
@@ -105,52 +169,77 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     j.bind = to_target * j.bind;
   std::map<std::string, Vec3> node_at;
   for (auto& n : out.nodes) {
-    const Vec3 p = apply(to_target, n.position);
-    const auto near = ttm.nearest(p);
-    const double offset = near.distance(p);
+    const auto [point, offset] = project.place(apply(rig.frame, n.position));
     if (offset > opt.max_offset * diag)
       throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) + " of the diagonal off the target " +
                        target.source + " (the frames do not line the meshes up, or the target is another shape)");
-    rep.max_node_offset = std::max(rep.max_node_offset, 100 * offset / diag);
-    n.position = near.point;
-    node_at[n.id] = near.point;
+    max_node_offset = std::max(max_node_offset, 100 * offset / diag);
+    n.position = point;
+    node_at[n.id] = point;
   }
   for (auto& p : out.profiles) {
-    std::vector<Vec3> placed;
     const auto& pts = p.curve.points;
+    // A Bezier or NURBS curve keeps its shape, mapped; the embedding places it.
+    if (p.curve.kind != Curve::Kind::Polyline) {
+      for (auto& q : p.curve.points)
+        q = apply(to_target, q);
+      continue;
+    }
+    std::vector<Vec3> placed, mapped;
     for (size_t i = 0; i < pts.size(); ++i) {
-      const Vec3 q = apply(to_target, pts[i]);
-      const auto near = ttm.nearest(q);
-      if (near.distance(q) > opt.max_offset * diag)
+      mapped.push_back(apply(to_target, pts[i]));
+      const auto [point, offset] = project.place(apply(rig.frame, pts[i]));
+      if (offset > opt.max_offset * diag)
         throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + " lies " +
-                         percent(near.distance(q) / diag) + " of the diagonal off the target: the profile leaves the surface");
+                         percent(offset / diag) + " of the diagonal off the target: the profile leaves the surface");
       if (i > 0) {
-        const double before = (apply(to_target, pts[i - 1]) - q).norm(), after = (placed.back() - near.point).norm();
+        const double before = (mapped[i - 1] - mapped[i]).norm(), after = (placed.back() - point).norm();
         if (after > 3 * before + 2 * h)
           throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + ": the projection jumped " +
                            percent(after / diag) + " of the diagonal to another part of the surface (another finger?)");
       }
-      placed.push_back(near.point);
+      placed.push_back(point);
     }
-    // A Bezier or NURBS curve becomes the polyline of its projected control
-    // points only when it is a polyline; otherwise its shape is kept and mapped.
-    if (p.curve.kind == Curve::Kind::Polyline) {
-      p.curve.points = placed;
-      p.curve.points.front() = node_at[p.from];
-      p.curve.points.back() = node_at[p.to];
-    } else {
-      for (auto& q : p.curve.points)
-        q = apply(to_target, q);
-    }
+    placed.front() = node_at[p.from];
+    placed.back() = node_at[p.to];
+    p.curve.points = without_folds(placed, mapped);
   }
-  result.rig = out;
+  return out;
+}
 
-  const Embedding tgt = embed(target, out, opt.embed);
+} // namespace
+
+TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt) {
+  TransferResult result;
+  TransferReport& rep = result.report;
+  const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
+  const Mat4 to_source = source_to_target.inverse();
+
+  const Embedding src = embed(source, rig, opt.embed);
+  rep.source = src.report();
+  if (!rep.source.ok)
+    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
+                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
+  SurfaceMesh mapped = source;
+  for (auto& p : mapped.positions)
+    p = apply(source_to_target, p);
+  rep.shape = surface_distance(mapped, target, 1);
+  const std::string apart = " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) +
+                            " of the diagonal apart, " + percent(rep.shape.mean / rep.shape.diagonal) + " on average)";
+
+  std::optional<Embedding> placed;
+  try {
+    result.rig = place_on_target(rig, source, target, opt, rep.max_node_offset);
+    placed.emplace(embed(target, result.rig, opt.embed));
+  } catch (const EmbedError& e) {
+    throw EmbedError(e.what() + apart);
+  }
+  const Embedding& tgt = *placed;
   rep.target = tgt.report();
   const EmbedReport &a = rep.source, &b = rep.target;
   if (!b.ok)
     for (const auto& pr : b.problems)
-      rep.problems.push_back("target: " + pr);
+      rep.problems.push_back("target: " + pr + apart);
   if (a.logical_nodes != b.logical_nodes || a.profiles != b.profiles || a.components != b.components)
     rep.problems.push_back("the logical counts differ between source and target");
   if (a.regions != b.regions)

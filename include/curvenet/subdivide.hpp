@@ -1,0 +1,18 @@
+#pragma once
+/// \file subdivide.hpp
+/// Catmull-Clark refinement of a control cage (OpenSubdiv). A cage is not
+/// the surface it stands for: its limit surface is. Refine a cage before
+/// comparing it with, or transferring a rig to or from, a mesh of that
+/// surface.
+
+#include "curvenet/surface_mesh.hpp"
+
+namespace curvenet {
+
+/// The cage refined `levels` times (all quads after the first level).
+/// Boundaries keep their edges (OpenSubdiv's "edge only" rule). The result's
+/// `source` names the cage and the level.
+/// \throw InputError when levels is not between 1 and 6.
+SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels);
+
+} // namespace curvenet

@@ -1,0 +1,70 @@
+// Catmull-Clark refinement through OpenSubdiv's Far layer: the topology
+// refined uniformly, then the positions interpolated level by level.
+
+#include "curvenet/subdivide.hpp"
+
+#include "curvenet/errors.hpp"
+
+#include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+
+#include <memory>
+
+namespace curvenet {
+
+namespace {
+
+using namespace OpenSubdiv;
+
+/// A position in the shape PrimvarRefiner interpolates.
+struct Point {
+  Vec3 p = Vec3::Zero();
+  void Clear(void* = nullptr) { p.setZero(); }
+  void AddWithWeight(const Point& s, float w) { p += static_cast<double>(w) * s.p; }
+};
+
+} // namespace
+
+SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
+  if (levels < 1 || levels > 6)
+    throw InputError(cage.source, "subdivision levels", "must be between 1 and 6, not " + std::to_string(levels));
+  std::vector<int> counts;
+  for (int f = 0; f < cage.num_faces(); ++f)
+    counts.push_back(static_cast<int>(cage.face(f).size()));
+  Far::TopologyDescriptor desc;
+  desc.numVertices = cage.num_vertices();
+  desc.numFaces = cage.num_faces();
+  desc.numVertsPerFace = counts.data();
+  desc.vertIndicesPerFace = cage.face_vertices.data();
+  Sdc::Options sdc;
+  sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+  using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
+  std::unique_ptr<Far::TopologyRefiner> refiner(Factory::Create(desc, Factory::Options(Sdc::SCHEME_CATMARK, sdc)));
+  if (!refiner)
+    throw InputError(cage.source, "subdivision", "OpenSubdiv cannot refine this mesh");
+  refiner->RefineUniform(Far::TopologyRefiner::UniformOptions(levels));
+
+  std::vector<Point> points(refiner->GetNumVerticesTotal());
+  for (int v = 0; v < cage.num_vertices(); ++v)
+    points[v].p = cage.positions[v];
+  Far::PrimvarRefiner interpolate(*refiner);
+  Point* from = points.data();
+  for (int level = 1; level <= levels; ++level) {
+    Point* to = from + refiner->GetLevel(level - 1).GetNumVertices();
+    interpolate.Interpolate(level, from, to);
+    from = to;
+  }
+  const Far::TopologyLevel& last = refiner->GetLevel(levels);
+  RawMesh raw;
+  raw.positions.reserve(last.GetNumVertices());
+  for (int v = 0; v < last.GetNumVertices(); ++v)
+    raw.positions.push_back(from[v].p);
+  for (int f = 0; f < last.GetNumFaces(); ++f) {
+    const Far::ConstIndexArray fv = last.GetFaceVertices(f);
+    const std::vector<int> corners(fv.begin(), fv.end());
+    raw.add_face(corners);
+  }
+  return make_surface_mesh(raw, cage.source + " (Catmull-Clark level " + std::to_string(levels) + ")");
+}
+
+} // namespace curvenet
