@@ -112,3 +112,31 @@ TEST(CutMesh, AChordOutsideItsFaceIsRefused) {
   const Chord chord{Vertex(2), Vertex(4), {0, true}};
   EXPECT_THROW(m.subdivide_face(Face(0), std::span<const Chord>(&chord, 1)), EmbedError);
 }
+
+TEST(CutMesh, AFoldedQuadIsLaidOutUnfoldedAndSplitsCleanly) {
+  // A unit square folded 150 degrees about its diagonal 0-2: seen along its
+  // average normal it overlaps itself, yet it is a fine piece of surface.
+  RawMesh r;
+  const Vec3 d = Eigen::AngleAxisd(150 * EIGEN_PI / 180, Vec3(1, 1, 0).normalized()) * Vec3(0, 1, 0);
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, d};
+  r.add_face(std::vector<int>{0, 1, 2, 3});
+  const SurfaceMesh s = make_surface_mesh(r, "folded");
+  CutMesh m = CutMesh::from_surface(s);
+  // The layout keeps every side's length.
+  for (int i = 0; i < 4; ++i) {
+    const Vertex a(i), b((i + 1) % 4);
+    EXPECT_NEAR((m.to_face_plane(Face(0), a) - m.to_face_plane(Face(0), b)).norm(),
+                (m.position(a) - m.position(b)).norm(), 1e-12);
+  }
+  // A chord from the middle of side 0-1 to the middle of side 2-3.
+  const auto loop = m.face_loop(Face(0));
+  const Vertex a = m.split_edge(loop[0], (s.positions[0] + s.positions[1]) / 2, {VertexOrigin::Kind::OnEdge, 0, 0.5});
+  expect_valid(m);
+  const Vertex b = m.split_edge(m.face_loop(Face(0))[3], (s.positions[2] + s.positions[3]) / 2,
+                                {VertexOrigin::Kind::OnEdge, m.edge_origin(m.face_loop(Face(0))[3]), 0.5});
+  expect_valid(m);
+  const Chord chord{a, b, {0, true}};
+  m.subdivide_face(Face(0), std::span<const Chord>(&chord, 1));
+  expect_valid(m);
+  EXPECT_EQ(m.num_faces(), 2);
+}

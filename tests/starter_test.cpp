@@ -9,6 +9,7 @@
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 #include "starter/plane_section.hpp"
+#include "transfer_check.hpp"
 
 #include <gtest/gtest.h>
 
@@ -182,4 +183,22 @@ TEST(Starter, CharactersGetNets) {
     EXPECT_EQ(back.profiles.size(), r.rig.profiles.size());
     EXPECT_EQ(back.extensions.count("x_starter"), 1u);
   }
+}
+
+TEST(Starter, ACageWithFoldedQuadsAndPentagonsGetsANet) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // Blub's control cage: 112 faces, quads far from flat, pentagons, thin
+  // fins. Faces are cut in their own unfolded layout, so a face that folds
+  // over itself when seen along its average normal still splits cleanly.
+  const SurfaceMesh cage = load_mesh(test::data("blub/fish_control_mesh.obj"));
+  check::Family f;
+  check::two_joint_family(cage, f);
+  const StarterResult r = make_starter(cage, f.joints, f.starter);
+  for (const auto& m : r.messages)
+    std::printf("starter: %s\n", m.c_str());
+  // Before faces were unfolded, no net at all embedded here. Rings that
+  // come too close to each other on the coarse cage are still dropped.
+  EXPECT_GE(r.rings, 1);
+  expect_embeds(cage, r.rig);
 }

@@ -77,3 +77,49 @@ TEST(Tracer, ACurveAlongEdgesVisitsTheirVertices) {
   }
   EXPECT_EQ(vertices, (std::vector<int>{5, 6, 7, 8, 9}));
 }
+
+namespace {
+/// A box [0,1] x [0,1] x [0,thickness], quads facing out.
+RawMesh slab(double thickness) {
+  RawMesh r;
+  for (int k = 0; k < 8; ++k)
+    r.positions.emplace_back(k & 1, (k >> 1) & 1, (k >> 2) ? thickness : 0.0);
+  for (const auto& f : std::vector<std::vector<int>>{
+           {0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}})
+    r.add_face(f);
+  return r;
+}
+} // namespace
+
+TEST(TraceMesh, ARayLandsOnTheFirstSideFacingTheRightWay) {
+  Fixture f(slab(0.05));
+  const Vec3 up(0, 0, 1), from(0.3, 0.4, 1.0);
+  // Down onto the top, which faces up.
+  const auto top = f.tm->ray_hit(from, -up, 10, up);
+  ASSERT_TRUE(top.has_value());
+  EXPECT_NEAR(top->point.z(), 0.05, 1e-15);
+  EXPECT_NEAR(top->point.x(), 0.3, 1e-12);
+  EXPECT_NEAR(top->point.y(), 0.4, 1e-12);
+  // Asked for a side facing down, the ray passes the top and lands on the
+  // bottom: never on the far side of a thin fin by mistake.
+  const auto bottom = f.tm->ray_hit(from, -up, 10, -up);
+  ASSERT_TRUE(bottom.has_value());
+  EXPECT_NEAR(bottom->point.z(), 0.0, 1e-15);
+  // Out of reach, or pointing away: nothing.
+  EXPECT_FALSE(f.tm->ray_hit(from, -up, 0.5, up).has_value());
+  EXPECT_FALSE(f.tm->ray_hit(from, up, 10, up).has_value());
+}
+
+TEST(TraceMesh, SmoothNormalsAverageTheFacesAroundACorner) {
+  Fixture f(slab(1.0));
+  // At a corner of the cube, the normal points out along the diagonal; in
+  // the middle of a face, it is the face's normal blended toward its corners'.
+  for (int t = 0; t < f.tm->num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      std::array<double, 3> at{0, 0, 0};
+      at[k] = 1;
+      const Vec3 p = f.tm->position(f.tm->tri(t)[k]);
+      const Vec3 expect = (p - Vec3(0.5, 0.5, 0.5)).normalized();
+      EXPECT_LT((f.tm->smooth_normal(t, at) - expect).norm(), 1e-12);
+    }
+}

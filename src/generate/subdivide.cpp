@@ -20,7 +20,7 @@ using namespace OpenSubdiv;
 struct Point {
   Vec3 p = Vec3::Zero();
   void Clear(void* = nullptr) { p.setZero(); }
-  void AddWithWeight(const Point& s, float w) { p += static_cast<double>(w) * s.p; }
+  void AddWithWeight(const Point& s, double w) { p += w * s.p; }
 };
 
 } // namespace
@@ -47,7 +47,7 @@ SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
   std::vector<Point> points(refiner->GetNumVerticesTotal());
   for (int v = 0; v < cage.num_vertices(); ++v)
     points[v].p = cage.positions[v];
-  Far::PrimvarRefiner interpolate(*refiner);
+  Far::PrimvarRefinerReal<double> interpolate(*refiner); // double weights: no float rounding
   Point* from = points.data();
   for (int level = 1; level <= levels; ++level) {
     Point* to = from + refiner->GetLevel(level - 1).GetNumVertices();

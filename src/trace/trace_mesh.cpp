@@ -145,11 +145,19 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
   rtcReleaseGeometry(geom);
   rtcCommitScene(bvh_->scene);
 
+  // Angle-weighted vertex normals: the same whichever way the polygons
+  // around a vertex are split into triangles.
   vertex_normals_.assign(mesh.positions.size(), Vec3::Zero());
-  for (const auto& c : tri_) {
-    const Vec3 n = (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0])); // 2 x area x unit normal
-    for (int v : c)
-      vertex_normals_[v] += n;
+  for (int t = 0; t < num_triangles(); ++t) {
+    const auto& c = tri_[t];
+    const Vec3 area = (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0]));
+    if (!(area.norm() > 0))
+      continue; // a sliver of a polygon with collinear corners
+    const Vec3 n = area.normalized();
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 a = position(c[(k + 1) % 3]) - position(c[k]), b = position(c[(k + 2) % 3]) - position(c[k]);
+      vertex_normals_[c[k]] += std::atan2(a.cross(b).norm(), a.dot(b)) * n;
+    }
   }
 }
 
@@ -248,7 +256,8 @@ std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const V
 Vec3 TraceMesh::smooth_normal(int t, const std::array<double, 3>& bary) const {
   Vec3 n = Vec3::Zero();
   for (int k = 0; k < 3; ++k)
-    n += bary[k] * vertex_normals_[tri_[t][k]].normalized();
+    if (vertex_normals_[tri_[t][k]].norm() > 0)
+      n += bary[k] * vertex_normals_[tri_[t][k]].normalized();
   return n.norm() > 0 ? n.normalized() : tri_normal(t);
 }
 

@@ -87,7 +87,7 @@ public:
   [[nodiscard]] std::optional<Nearest> ray_hit(const Vec3& origin, const Vec3& dir, double t_max,
                                                const Vec3& facing) const;
 
-  /// The area-weighted vertex normals interpolated at a point of triangle t.
+  /// The angle-weighted vertex normals interpolated at a point of triangle t.
   [[nodiscard]] Vec3 smooth_normal(int t, const std::array<double, 3>& bary) const;
 
 private:

@@ -1,0 +1,79 @@
+// Catmull-Clark refinement of control cages: counts, shape, and that a
+// cage's limit surface is the surface its remeshes stand for.
+
+#include "curvenet/compare.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/subdivide.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace curvenet;
+
+namespace {
+SurfaceMesh cube() {
+  RawMesh r;
+  for (int k = 0; k < 8; ++k)
+    r.positions.emplace_back(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+  for (const auto& f : std::vector<std::vector<int>>{
+           {0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}})
+    r.add_face(f);
+  return make_surface_mesh(r, "cube");
+}
+} // namespace
+
+TEST(Subdivide, ACubeRefinesIntoQuadsThatStayClosedAndSymmetric) {
+  const SurfaceMesh c = cube();
+  for (int level = 1; level <= 3; ++level) {
+    const SurfaceMesh s = catmull_clark(c, level);
+    const int faces = 6 << (2 * level);
+    EXPECT_EQ(s.num_faces(), faces);
+    EXPECT_EQ(s.num_vertices(), faces + 2); // closed, genus 0: V - E + F = 2 with E = 2F
+    for (int f = 0; f < s.num_faces(); ++f)
+      EXPECT_EQ(s.face(f).size(), 4u);
+    const auto comps = mesh_components(s);
+    ASSERT_EQ(comps.size(), 1u);
+    EXPECT_TRUE(comps[0].closed);
+    EXPECT_EQ(comps[0].euler, 2);
+    // Inside the cage, pulled away from its corners, and centred.
+    Vec3 mean = Vec3::Zero();
+    for (const auto& p : s.positions) {
+      EXPECT_TRUE((p.array() >= 0).all() && (p.array() <= 1).all()) << p.transpose();
+      EXPECT_FALSE(((p.array() == 0) || (p.array() == 1)).all()) << "a vertex stayed on a corner: " << p.transpose();
+      mean += p;
+    }
+    EXPECT_LT((mean / s.num_vertices() - Vec3(0.5, 0.5, 0.5)).norm(), 1e-12);
+  }
+}
+
+TEST(Subdivide, AFlatGridStaysFlat) {
+  const SurfaceMesh g = make_surface_mesh(test::grid(3, 2), "grid");
+  const SurfaceMesh s = catmull_clark(g, 2);
+  EXPECT_EQ(s.num_faces(), 6 * 16);
+  for (const auto& p : s.positions)
+    EXPECT_EQ(p.z(), 0.0);
+}
+
+TEST(Subdivide, LevelsOutOfRangeAreRefused) {
+  EXPECT_THROW(catmull_clark(cube(), 0), InputError);
+  EXPECT_THROW(catmull_clark(cube(), 7), InputError);
+}
+
+TEST(Subdivide, ACageRefinedMeetsItsRemesh) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // Spot's and Blub's triangle meshes are remeshes of their cages' limit
+  // surfaces: the bare cage lies far off them, the refined cage on them.
+  for (const auto& [cage, remesh] : {std::pair{"spot/spot_control_mesh.obj", "spot/spot_triangulated.obj"},
+                                     std::pair{"blub/fish_control_mesh.obj", "blub/fish_low_resolution.obj"}}) {
+    const SurfaceMesh c = load_mesh(test::data(cage)), r = load_mesh(test::data(remesh));
+    const SurfaceDistance bare = surface_distance(r, c), refined = surface_distance(r, catmull_clark(c, 3));
+    std::printf("%s: bare cage mean %.3f%% max %.3f%%, refined (3 levels) mean %.3f%% max %.3f%%\n", cage,
+                bare.percent(bare.mean), bare.percent(bare.max), refined.percent(refined.mean),
+                refined.percent(refined.max));
+    EXPECT_LT(refined.percent(refined.mean), 0.2) << cage;
+    EXPECT_LT(refined.mean, bare.mean / 5) << cage;
+    EXPECT_LT(refined.max, bare.max / 2) << cage;
+  }
+}
