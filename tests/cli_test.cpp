@@ -51,6 +51,7 @@ TEST(Cli, HelpOnEveryCommand) {
   EXPECT_EQ(run("embed --help", dir).code, 0);
   EXPECT_NE(run("embed --help", dir).out.find("--cut-mesh"), std::string::npos);
   EXPECT_EQ(run("demo --help", dir).code, 0);
+  EXPECT_NE(run("subdivide --help", dir).out.find("--levels"), std::string::npos);
   EXPECT_EQ(run("", dir).code, 2);
 }
 
@@ -339,6 +340,53 @@ TEST(Cli, TransferAndCompare) {
   EXPECT_NE(r.out.find("max: "), std::string::npos) << r.out;
   const double self = std::stod(r.out.substr(r.out.find("max: ") + 5));
   EXPECT_LT(self, 1e-12);
+}
+
+TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("subdivide");
+  const fs::path cage2 = dir / "fish_cc2.obj";
+  CliRun r = run("subdivide " + test::data("blub/fish_control_mesh.obj") + " --levels 2 -o " + cage2.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("112 faces -> 1776 quads"), std::string::npos) << r.out;
+  EXPECT_EQ(load_mesh(cage2.string()).num_faces(), 1776);
+  // Out of range: refused, nothing written.
+  r = run("subdivide " + test::data("blub/fish_control_mesh.obj") + " --levels 9 -o " + (dir / "no.obj").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(fs::exists(dir / "no.obj"));
+
+  // A two-joint spine along the fish (z), a starter net on the refined cage,
+  // and its transfer to the triangle remesh.
+  write(dir / "spine.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
+    {"name":"root","parent":null,"bind":[1,0,0,0, 0,1,0,0.2, 0,0,1,-1.05, 0,0,0,1]},
+    {"name":"bend","parent":"root","bind":[1,0,0,0, 0,1,0,0.2, 0,0,1,-0.07, 0,0,0,1]}]}})");
+  const fs::path rig = dir / "fish.cnrig.json";
+  r = run("starter " + cage2.string() + " --skeleton " + (dir / "spine.cnrig.json").string() +
+              " --rings-per-bone 3 --first-angle 45 -o " + rig.string(),
+          dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const fs::path out = dir / "low.cnrig.json", report = dir / "low.json";
+  r = run("transfer " + rig.string() + " --from " + cage2.string() + " --to " + test::data("blub/fish_low_resolution.obj") +
+              " -o " + out.string() + " --report " + report.string(),
+          dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("surfaces apart before the transfer: "), std::string::npos) << r.out;
+  std::ifstream in(report);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["ok"].get<bool>());
+  EXPECT_GT(j["agreement"].get<double>(), 0.95);
+  EXPECT_LT(j["shape_distance"]["max_percent"].get<double>(), 2.0);
+
+  // fish.obj is Blub in another pose: even moved onto the others, the
+  // transfer is refused, saying how far apart the surfaces lie, and no rig
+  // is written.
+  r = run("transfer " + rig.string() + " --from " + cage2.string() + " --to " + test::data("blub/fish.obj") +
+              " --target-frame 1,0,0,-3.3963165,0,1,0,0,0,0,1,0,0,0,0,1 -o " + (dir / "posed.cnrig.json").string(),
+          dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("of the diagonal apart"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "posed.cnrig.json"));
 }
 
 TEST(Cli, DemoRunsOnGeneratedData) {

@@ -9,6 +9,7 @@
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
+#include "curvenet/subdivide.hpp"
 #include "curvenet/transfer.hpp"
 #include "generate/tube.hpp"
 
@@ -335,6 +336,8 @@ int run_transfer(const TransferArgs& a) {
       worst = &g;
   if (worst)
     std::cout << "least agreeing region: " << 100 * worst->agree << "% (" << worst->key << ")\n";
+  std::cout << "surfaces apart before the transfer: " << rep.shape.percent(rep.shape.mean) << "% of the diagonal on average, "
+            << rep.shape.percent(rep.shape.max) << "% at most\n";
   std::cout << "largest node move onto the target: " << rep.max_node_offset << "% of the diagonal\n"
             << std::defaultfloat << std::setprecision(6);
   for (const auto& p : rep.problems)
@@ -342,6 +345,16 @@ int run_transfer(const TransferArgs& a) {
   if (rep.ok)
     std::cout << "rig: " << a.out << "\n";
   return rep.ok ? 0 : 1;
+}
+
+int run_subdivide(const SubdivideArgs& a) {
+  const SurfaceMesh cage = load_mesh(a.cage);
+  const SurfaceMesh s = catmull_clark(cage, a.levels);
+  write_file_atomic(a.out, mesh_to_obj(s.positions, s.face_offsets, s.face_vertices));
+  std::cout << "Catmull-Clark, " << a.levels << (a.levels == 1 ? " level: " : " levels: ") << cage.num_faces()
+            << " faces -> " << s.num_faces() << " quads, " << s.num_vertices() << " vertices\n"
+            << "mesh: " << a.out << "\n";
+  return 0;
 }
 
 int run_compare(const CompareArgs& a) {

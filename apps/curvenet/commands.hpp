@@ -52,6 +52,12 @@ struct CompareArgs {
 };
 int run_compare(const CompareArgs& args);
 
+struct SubdivideArgs {
+  std::string cage, out;
+  int levels = 2;
+};
+int run_subdivide(const SubdivideArgs& args);
+
 struct DemoArgs {
   std::string out = "out/demo";
 };

@@ -104,6 +104,14 @@ int main(int argc, char** argv) {
   compare->add_option("B", compare_args.b, "Second mesh")->required();
   compare->add_flag("--json", compare_args.json, "Print JSON instead of text");
 
+  curvenet::cli::SubdivideArgs subdivide_args;
+  auto* subdivide =
+      app.add_subcommand("subdivide", "Refine a control cage by Catmull-Clark into a mesh of its limit surface, as OBJ");
+  subdivide->add_option("CAGE", subdivide_args.cage, "Cage mesh file")->required();
+  subdivide->add_option("-o,--output", subdivide_args.out, "OBJ file to write")->required();
+  subdivide->add_option("--levels", subdivide_args.levels, "Refinement levels")->capture_default_str()->check(
+      CLI::Range(1, 6));
+
   curvenet::cli::DemoArgs demo_args;
   auto* demo =
       app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
@@ -132,6 +140,8 @@ int main(int argc, char** argv) {
       return curvenet::cli::run_compare(compare_args);
     if (*starter)
       return curvenet::cli::run_starter(starter_args);
+    if (*subdivide)
+      return curvenet::cli::run_subdivide(subdivide_args);
     if (*demo)
       return curvenet::cli::run_demo(demo_args);
   } catch (const curvenet::Error& e) {

@@ -284,6 +284,7 @@ std::string transfer_report_json(const TransferReport& r) {
   j["ok"] = r.ok;
   j["agreement"] = r.agreement;
   j["max_node_offset_percent"] = r.max_node_offset;
+  j["shape_distance"] = {{"mean_percent", r.shape.percent(r.shape.mean)}, {"max_percent", r.shape.percent(r.shape.max)}};
   auto counts = [](const EmbedReport& e) {
     return nlohmann::ordered_json{{"ok", e.ok},
                                   {"logical_nodes", e.logical_nodes},
