@@ -188,11 +188,21 @@ inline std::vector<Row> run_family(const std::string& name, const std::string& d
   return rows;
 }
 
-inline void print_table(const std::vector<Row>& rows, FILE* out) {
-  std::fprintf(out, "%-48s %-12s %8s %9s %9s %9s %9s %8s %5s\n", "pair", "clip", "moved", "rest_mean", "posed_mean",
+inline void print_table(const std::vector<Row>& rows, FILE* out, bool markdown = false) {
+  if (markdown) {
+    std::fprintf(out, "| pair | clip | moved | rest mean | posed mean | rest max | posed max | region agreement | within bound |\n"
+                      "|---|---|---|---|---|---|---|---|---|\n");
+    for (const Row& r : rows)
+      std::fprintf(out, "| %s | %s | %.2f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.2f%% | %s |\n", r.pair.c_str(),
+                   r.clip.c_str(), r.moved, r.rest.percent(r.rest.mean), r.rest.percent(r.posed.mean),
+                   r.rest.percent(r.rest.max), r.rest.percent(r.posed.max), 100 * r.agreement,
+                   r.pass_mean() && r.pass_max() ? "yes" : "NO");
+    return;
+  }
+  std::fprintf(out, "%-56s %-14s %8s %9s %9s %9s %9s %8s %5s\n", "pair", "clip", "moved", "rest_mean", "posed_mean",
                "rest_max", "posed_max", "regions", "pass");
   for (const Row& r : rows)
-    std::fprintf(out, "%-48s %-12s %7.2f%% %8.3f%% %8.3f%% %8.3f%% %8.3f%% %7.2f%% %5s\n", r.pair.c_str(), r.clip.c_str(),
+    std::fprintf(out, "%-56s %-14s %7.2f%% %8.3f%% %8.3f%% %8.3f%% %8.3f%% %7.2f%% %5s\n", r.pair.c_str(), r.clip.c_str(),
                  r.moved, r.rest.percent(r.rest.mean), r.rest.percent(r.posed.mean), r.rest.percent(r.rest.max),
                  r.rest.percent(r.posed.max), 100 * r.agreement, r.pass_mean() && r.pass_max() ? "yes" : "NO");
 }
