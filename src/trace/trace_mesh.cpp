@@ -144,21 +144,6 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
   rtcAttachGeometry(bvh_->scene, geom);
   rtcReleaseGeometry(geom);
   rtcCommitScene(bvh_->scene);
-
-  // Angle-weighted vertex normals: the same whichever way the polygons
-  // around a vertex are split into triangles.
-  vertex_normals_.assign(mesh.positions.size(), Vec3::Zero());
-  for (int t = 0; t < num_triangles(); ++t) {
-    const auto& c = tri_[t];
-    const Vec3 area = (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0]));
-    if (!(area.norm() > 0))
-      continue; // a sliver of a polygon with collinear corners
-    const Vec3 n = area.normalized();
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 a = position(c[(k + 1) % 3]) - position(c[k]), b = position(c[(k + 2) % 3]) - position(c[k]);
-      vertex_normals_[c[k]] += std::atan2(a.cross(b).norm(), a.dot(b)) * n;
-    }
-  }
 }
 
 TraceMesh::~TraceMesh() = default;
@@ -253,12 +238,27 @@ std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const V
   return std::nullopt;
 }
 
-Vec3 TraceMesh::smooth_normal(int t, const std::array<double, 3>& bary) const {
+SmoothNormals::SmoothNormals(const TraceMesh& mesh) : mesh_(mesh), vertex_(mesh.mesh().positions.size(), Vec3::Zero()) {
+  for (int t = 0; t < mesh.num_triangles(); ++t) {
+    const auto& c = mesh.tri(t);
+    const Vec3 area = (mesh.position(c[1]) - mesh.position(c[0])).cross(mesh.position(c[2]) - mesh.position(c[0]));
+    if (!(area.norm() > 0))
+      continue; // a sliver of a polygon with collinear corners
+    const Vec3 n = area.normalized();
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 a = mesh.position(c[(k + 1) % 3]) - mesh.position(c[k]);
+      const Vec3 b = mesh.position(c[(k + 2) % 3]) - mesh.position(c[k]);
+      vertex_[c[k]] += std::atan2(a.cross(b).norm(), a.dot(b)) * n;
+    }
+  }
+}
+
+Vec3 SmoothNormals::at(int t, const std::array<double, 3>& bary) const {
   Vec3 n = Vec3::Zero();
   for (int k = 0; k < 3; ++k)
-    if (vertex_normals_[tri_[t][k]].norm() > 0)
-      n += bary[k] * vertex_normals_[tri_[t][k]].normalized();
-  return n.norm() > 0 ? n.normalized() : tri_normal(t);
+    if (vertex_[mesh_.tri(t)[k]].norm() > 0)
+      n += bary[k] * vertex_[mesh_.tri(t)[k]].normalized();
+  return n.norm() > 0 ? n.normalized() : mesh_.tri_normal(t);
 }
 
 SurfacePoint TraceMesh::closest_point(const Vec3& q) const {

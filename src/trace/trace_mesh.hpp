@@ -87,9 +87,6 @@ public:
   [[nodiscard]] std::optional<Nearest> ray_hit(const Vec3& origin, const Vec3& dir, double t_max,
                                                const Vec3& facing) const;
 
-  /// The angle-weighted vertex normals interpolated at a point of triangle t.
-  [[nodiscard]] Vec3 smooth_normal(int t, const std::array<double, 3>& bary) const;
-
 private:
   const SurfaceMesh& mesh_;
   std::vector<std::array<int, 2>> edge_ends_;
@@ -100,9 +97,22 @@ private:
   std::vector<std::array<int, 3>> nbr_;
   std::vector<std::vector<int>> vertex_tris_;
   std::vector<std::vector<int>> edge_tris_;
-  std::vector<Vec3> vertex_normals_;
   struct Bvh;
   std::unique_ptr<Bvh> bvh_;
+};
+
+/// Angle-weighted vertex normals of a trace mesh (the same whichever way
+/// the polygons around a vertex are split into triangles), interpolated
+/// inside its triangles.
+class SmoothNormals {
+public:
+  explicit SmoothNormals(const TraceMesh& mesh);
+  /// The normal at the point of triangle t with barycentric coordinates `bary`.
+  [[nodiscard]] Vec3 at(int t, const std::array<double, 3>& bary) const;
+
+private:
+  const TraceMesh& mesh_;
+  std::vector<Vec3> vertex_;
 };
 
 } // namespace curvenet::detail

@@ -93,7 +93,7 @@ private:
 class Projector {
 public:
   Projector(const SurfaceMesh& source, const TraceMesh& target, const Mat4& source_to_target)
-      : scut_(CutMesh::from_surface(source)), stm_(source, scut_), ttm_(target), map_(source_to_target),
+      : scut_(CutMesh::from_surface(source)), stm_(source, scut_), normals_(stm_), ttm_(target), map_(source_to_target),
         normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mesh().mean_edge_length()) {}
 
   /// The target point for a point in the source mesh's space, and its
@@ -103,7 +103,7 @@ public:
     const Vec3 q = apply(map_, p);
     const auto near = ttm_.nearest(q);
     const double d0 = near.distance(q);
-    const Vec3 n = (normal_map_ * stm_.smooth_normal(on_source.tri, on_source.bary)).normalized();
+    const Vec3 n = (normal_map_ * normals_.at(on_source.tri, on_source.bary)).normalized();
     // Both ways along the normal, since the target may lie inside or
     // outside; only through triangles that face the same way, so that a ray
     // never lands on the far side of a thin fin or finger. A ray much longer
@@ -122,6 +122,7 @@ private:
   static constexpr double kRaySlack = 0.5; ///< ...plus this many target mean edge lengths
   CutMesh scut_;
   TraceMesh stm_;
+  SmoothNormals normals_;
   const TraceMesh& ttm_;
   Mat4 map_;
   Eigen::Matrix3d normal_map_;
