@@ -1,5 +1,6 @@
 // Stage "project and trace": placing points on the surface and walking it.
 
+#include "curvenet/errors.hpp"
 #include "helpers.hpp"
 #include "trace/tracer.hpp"
 
@@ -123,4 +124,29 @@ TEST(SmoothNormals, AverageTheFacesAroundACornerByAngle) {
       const Vec3 expect = (p - Vec3(0.5, 0.5, 0.5)).normalized();
       EXPECT_LT((normals.at(t, at) - expect).norm(), 1e-12);
     }
+}
+
+TEST(Tracer, AFailedBackwardWalkLeavesThePathAsItWas) {
+  // A strip with a hole across the middle of the profile's way: the walk
+  // from either end runs into the hole's rim. Whatever the recovery does,
+  // the path must still start and end at the profile's nodes.
+  RawMesh g = test::grid(10, 3);
+  RawMesh holed;
+  holed.positions = g.positions;
+  for (int f = 0; f + 1 < static_cast<int>(g.face_offsets.size()); ++f) {
+    const std::span<const int> c(g.face_vertices.data() + g.face_offsets[f], 4);
+    const Vec3 centre = (g.positions[c[0]] + g.positions[c[2]]) / 2;
+    if (!(centre.x() > 4 && centre.x() < 6 && centre.y() > 1 && centre.y() < 2))
+      holed.add_face(c);
+  }
+  Fixture f(holed);
+  // Three samples: the one in the middle lands on the hole's rim, and the
+  // walks toward it fail both ways before the segment is halved.
+  const auto t = f.trace({0.5, 1.5, 0}, {9.5, 1.5, 0}, 3);
+  ASSERT_GE(t.points.size(), 2u);
+  EXPECT_EQ(t.points.front().node, 0);
+  EXPECT_EQ(t.points.front().at.pos, Vec3(0.5, 1.5, 0));
+  EXPECT_EQ(t.points.back().node, 1);
+  for (size_t i = 1; i + 1 < t.points.size(); ++i)
+    EXPECT_LT(t.points[i].node, 0) << i;
 }

@@ -117,14 +117,14 @@ inline Family make_family(const std::string& name, const std::string& data, cons
     // the source, so this transfer goes from quads to triangles. fish.obj is
     // Blub in another pose (tail swung sideways, fins raised), so no frame
     // lines it up with the others: its transfer must be refused, saying how
-    // far apart the surfaces are. The bare cage lies up to 11 % of the
-    // diagonal off its own limit surface.
+    // far apart the surfaces are. The bare cage, up to 11 % of the diagonal
+    // off its own limit surface, is a target too.
     const std::string d = data + "/blub/";
     f.source = d + "fish_control_mesh.obj";
     f.source_levels = 2;
     Mat4 onto_source = Mat4::Identity();
     onto_source(0, 3) = -3.3963165; // fish.obj's bounding box, centred on the others' along x
-    f.targets = {{d + "fish_low_resolution.obj"}, {d + "fish.obj", onto_source}};
+    f.targets = {{d + "fish_low_resolution.obj"}, {d + "fish_control_mesh.obj"}, {d + "fish.obj", onto_source}};
     two_joint_family(catmull_clark(load_mesh(f.source), f.source_levels), f);
   }
   return f;

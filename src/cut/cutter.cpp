@@ -145,7 +145,10 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
   for (const auto& [v, n] : vertex_node)
     owner[v] = -1;
   auto edge_vertex = [&](int e, double t) {
-    for (const auto& s : splits.at(e))
+    const auto it = splits.find(e);
+    if (it == splits.end())
+      throw TopologyError("cut: a path point on " + describe_edge(e) + " was never split into it");
+    for (const auto& s : it->second)
       if (s.t == t)
         return s.vertex;
     throw TopologyError("cut: lost the split of an edge");

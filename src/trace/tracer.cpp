@@ -114,11 +114,17 @@ public:
         if (attempt < 3) {
           walk_once(a, b, sample, attempt);
         } else {
-          std::vector<PathPoint> saved(out_.points.begin(), out_.points.end());
-          out_.points.clear();
-          walk_once(b, a, sample, 0);
-          std::vector<PathPoint> back = std::move(out_.points);
-          out_.points = std::move(saved);
+          // Backwards into a list of its own; the path so far is put back
+          // whether or not this walk succeeds.
+          std::vector<PathPoint> back;
+          std::swap(back, out_.points);
+          try {
+            walk_once(b, a, sample, 0);
+          } catch (const WalkFailed&) {
+            std::swap(back, out_.points);
+            throw;
+          }
+          std::swap(back, out_.points);
           for (auto it = back.rbegin(); it != back.rend(); ++it)
             emit(it->at, sample);
         }
