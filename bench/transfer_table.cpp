@@ -4,7 +4,7 @@
 // source. Prints (pair, clip, rest distance, posed distance) as % of the
 // source's diagonal, mean and max (Hausdorff).
 //
-//   build/bin/transfer_table hand|spot|blub [--markdown] [clips...]
+//   build/bin/transfer_table hand|spot|blub|penguin [--markdown] [clips...]
 
 #include "transfer_check.hpp"
 

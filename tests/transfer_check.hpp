@@ -126,6 +126,13 @@ inline Family make_family(const std::string& name, const std::string& data, cons
     onto_source(0, 3) = -3.3963165; // fish.obj's bounding box, centred on the others' along x
     f.targets = {{d + "fish_low_resolution.obj"}, {d + "fish_control_mesh.obj"}, {d + "fish.obj", onto_source}};
     two_joint_family(catmull_clark(load_mesh(f.source), f.source_levels), f);
+  } else if (name == "penguin") {
+    // A triangle remesh of a cage's limit surface, to the cage refined twice
+    // (quads) and to the bare cage (quads, triangles and pentagons).
+    const std::string d = data + "/penguin/";
+    f.source = d + "penguin.obj";
+    f.targets = {{d + "penguin_control_mesh.obj", Mat4::Identity(), 2}, {d + "penguin_control_mesh.obj"}};
+    two_joint_family(load_mesh(f.source), f);
   }
   return f;
 }

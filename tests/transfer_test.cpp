@@ -149,3 +149,13 @@ TEST(Transfer, BlubLimitSurfaceToTrianglesAgreesWhenPosed) {
     EXPECT_NE(r.find("of the diagonal apart"), std::string::npos) << r;
   }
 }
+
+TEST(Transfer, PenguinTrianglesToItsCageRefinedAndBare) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  std::vector<std::string> refusals;
+  const auto rows = check::run_family("penguin", CURVENET_DATA_DIR, {}, &refusals);
+  EXPECT_TRUE(refusals.empty()) << refusals.front();
+  EXPECT_EQ(rows.size(), 2u * 3u);
+  expect_rows_pass(rows);
+}
