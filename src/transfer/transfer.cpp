@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -92,9 +93,12 @@ private:
 /// projection keeps the curves' order and angles.
 class Projector {
 public:
-  Projector(const SurfaceMesh& source, const TraceMesh& target, const Mat4& source_to_target)
+  /// Rays reach no farther than `max_reach` (the distance beyond which a
+  /// point counts as off the target).
+  Projector(const SurfaceMesh& source, const TraceMesh& target, const Mat4& source_to_target, double max_reach)
       : scut_(CutMesh::from_surface(source)), stm_(source, scut_), normals_(stm_), ttm_(target), map_(source_to_target),
-        normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mesh().mean_edge_length()) {}
+        normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mesh().mean_edge_length()),
+        max_reach_(max_reach) {}
 
   /// The target point for a point in the source mesh's space, and its
   /// distance from where the frames put it.
@@ -108,7 +112,7 @@ public:
     // outside; only through triangles that face the same way, so that a ray
     // never lands on the far side of a thin fin or finger. A ray much longer
     // than the closest distance grazes the surface: keep the closest point.
-    const double reach = kRayReach * d0 + kRaySlack * h_;
+    const double reach = std::min(kRayReach * d0 + kRaySlack * h_, max_reach_);
     std::optional<Vec3> best;
     for (const double sign : {1.0, -1.0})
       if (const auto hit = ttm_.ray_hit(q, sign * n, reach, n))
@@ -126,7 +130,7 @@ private:
   const TraceMesh& ttm_;
   Mat4 map_;
   Eigen::Matrix3d normal_map_;
-  double h_;
+  double h_, max_reach_;
 };
 
 /// The placed polyline without the points where it doubles back. Where the
@@ -162,8 +166,8 @@ Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh
   const Mat4 to_target = source_to_target * rig.frame;
   const CutMesh tcut = CutMesh::from_surface(target);
   const TraceMesh ttm(target, tcut);
-  const Projector project(source, ttm, source_to_target);
   const double diag = target.bbox_diagonal(), h = target.mean_edge_length();
+  const Projector project(source, ttm, source_to_target, opt.max_offset * diag);
   Rig out = rig;
   out.frame = Mat4::Identity();
   for (auto& j : out.joints)
