@@ -39,6 +39,17 @@ inline RawMesh grid(int n, int m, bool triangles = false) {
   return r;
 }
 
+/// The box [0,1] x [0,1] x [0,height]: six quads facing out.
+inline RawMesh box(double height = 1) {
+  RawMesh r;
+  for (int k = 0; k < 8; ++k)
+    r.positions.emplace_back(k & 1, (k >> 1) & 1, (k >> 2) ? height : 0.0);
+  for (const auto& f : std::vector<std::vector<int>>{
+           {0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}})
+    r.add_face(f);
+  return r;
+}
+
 /// A validated capped tube (generate/tube.hpp), moved by `m` when given.
 inline SurfaceMesh tube(int around, int along, int cap_rings, bool triangulate, const Mat4& m = Mat4::Identity()) {
   TubeSpec s;

@@ -12,15 +12,7 @@
 using namespace curvenet;
 
 namespace {
-SurfaceMesh cube() {
-  RawMesh r;
-  for (int k = 0; k < 8; ++k)
-    r.positions.emplace_back(k & 1, (k >> 1) & 1, (k >> 2) & 1);
-  for (const auto& f : std::vector<std::vector<int>>{
-           {0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}})
-    r.add_face(f);
-  return make_surface_mesh(r, "cube");
-}
+SurfaceMesh cube() { return make_surface_mesh(test::box(), "cube"); }
 } // namespace
 
 TEST(Subdivide, ACubeRefinesIntoQuadsThatStayClosedAndSymmetric) {

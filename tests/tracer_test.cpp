@@ -79,21 +79,8 @@ TEST(Tracer, ACurveAlongEdgesVisitsTheirVertices) {
   EXPECT_EQ(vertices, (std::vector<int>{5, 6, 7, 8, 9}));
 }
 
-namespace {
-/// A box [0,1] x [0,1] x [0,thickness], quads facing out.
-RawMesh slab(double thickness) {
-  RawMesh r;
-  for (int k = 0; k < 8; ++k)
-    r.positions.emplace_back(k & 1, (k >> 1) & 1, (k >> 2) ? thickness : 0.0);
-  for (const auto& f : std::vector<std::vector<int>>{
-           {0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}})
-    r.add_face(f);
-  return r;
-}
-} // namespace
-
 TEST(TraceMesh, ARayLandsOnTheFirstSideFacingTheRightWay) {
-  Fixture f(slab(0.05));
+  Fixture f(test::box(0.05));
   const Vec3 up(0, 0, 1), from(0.3, 0.4, 1.0);
   // Down onto the top, which faces up.
   const auto top = f.tm->ray_hit(from, -up, 10, up);
@@ -112,7 +99,7 @@ TEST(TraceMesh, ARayLandsOnTheFirstSideFacingTheRightWay) {
 }
 
 TEST(SmoothNormals, AverageTheFacesAroundACornerByAngle) {
-  Fixture f(slab(1.0));
+  Fixture f(test::box());
   const SmoothNormals normals(*f.tm);
   // At a corner of the cube, the normal points out along the diagonal; in
   // the middle of a face, it is the face's normal blended toward its corners'.
