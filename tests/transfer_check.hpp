@@ -37,6 +37,7 @@ struct Target {
   std::string path;
   Mat4 frame = Mat4::Identity(); ///< the target mesh's space to the source's
   int levels = 0;                ///< Catmull-Clark levels applied to the file (a control cage)
+  int cage_levels = 0;           ///< TransferOptions::target_cage_levels: the file is a cage, transferred through its limit
 };
 
 struct Family {
@@ -109,7 +110,10 @@ inline Family make_family(const std::string& name, const std::string& data, cons
   } else if (name == "spot") {
     const std::string d = data + "/spot/";
     f.source = d + "spot_quadrangulated.obj";
-    f.targets = {{d + "spot_triangulated.obj"}, {d + "spot_low_resolution.obj"}, {d + "spot_control_mesh.obj"}};
+    f.targets = {{d + "spot_triangulated.obj"},
+                 {d + "spot_low_resolution.obj"},
+                 {d + "spot_control_mesh.obj"},
+                 {d + "spot_control_mesh.obj", Mat4::Identity(), 0, 2}};
     two_joint_family(load_mesh(f.source), f);
   } else if (name == "blub") {
     // Blub's control cage stands for its Catmull-Clark limit surface, which
@@ -124,14 +128,19 @@ inline Family make_family(const std::string& name, const std::string& data, cons
     f.source_levels = 2;
     Mat4 onto_source = Mat4::Identity();
     onto_source(0, 3) = -3.3963165; // fish.obj's bounding box, centred on the others' along x
-    f.targets = {{d + "fish_low_resolution.obj"}, {d + "fish_control_mesh.obj"}, {d + "fish.obj", onto_source}};
+    f.targets = {{d + "fish_low_resolution.obj"},
+                 {d + "fish_control_mesh.obj"},
+                 {d + "fish_control_mesh.obj", Mat4::Identity(), 0, 2},
+                 {d + "fish.obj", onto_source}};
     two_joint_family(catmull_clark(load_mesh(f.source), f.source_levels), f);
   } else if (name == "penguin") {
     // A triangle remesh of a cage's limit surface, to the cage refined twice
     // (quads) and to the bare cage (quads, triangles and pentagons).
     const std::string d = data + "/penguin/";
     f.source = d + "penguin.obj";
-    f.targets = {{d + "penguin_control_mesh.obj", Mat4::Identity(), 2}, {d + "penguin_control_mesh.obj"}};
+    f.targets = {{d + "penguin_control_mesh.obj", Mat4::Identity(), 2},
+                 {d + "penguin_control_mesh.obj"},
+                 {d + "penguin_control_mesh.obj", Mat4::Identity(), 0, 2}};
     two_joint_family(load_mesh(f.source), f);
   }
   return f;
@@ -160,10 +169,11 @@ inline std::vector<Row> run_family(const std::string& name, const std::string& d
   for (const auto& [n, p] : f.poses)
     posed_source.push_back(posed_mesh(source, sb, p));
   std::vector<Row> rows;
-  for (const auto& [t, frame, levels] : f.targets) {
+  for (const auto& [t, frame, levels, cage_levels] : f.targets) {
     const SurfaceMesh target = levels > 0 ? catmull_clark(load_mesh(t), levels) : load_mesh(t);
     TransferOptions topt;
     topt.target_frame = frame;
+    topt.target_cage_levels = cage_levels;
     TransferResult tr;
     try {
       tr = transfer(rig, source, target, topt);
@@ -182,7 +192,8 @@ inline std::vector<Row> run_family(const std::string& name, const std::string& d
     for (size_t k = 0; k < f.poses.size(); ++k) {
       Row r;
       r.pair = short_name(f.source) + (f.source_levels > 0 ? " (CC" + std::to_string(f.source_levels) + ")" : "") +
-               " -> " + short_name(t) + (levels > 0 ? " (CC" + std::to_string(levels) + ")" : "");
+               " -> " + short_name(t) + (levels > 0 ? " (CC" + std::to_string(levels) + ")" : "") +
+               (cage_levels > 0 ? " (as a cage)" : "");
       r.clip = f.poses[k].first;
       r.rest = rest;
       r.posed = surface_distance(posed_source[k], transformed(posed_mesh(target, tb, f.poses[k].second), frame));
@@ -206,10 +217,10 @@ inline void print_table(const std::vector<Row>& rows, FILE* out, bool markdown =
                    r.pass_mean() && r.pass_max() ? "yes" : "NO");
     return;
   }
-  std::fprintf(out, "%-56s %-14s %8s %9s %9s %9s %9s %8s %5s\n", "pair", "clip", "moved", "rest_mean", "posed_mean",
+  std::fprintf(out, "%-64s %-14s %8s %9s %9s %9s %9s %8s %5s\n", "pair", "clip", "moved", "rest_mean", "posed_mean",
                "rest_max", "posed_max", "regions", "pass");
   for (const Row& r : rows)
-    std::fprintf(out, "%-56s %-14s %7.2f%% %8.3f%% %8.3f%% %8.3f%% %8.3f%% %7.2f%% %5s\n", r.pair.c_str(), r.clip.c_str(),
+    std::fprintf(out, "%-64s %-14s %7.2f%% %8.3f%% %8.3f%% %8.3f%% %8.3f%% %7.2f%% %5s\n", r.pair.c_str(), r.clip.c_str(),
                  r.moved, r.rest.percent(r.rest.mean), r.rest.percent(r.posed.mean), r.rest.percent(r.rest.max),
                  r.rest.percent(r.posed.max), 100 * r.agreement, r.pass_mean() && r.pass_max() ? "yes" : "NO");
 }

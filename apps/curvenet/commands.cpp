@@ -315,6 +315,8 @@ int run_transfer(const TransferArgs& a) {
     opt.source_frame = parse_matrix(a.source_frame, "--source-frame");
   if (!a.target_frame.empty())
     opt.target_frame = parse_matrix(a.target_frame, "--target-frame");
+  opt.source_cage_levels = a.from_cage;
+  opt.target_cage_levels = a.to_cage;
   const TransferResult r = transfer(rig, source, target, opt);
   const TransferReport& rep = r.report;
   if (!a.report.empty())

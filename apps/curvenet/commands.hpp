@@ -43,6 +43,7 @@ int run_animate(const AnimateArgs& args);
 
 struct TransferArgs {
   std::string rig, from, to, out, report, source_frame, target_frame;
+  int from_cage = 0, to_cage = 0; ///< Catmull-Clark levels when a mesh is a control cage
 };
 int run_transfer(const TransferArgs& args);
 

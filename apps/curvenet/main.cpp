@@ -95,6 +95,13 @@ int main(int argc, char** argv) {
   transfer->add_option("--report", transfer_args.report, "Write the transfer report as JSON");
   transfer->add_option("--source-frame", transfer_args.source_frame,
                        "4x4 matrix (16 numbers, row by row) from the source mesh's space to the world");
+  transfer->add_option("--from-cage", transfer_args.from_cage,
+                       "The source is a Catmull-Clark cage: carry the rig through its limit surface (refinement levels)")
+      ->check(CLI::Range(1, 6));
+  transfer->add_option("--to-cage", transfer_args.to_cage,
+                       "The target is a Catmull-Clark cage: place the rig on its limit surface (refinement levels) and "
+                       "carry it down to the cage")
+      ->check(CLI::Range(1, 6));
   transfer->add_option("--target-frame", transfer_args.target_frame,
                        "4x4 matrix (16 numbers, row by row) from the target mesh's space to the world");
 

@@ -22,6 +22,15 @@ struct TransferOptions {
   /// A node or profile point farther than this fraction of the target's
   /// bounding-box diagonal from the target surface is refused.
   double max_offset = 0.05;
+  /// When > 0, the target is a Catmull-Clark control cage. A cage is not
+  /// the surface it stands for, and closest points or normals from a
+  /// surface to a cage fold the net. The rig is placed on the cage's limit
+  /// surface (the cage refined this many times) and carried down to the
+  /// cage by the refinement's own parameters.
+  int target_cage_levels = 0;
+  /// The same for a source that is a cage: its rig is carried up to the
+  /// limit surface before it is placed on the target.
+  int source_cage_levels = 0;
   EmbedOptions embed;
 };
 
@@ -38,7 +47,7 @@ struct TransferReport {
   double max_node_offset = 0; ///< largest distance a node moved onto the target, as % of its diagonal
   /// How far apart the two surfaces are before anything is placed: the
   /// source mapped into the target's space against the target (percentages
-  /// of the mapped source's diagonal). A transfer needs the same shape in
+  /// of the mapped source's diagonal); a cage counts by its limit surface. A transfer needs the same shape in
   /// the same pose; a large distance says why one fails.
   SurfaceDistance shape;
   bool ok = false;        ///< the target embedding is ok with the same logical counts

@@ -1,9 +1,10 @@
-// Catmull-Clark refinement through OpenSubdiv's Far layer: the topology
-// refined uniformly, then the positions interpolated level by level.
+// Catmull-Clark and bilinear refinement through OpenSubdiv's Far layer: the
+// topology refined uniformly, then the positions interpolated level by level.
 
 #include "curvenet/subdivide.hpp"
 
 #include "curvenet/errors.hpp"
+#include "generate/refine.hpp"
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
@@ -23,9 +24,9 @@ struct Point {
   void AddWithWeight(const Point& s, double w) { p += w * s.p; }
 };
 
-} // namespace
-
-SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
+/// The cage refined by `scheme`; `base_face` receives each refined face's cage face.
+SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, const char* name,
+                   std::vector<int>* base_face = nullptr) {
   if (levels < 1 || levels > 6)
     throw InputError(cage.source, "subdivision levels", "must be between 1 and 6, not " + std::to_string(levels));
   std::vector<int> counts;
@@ -39,7 +40,7 @@ SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
   Sdc::Options sdc;
   sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
   using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
-  std::unique_ptr<Far::TopologyRefiner> refiner(Factory::Create(desc, Factory::Options(Sdc::SCHEME_CATMARK, sdc)));
+  std::unique_ptr<Far::TopologyRefiner> refiner(Factory::Create(desc, Factory::Options(scheme, sdc)));
   if (!refiner)
     throw InputError(cage.source, "subdivision", "OpenSubdiv cannot refine this mesh");
   refiner->RefineUniform(Far::TopologyRefiner::UniformOptions(levels));
@@ -55,6 +56,15 @@ SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
     from = to;
   }
   const Far::TopologyLevel& last = refiner->GetLevel(levels);
+  if (base_face) {
+    base_face->resize(last.GetNumFaces());
+    for (int f = 0; f < last.GetNumFaces(); ++f) {
+      int g = f;
+      for (int level = levels; level > 0; --level)
+        g = refiner->GetLevel(level).GetFaceParentFace(g);
+      (*base_face)[f] = g;
+    }
+  }
   RawMesh raw;
   raw.positions.reserve(last.GetNumVertices());
   for (int v = 0; v < last.GetNumVertices(); ++v)
@@ -64,7 +74,26 @@ SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
     const std::vector<int> corners(fv.begin(), fv.end());
     raw.add_face(corners);
   }
-  return make_surface_mesh(raw, cage.source + " (Catmull-Clark level " + std::to_string(levels) + ")");
+  return make_surface_mesh(raw, cage.source + " (" + name + " level " + std::to_string(levels) + ")");
 }
+
+} // namespace
+
+SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
+  return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark");
+}
+
+namespace detail {
+
+CageRefinement refine_cage(const SurfaceMesh& cage, int levels) {
+  CageRefinement r;
+  r.limit = refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", &r.base_face);
+  r.flat = refine(cage, levels, Sdc::SCHEME_BILINEAR, "bilinear");
+  if (r.limit.positions.size() != r.flat.positions.size() || r.limit.face_vertices != r.flat.face_vertices)
+    throw InputError(cage.source, "subdivision", "the two refinements of the cage do not share their vertices and faces");
+  return r;
+}
+
+} // namespace detail
 
 } // namespace curvenet

@@ -8,6 +8,7 @@
 #include "curvenet/errors.hpp"
 #include "embed/embedding_impl.hpp"
 #include "trace/trace_mesh.hpp"
+#include "transfer/cage_map.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -160,8 +161,15 @@ std::vector<Vec3> without_folds(const std::vector<Vec3>& placed, const std::vect
 
 /// The rig in the target's space, every node and profile placed on the
 /// target surface (see Projector).
+/// `source` and `target` are the surfaces placed from and onto: a cage's
+/// limit surface where the mesh is a cage, and then the rig is carried up
+/// from the source cage (`source_cage`) and down to the target cage.
 Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt,
-                    double& max_node_offset) {
+                    const CageMap* source_cage, const CageMap* target_cage, double& max_node_offset) {
+  auto from_source = [&](const Vec3& p) {
+    const Vec3 q = apply(rig.frame, p);
+    return source_cage ? source_cage->to_limit(q) : q;
+  };
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
   const Mat4 to_target = source_to_target * rig.frame;
   const CutMesh tcut = CutMesh::from_surface(target);
@@ -174,7 +182,7 @@ Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh
     j.bind = to_target * j.bind;
   std::map<std::string, Vec3> node_at;
   for (auto& n : out.nodes) {
-    const auto [point, offset] = project.place(apply(rig.frame, n.position));
+    const auto [point, offset] = project.place(from_source(n.position));
     if (offset > opt.max_offset * diag)
       throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) + " of the diagonal off the target " +
                        target.source + " (the frames do not line the meshes up, or the target is another shape)");
@@ -193,7 +201,7 @@ Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh
     std::vector<Vec3> placed, mapped;
     for (size_t i = 0; i < pts.size(); ++i) {
       mapped.push_back(apply(to_target, pts[i]));
-      const auto [point, offset] = project.place(apply(rig.frame, pts[i]));
+      const auto [point, offset] = project.place(from_source(pts[i]));
       if (offset > opt.max_offset * diag)
         throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + " lies " +
                          percent(offset / diag) + " of the diagonal off the target: the profile leaves the surface");
@@ -208,6 +216,14 @@ Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh
     placed.front() = node_at[p.from];
     placed.back() = node_at[p.to];
     p.curve.points = without_folds(placed, mapped);
+  }
+  if (target_cage) {
+    for (auto& n : out.nodes)
+      n.position = target_cage->to_cage(n.position);
+    for (auto& p : out.profiles)
+      if (p.curve.kind == Curve::Kind::Polyline)
+        for (auto& q : p.curve.points)
+          q = target_cage->to_cage(q);
   }
   return out;
 }
@@ -225,16 +241,25 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   if (!rep.source.ok)
     throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
                      (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
-  SurfaceMesh mapped = source;
+  // Cages are placed from and onto through their limit surfaces.
+  std::optional<CageMap> source_cage, target_cage;
+  if (opt.source_cage_levels > 0)
+    source_cage.emplace(source, opt.source_cage_levels);
+  if (opt.target_cage_levels > 0)
+    target_cage.emplace(target, opt.target_cage_levels);
+  const SurfaceMesh& source_surface = source_cage ? source_cage->limit() : source;
+  const SurfaceMesh& target_surface = target_cage ? target_cage->limit() : target;
+  SurfaceMesh mapped = source_surface;
   for (auto& p : mapped.positions)
     p = apply(source_to_target, p);
-  rep.shape = surface_distance(mapped, target, 1);
+  rep.shape = surface_distance(mapped, target_surface, 1);
   const std::string apart = " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) +
                             " of the diagonal apart, " + percent(rep.shape.mean / rep.shape.diagonal) + " on average)";
 
   std::optional<Embedding> placed;
   try {
-    result.rig = place_on_target(rig, source, target, opt, rep.max_node_offset);
+    result.rig = place_on_target(rig, source_surface, target_surface, opt, source_cage ? &*source_cage : nullptr,
+                                 target_cage ? &*target_cage : nullptr, rep.max_node_offset);
     placed.emplace(embed(target, result.rig, opt.embed));
   } catch (const EmbedError& e) {
     throw EmbedError(e.what() + apart);
@@ -270,7 +295,11 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       if (!(area > 0))
         continue;
       const Vec3 centroid = (corners[t[0]] + corners[t[1]] + corners[t[2]]) / 3;
-      const bool same = locate.key_at(apply(to_source, centroid)) == key;
+      // Through the limit surfaces where either mesh is a cage.
+      Vec3 at = apply(to_source, target_cage ? target_cage->to_limit(centroid) : centroid);
+      if (source_cage)
+        at = source_cage->to_cage(at);
+      const bool same = locate.key_at(at) == key;
       by_key[key].first += area;
       by_key[key].second += same ? area : 0;
       total += area;
