@@ -389,6 +389,40 @@ TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
   EXPECT_FALSE(fs::exists(dir / "posed.cnrig.json"));
 }
 
+TEST(Cli, TransferToACageThroughItsLimitSurface) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("to_cage");
+  write(dir / "spine.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
+    {"name":"root","parent":null,"bind":[1,0,0,0.03, 0,1,0,-0.86, 0,0,1,-0.09, 0,0,0,1]},
+    {"name":"bend","parent":"root","bind":[1,0,0,0.03, 0,1,0,0.16, 0,0,1,-0.09, 0,0,0,1]}]}})");
+  const fs::path rig = dir / "penguin.cnrig.json";
+  CliRun r = run("starter " + test::data("penguin/penguin.obj") + " --skeleton " + (dir / "spine.cnrig.json").string() +
+                     " --rings-per-bone 3 --first-angle 45 -o " + rig.string(),
+                 dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const fs::path out = dir / "cage.cnrig.json", report = dir / "cage.json";
+  r = run("transfer " + rig.string() + " --from " + test::data("penguin/penguin.obj") + " --to " +
+              test::data("penguin/penguin_control_mesh.obj") + " --to-cage 2 -o " + out.string() + " --report " +
+              report.string(),
+          dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  std::ifstream in(report);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["ok"].get<bool>());
+  EXPECT_GT(j["agreement"].get<double>(), 0.99);
+  // Measured against the cage's limit surface, not the cage.
+  EXPECT_LT(j["shape_distance"]["max_percent"].get<double>(), 1.0);
+  // The rig written for the cage embeds on the cage as it is.
+  EXPECT_EQ(run("embed " + test::data("penguin/penguin_control_mesh.obj") + " " + out.string(), dir).code, 0);
+  // Levels out of range are refused before anything is read.
+  r = run("transfer " + rig.string() + " --from " + test::data("penguin/penguin.obj") + " --to " +
+              test::data("penguin/penguin_control_mesh.obj") + " --to-cage 9 -o " + (dir / "no.json").string(),
+          dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(fs::exists(dir / "no.json"));
+}
+
 TEST(Cli, DemoRunsOnGeneratedData) {
   const auto dir = test::temp_dir("demo");
   const CliRun r = run("demo --out " + (dir / "out").string(), dir);

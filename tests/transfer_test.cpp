@@ -4,6 +4,7 @@
 #include "curvenet/transfer.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
+#include "transfer/cage_map.hpp"
 #include "transfer_check.hpp"
 
 #include <gtest/gtest.h>
@@ -126,7 +127,7 @@ TEST(Transfer, SpotQuadsToTrianglesAgreeWhenPosed) {
   std::vector<std::string> refusals;
   const auto rows = check::run_family("spot", CURVENET_DATA_DIR, {}, &refusals);
   EXPECT_TRUE(refusals.empty()) << refusals.front();
-  EXPECT_EQ(rows.size(), 3u * 3u);
+  EXPECT_EQ(rows.size(), 4u * 3u);
   expect_rows_pass(rows);
 }
 
@@ -137,12 +138,14 @@ TEST(Transfer, BlubLimitSurfaceToTrianglesAgreesWhenPosed) {
   const auto rows = check::run_family("blub", CURVENET_DATA_DIR, {}, &refusals);
   EXPECT_EQ(rows.size(), 3u); // fish_low_resolution.obj, three poses
   expect_rows_pass(rows);
-  // The bare cage (11 % off its own limit surface) and fish.obj (Blub in
-  // another pose) are refused, naming what could not be placed or cut and
-  // how far apart the surfaces are.
-  ASSERT_EQ(refusals.size(), 2u);
+  // The cage, bare and through its limit (a face so folded that a ring's
+  // chord across it would leave it), and fish.obj (Blub in another pose)
+  // are refused, naming what could not be placed or cut and how far apart
+  // the surfaces are.
+  ASSERT_EQ(refusals.size(), 3u);
   EXPECT_EQ(refusals[0].rfind("fish_control_mesh.obj: ", 0), 0u) << refusals[0];
-  EXPECT_EQ(refusals[1].rfind("fish.obj: ", 0), 0u) << refusals[1];
+  EXPECT_EQ(refusals[1].rfind("fish_control_mesh.obj: ", 0), 0u) << refusals[1];
+  EXPECT_EQ(refusals[2].rfind("fish.obj: ", 0), 0u) << refusals[2];
   for (const auto& r : refusals) {
     std::printf("refused: %s\n", r.c_str());
     EXPECT_TRUE(r.find("profile '") != std::string::npos || r.find("node '") != std::string::npos) << r;
@@ -156,6 +159,51 @@ TEST(Transfer, PenguinTrianglesToItsCageRefinedAndBare) {
   std::vector<std::string> refusals;
   const auto rows = check::run_family("penguin", CURVENET_DATA_DIR, {}, &refusals);
   EXPECT_TRUE(refusals.empty()) << refusals.front();
-  EXPECT_EQ(rows.size(), 2u * 3u);
+  EXPECT_EQ(rows.size(), 3u * 3u);
   expect_rows_pass(rows);
+}
+
+TEST(Transfer, ARigOnACageGoesThroughItsLimitSurface) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // The starter net drawn on the penguin's bare cage, transferred to the
+  // triangle remesh of its limit surface: carried up to the limit first.
+  const SurfaceMesh cage = load_mesh(test::data("penguin/penguin_control_mesh.obj"));
+  const SurfaceMesh remesh = load_mesh(test::data("penguin/penguin.obj"));
+  check::Family f;
+  check::two_joint_family(remesh, f);
+  const Rig rig = make_starter(cage, f.joints, f.starter).rig;
+  TransferOptions opt;
+  opt.source_cage_levels = 2;
+  const TransferResult r = transfer(rig, cage, remesh, opt);
+  EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
+  EXPECT_GT(r.report.agreement, 0.99);
+  EXPECT_LT(r.report.shape.percent(r.report.shape.max), 1.0); // the limit, not the cage, against the remesh
+  // Straight from the bare cage, for comparison.
+  try {
+    const TransferResult bare = transfer(rig, cage, remesh);
+    std::printf("from the bare cage: %s, agreement %.4f\n", bare.report.ok ? "ok" : "not ok", bare.report.agreement);
+  } catch (const EmbedError& e) {
+    std::printf("from the bare cage: refused: %s\n", e.what());
+  }
+}
+
+TEST(CageMap, CarriesTheLimitSurfaceOntoTheCageAndBack) {
+  // A cube cage: its limit is a rounded box inside it. Every point of the
+  // limit goes to a point of the cube's own faces, and back near itself.
+  const SurfaceMesh cage = make_surface_mesh(test::box(), "cube");
+  const detail::CageMap map(cage, 3);
+  const SurfaceMesh& limit = map.limit();
+  const double h = limit.mean_edge_length();
+  double worst = 0;
+  for (int f = 0; f < limit.num_faces(); ++f) {
+    const auto c = limit.face(f);
+    const Vec3 p = (limit.positions[c[0]] + limit.positions[c[1]] + limit.positions[c[2]]) / 3; // near the limit
+    const Vec3 on_cage = map.to_cage(p);
+    const double off_face = std::min({on_cage.cwiseAbs().minCoeff(), (on_cage - Vec3::Ones()).cwiseAbs().minCoeff()});
+    EXPECT_LT(off_face, 1e-12) << on_cage.transpose();
+    worst = std::max(worst, (map.to_limit(on_cage) - p).norm());
+  }
+  std::printf("round trip: largest move %.3g mean edge lengths\n", worst / h);
+  EXPECT_LT(worst, 0.25 * h);
 }
