@@ -2,8 +2,8 @@
 /// \file subdivide.hpp
 /// Catmull-Clark refinement of a control cage (OpenSubdiv). A cage is not
 /// the surface it stands for: its limit surface is. Refine a cage before
-/// comparing it with, or transferring a rig to or from, a mesh of that
-/// surface.
+/// comparing it with a mesh of that surface; to transfer a rig to or from
+/// the cage itself, see TransferOptions::target_cage_levels.
 
 #include "curvenet/surface_mesh.hpp"
 
