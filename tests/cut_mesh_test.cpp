@@ -4,6 +4,7 @@
 #include "curvenet/errors.hpp"
 #include "cut/cut_mesh.hpp"
 #include "helpers.hpp"
+#include "trace/trace_mesh.hpp"
 
 #include <gtest/gtest.h>
 
@@ -139,4 +140,39 @@ TEST(CutMesh, AFoldedQuadIsLaidOutUnfoldedAndSplitsCleanly) {
   m.subdivide_face(Face(0), std::span<const Chord>(&chord, 1));
   expect_valid(m);
   EXPECT_EQ(m.num_faces(), 2);
+}
+
+TEST(CutMesh, ALayoutFollowsTheTracersTrianglesAfterTheLoopStartMoves) {
+  // A quad folded so far that neither diagonal splits it cleanly seen along
+  // its average normal (a face of Blub's cage): how it is triangulated then
+  // depends on its first corner. Splitting its first edge from the
+  // neighbour's side moves the start of its loop; its layout must still be
+  // the unfolding of the triangles the tracer walks.
+  RawMesh r;
+  r.positions = {{0.357342, 0.328408, -0.355631}, {0.20055, 0.268675, -0.675}, {0.257589, 0.182798, -0.649506},
+                 {0.0254884, 0.458356, -0.369115}, {0.35, 0.05, -0.6}};
+  r.add_face(std::vector<int>{0, 1, 2, 3});
+  r.add_face(std::vector<int>{1, 0, 4});
+  const SurfaceMesh s = make_surface_mesh(r, "folded");
+  CutMesh m = CutMesh::from_surface(s);
+  const TraceMesh tm(s, m); // the tracer's triangles, from the fresh mesh
+  Halfedge across; // 1 -> 0, in the triangle
+  for (Halfedge h : m.face_loop(Face(1)))
+    if (m.from(h).idx == 1 && m.to(h).idx == 0)
+      across = h;
+  ASSERT_TRUE(across.is_valid());
+  m.split_edge(across, (s.positions[0] + s.positions[1]) / 2, {VertexOrigin::Kind::OnEdge, across.idx / 2, 0.5});
+  expect_valid(m);
+  ASSERT_NE(m.from(m.halfedge(Face(0))).idx, 0) << "the quad's loop should now start at the split";
+  // Within each of the tracer's triangles the layout is an isometry.
+  for (int t = 0; t < tm.num_triangles(); ++t) {
+    if (tm.tri_face(t) != 0)
+      continue;
+    const auto& c = tm.tri(t);
+    const Vec3 centre = (tm.position(c[0]) + tm.position(c[1]) + tm.position(c[2])) / 3;
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR((m.to_face_plane(Face(0), centre) - m.to_face_plane(Face(0), Vertex(c[k]))).norm(),
+                  (centre - tm.position(c[k])).norm(), 1e-12)
+          << "triangle " << t << " corner " << c[k];
+  }
 }

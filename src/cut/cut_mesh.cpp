@@ -59,6 +59,7 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
     }
     m.face_halfedge_.push_back(loop[0]);
     m.face_origin_.push_back(f);
+    m.input_first_corner_.push_back(c[0]);
   }
   // Boundary loops and vertex half-edges (a boundary one where there is one).
   std::vector<Halfedge> boundary_out(nv);
@@ -168,15 +169,21 @@ const CutMesh::Layout& CutMesh::layout(Face f) const {
   const int input_face = face_origin_[f.idx];
   if (auto it = layouts_.find(input_face); it != layouts_.end())
     return it->second;
-  // The input face's corners, in the tracer's order (its loop still starts
-  // where the input face does: only pieces of a face laid out already move it).
+  // The input face's corners, in the tracer's order: from the input face's
+  // first corner (a split of an edge can move the start of the loop, and
+  // how a polygon that is far from flat is triangulated depends on where
+  // its corners start).
   Layout l;
-  std::vector<Eigen::Vector3d> pts;
   for (Halfedge h : face_loop(f))
-    if (origin(from(h)).kind == VertexOrigin::Kind::Input) {
+    if (origin(from(h)).kind == VertexOrigin::Kind::Input)
       l.corners.push_back(from(h).idx);
-      pts.push_back(position(from(h)));
-    }
+  const auto first = std::find(l.corners.begin(), l.corners.end(), input_first_corner_[input_face]);
+  if (first == l.corners.end())
+    throw TopologyError("cut: face " + std::to_string(input_face) + " lost its first corner");
+  std::rotate(l.corners.begin(), first, l.corners.end());
+  std::vector<Eigen::Vector3d> pts;
+  for (int v : l.corners)
+    pts.push_back(position(Vertex(v)));
   l.tris = triangulate_polygon(pts);
   // Unfold the triangles across their shared diagonals (the dual of a
   // polygon's triangulation is a tree), each placed by its edge lengths.
@@ -225,11 +232,15 @@ Eigen::Vector2d CutMesh::to_face_plane(Face f, Vertex v) const {
     if (a >= 0 && b >= 0)
       return (1 - o.t) * l.uv[a] + o.t * l.uv[b];
   }
-  // A point inside the face: through the nearest of its triangles.
+  return to_face_plane(f, position(v));
+}
+
+Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
+  // Through the nearest of the face's triangles.
+  const Layout& l = layout(f);
   double best = std::numeric_limits<double>::infinity();
   Eigen::Vector2d out = Eigen::Vector2d::Zero();
   for (const auto& c : l.tris) {
-    const Eigen::Vector3d& p = position(v);
     const TriClosest cl = closest_on_triangle(p, position(Vertex(l.corners[c[0]])), position(Vertex(l.corners[c[1]])),
                                               position(Vertex(l.corners[c[2]])));
     const double d = (cl.point - p).squaredNorm();

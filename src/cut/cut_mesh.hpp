@@ -116,6 +116,8 @@ public:
   /// lays out as itself. Fixed when first asked for, and inherited by the
   /// pieces the face is split into.
   [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, Vertex v) const;
+  /// The same for a point of the surface inside face f that is not a vertex.
+  [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, const Eigen::Vector3d& inside) const;
 
   /// The first broken invariant, or nothing when the mesh is valid: twin
   /// symmetry, next/prev inverse, closed loops with one face, vertex
@@ -136,6 +138,7 @@ private:
   std::vector<Halfedge> face_halfedge_;
   std::vector<int> face_origin_;
   std::vector<std::array<int, 2>> input_edge_ends_; // input edge -> its two input vertices, along half-edge 2e
+  std::vector<int> input_first_corner_;             // input face -> its first corner in the input (the tracer's order)
   // The unfolded layout of an input face: its corners (input vertices) in
   // the plane and its triangles, built on demand (see to_face_plane).
   struct Layout {
