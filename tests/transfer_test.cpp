@@ -24,6 +24,15 @@ void expect_rows_pass(const std::vector<check::Row>& rows) {
     EXPECT_GT(r.moved, 5.0) << r.pair << " " << r.clip << ": the pose hardly moves the mesh, so it proves nothing";
   }
 }
+/// Every target of the family is transferred (none refused), with `rows`
+/// rows, all within the bound.
+void expect_family_passes(const std::string& family, const std::vector<std::string>& clips, size_t rows) {
+  std::vector<std::string> refusals;
+  const auto got = check::run_family(family, CURVENET_DATA_DIR, clips, &refusals);
+  EXPECT_TRUE(refusals.empty()) << refusals.front();
+  EXPECT_EQ(got.size(), rows);
+  expect_rows_pass(got);
+}
 } // namespace
 
 TEST(Transfer, TubeNetFromQuadsToTriangles) {
@@ -77,11 +86,7 @@ TEST(Transfer, ATargetMovedInItsSceneWorksThroughItsFrame) {
 TEST(Transfer, HandAuthoredOnceAgreesWhenPosedOnEveryTessellation) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  std::vector<std::string> refusals;
-  const auto rows = check::run_family("hand", CURVENET_DATA_DIR, {"Grip", "Peace", "Thumb", "Sign 3", "Cup", "Hold"}, &refusals);
-  EXPECT_TRUE(refusals.empty()) << refusals.front();
-  EXPECT_EQ(rows.size(), 3u * 6u);
-  expect_rows_pass(rows);
+  expect_family_passes("hand", {"Grip", "Peace", "Thumb", "Sign 3", "Cup", "Hold"}, 3u * 6u);
 }
 
 TEST(Transfer, HandNetGoesFromEveryTessellationToEveryOther) {
@@ -124,11 +129,7 @@ TEST(Transfer, NailedHandIsRefusedCleanly) {
 TEST(Transfer, SpotQuadsToTrianglesAgreeWhenPosed) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  std::vector<std::string> refusals;
-  const auto rows = check::run_family("spot", CURVENET_DATA_DIR, {}, &refusals);
-  EXPECT_TRUE(refusals.empty()) << refusals.front();
-  EXPECT_EQ(rows.size(), 4u * 3u);
-  expect_rows_pass(rows);
+  expect_family_passes("spot", {}, 4u * 3u);
 }
 
 TEST(Transfer, BlubLimitSurfaceToTrianglesAgreesWhenPosed) {
@@ -156,11 +157,7 @@ TEST(Transfer, BlubLimitSurfaceToTrianglesAgreesWhenPosed) {
 TEST(Transfer, PenguinTrianglesToItsCageRefinedAndBare) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  std::vector<std::string> refusals;
-  const auto rows = check::run_family("penguin", CURVENET_DATA_DIR, {}, &refusals);
-  EXPECT_TRUE(refusals.empty()) << refusals.front();
-  EXPECT_EQ(rows.size(), 3u * 3u);
-  expect_rows_pass(rows);
+  expect_family_passes("penguin", {}, 3u * 3u);
 }
 
 TEST(Transfer, ARigOnACageGoesThroughItsLimitSurface) {

@@ -8,11 +8,10 @@
 namespace curvenet::detail {
 
 CageMap::CageMap(const SurfaceMesh& cage, int levels)
-    : r_(refine_cage(cage, levels)), cage_cut_(CutMesh::from_surface(cage)), limit_cut_(CutMesh::from_surface(r_.limit)),
-      flat_cut_(CutMesh::from_surface(r_.flat)) {
-  cage_tm_ = std::make_unique<TraceMesh>(cage, cage_cut_);
-  limit_tm_ = std::make_unique<TraceMesh>(r_.limit, limit_cut_);
-  flat_tm_ = std::make_unique<TraceMesh>(r_.flat, flat_cut_);
+    : r_(refine_cage(cage, levels)),
+      cage_tm_(std::make_unique<TraceMesh>(cage, CutMesh::from_surface(cage))),
+      limit_tm_(std::make_unique<TraceMesh>(r_.limit, CutMesh::from_surface(r_.limit))),
+      flat_tm_(std::make_unique<TraceMesh>(r_.flat, CutMesh::from_surface(r_.flat))) {
   cage_tris_.resize(cage.num_faces());
   for (int t = 0; t < cage_tm_->num_triangles(); ++t)
     cage_tris_[cage_tm_->tri_face(t)].push_back(t);

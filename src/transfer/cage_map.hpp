@@ -23,6 +23,8 @@ public:
 
   /// The cage's limit surface: the cage refined by Catmull-Clark.
   [[nodiscard]] const SurfaceMesh& limit() const { return r_.limit; }
+  [[nodiscard]] const TraceMesh& limit_trace() const { return *limit_tm_; }
+  [[nodiscard]] const TraceMesh& cage_trace() const { return *cage_tm_; }
   /// The point of the cage that a point of the limit stands for: on the
   /// same cage face, at the same parameters.
   [[nodiscard]] Vec3 to_cage(const Vec3& on_limit) const;
@@ -34,7 +36,6 @@ private:
   static TraceMesh::Nearest closest_among(const TraceMesh& tm, const std::vector<int>& tris, const Vec3& p);
 
   CageRefinement r_;
-  CutMesh cage_cut_, limit_cut_, flat_cut_;
   std::unique_ptr<TraceMesh> cage_tm_, limit_tm_, flat_tm_;
   std::vector<std::vector<int>> cage_tris_; // per cage face: its triangles in cage_tm_
   std::vector<std::vector<int>> flat_tris_; // per cage face: the triangles of its refined faces in flat_tm_

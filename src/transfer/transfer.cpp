@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 
@@ -36,9 +37,10 @@ std::string percent(double x) {
 /// Which cut face of an embedding holds a point of its input mesh.
 class RegionLocator {
 public:
-  RegionLocator(const SurfaceMesh& mesh, const Embedding& e) : mesh_(mesh), emb_(e), cut_(CutMesh::from_surface(mesh)), tm_(mesh, cut_) {
+  /// `tm` is the trace mesh of the mesh `e` embeds in.
+  RegionLocator(const TraceMesh& tm, const Embedding& e) : mesh_(tm.mesh()), emb_(e), tm_(tm) {
     const CutMesh& cm = e.impl().cut;
-    pieces_.resize(mesh.num_faces());
+    pieces_.resize(mesh_.num_faces());
     for (int f = 0; f < cm.num_faces(); ++f)
       pieces_[cm.face_origin(Face(f))].push_back(f);
   }
@@ -80,8 +82,7 @@ public:
 private:
   const SurfaceMesh& mesh_;
   const Embedding& emb_;
-  CutMesh cut_;
-  TraceMesh tm_;
+  const TraceMesh& tm_;
   std::vector<std::vector<int>> pieces_;
 };
 
@@ -96,8 +97,8 @@ class Projector {
 public:
   /// Rays reach no farther than `max_reach` (the distance beyond which a
   /// point counts as off the target).
-  Projector(const SurfaceMesh& source, const TraceMesh& target, const Mat4& source_to_target, double max_reach)
-      : scut_(CutMesh::from_surface(source)), stm_(source, scut_), normals_(stm_), ttm_(target), map_(source_to_target),
+  Projector(const TraceMesh& source, const TraceMesh& target, const Mat4& source_to_target, double max_reach)
+      : stm_(source), normals_(source), ttm_(target), map_(source_to_target),
         normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mesh().mean_edge_length()),
         max_reach_(max_reach) {}
 
@@ -125,8 +126,7 @@ public:
 private:
   static constexpr double kRayReach = 3;   ///< rays up to this many times the closest distance...
   static constexpr double kRaySlack = 0.5; ///< ...plus this many target mean edge lengths
-  CutMesh scut_;
-  TraceMesh stm_;
+  const TraceMesh& stm_;
   SmoothNormals normals_;
   const TraceMesh& ttm_;
   Mat4 map_;
@@ -164,7 +164,7 @@ std::vector<Vec3> without_folds(const std::vector<Vec3>& placed, const std::vect
 /// `source` and `target` are the surfaces placed from and onto: a cage's
 /// limit surface where the mesh is a cage, and then the rig is carried up
 /// from the source cage (`source_cage`) and down to the target cage.
-Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt,
+Rig place_on_target(const Rig& rig, const TraceMesh& source, const TraceMesh& target, const TransferOptions& opt,
                     const CageMap* source_cage, const CageMap* target_cage, double& max_node_offset) {
   auto from_source = [&](const Vec3& p) {
     const Vec3 q = apply(rig.frame, p);
@@ -172,10 +172,8 @@ Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh
   };
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
   const Mat4 to_target = source_to_target * rig.frame;
-  const CutMesh tcut = CutMesh::from_surface(target);
-  const TraceMesh ttm(target, tcut);
-  const double diag = target.bbox_diagonal(), h = target.mean_edge_length();
-  const Projector project(source, ttm, source_to_target, opt.max_offset * diag);
+  const double diag = target.mesh().bbox_diagonal(), h = target.mesh().mean_edge_length();
+  const Projector project(source, target, source_to_target, opt.max_offset * diag);
   Rig out = rig;
   out.frame = Mat4::Identity();
   for (auto& j : out.joints)
@@ -185,7 +183,7 @@ Rig place_on_target(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh
     const auto [point, offset] = project.place(from_source(n.position));
     if (offset > opt.max_offset * diag)
       throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) + " of the diagonal off the target " +
-                       target.source + " (the frames do not line the meshes up, or the target is another shape)");
+                       target.mesh().source + " (the frames do not line the meshes up, or the target is another shape)");
     max_node_offset = std::max(max_node_offset, 100 * offset / diag);
     n.position = point;
     node_at[n.id] = point;
@@ -249,6 +247,13 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     target_cage.emplace(target, opt.target_cage_levels);
   const SurfaceMesh& source_surface = source_cage ? source_cage->limit() : source;
   const SurfaceMesh& target_surface = target_cage ? target_cage->limit() : target;
+  // The trace meshes: a cage map holds its own; a plain mesh gets one here.
+  auto trace_of = [](const SurfaceMesh& m) { return std::make_unique<TraceMesh>(m, CutMesh::from_surface(m)); };
+  const std::unique_ptr<TraceMesh> source_trace = source_cage ? nullptr : trace_of(source);
+  const std::unique_ptr<TraceMesh> target_trace = target_cage ? nullptr : trace_of(target);
+  const TraceMesh& source_placed = source_cage ? source_cage->limit_trace() : *source_trace;
+  const TraceMesh& target_placed = target_cage ? target_cage->limit_trace() : *target_trace;
+  const TraceMesh& source_located = source_cage ? source_cage->cage_trace() : *source_trace;
   SurfaceMesh mapped = source_surface;
   for (auto& p : mapped.positions)
     p = apply(source_to_target, p);
@@ -258,7 +263,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
 
   std::optional<Embedding> placed;
   try {
-    result.rig = place_on_target(rig, source_surface, target_surface, opt, source_cage ? &*source_cage : nullptr,
+    result.rig = place_on_target(rig, source_placed, target_placed, opt, source_cage ? &*source_cage : nullptr,
                                  target_cage ? &*target_cage : nullptr, rep.max_node_offset);
     placed.emplace(embed(target, result.rig, opt.embed));
   } catch (const EmbedError& e) {
@@ -278,7 +283,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
 
   // Region correspondence: the target's area, sampled at the centroid of
   // every triangle of its cut faces, against the source region found there.
-  const RegionLocator locate(source, src);
+  const RegionLocator locate(source_located, src);
   std::map<std::string, std::pair<double, double>> by_key; // key -> (area, agreeing area)
   const CutMesh& cm = tgt.impl().cut;
   double total = 0, agreeing = 0;
