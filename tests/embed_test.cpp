@@ -306,14 +306,18 @@ TEST(Embed, ValidatorHoldsAfterEveryMutation) {
     in.node_ids.push_back(n.id);
     in.node_points.push_back(place_node(tm, n.position, tol));
   }
+  std::vector<ProfileCurve> curves;
+  curves.reserve(rig.profiles.size());
   for (const auto& p : rig.profiles) {
     const int a = rig.node_index(p.from), b = rig.node_index(p.to);
-    auto s = sample_profile(p.curve, in.node_points[a].pos, in.node_points[b].pos, m.mean_edge_length(), 5.0);
+    curves.emplace_back(p.curve, in.node_points[a].pos, in.node_points[b].pos);
+    auto s = sample_profile(curves.back(), [&](const Vec3&) { return m.mean_edge_length() / 5; });
     in.profile_ids.push_back(p.id);
     in.profile_from.push_back(a);
     in.profile_to.push_back(b);
-    in.traces.push_back(
-        trace_profile(tm, {p.id, s.points, in.node_points[a], in.node_points[b], a, b}, m.mean_edge_length(), tol));
+    in.traces.push_back(trace_profile(
+        tm, {p.id, &curves.back(), s.points, s.t, in.node_points[a], in.node_points[b], a, b, tol.fidelity(), {}},
+        m.mean_edge_length(), tol));
   }
   int mutations = 0;
   const CutResult res = cut_mesh(cut, tm, in, [&] {

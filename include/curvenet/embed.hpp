@@ -17,8 +17,10 @@
 namespace curvenet {
 
 struct EmbedOptions {
-  /// Samples per mean edge length of the target mesh (the thesis's rho):
-  /// a profile of length L gets n = max(2, ceil(density * L / h)) samples.
+  /// Samples per local edge length of the target mesh (the thesis's rho):
+  /// samples lie at most h / density apart, h the mean edge length of the
+  /// triangle under the sample. The points the rigger placed are always
+  /// samples; the tracer adds midpoints where a walk strays.
   double density = 5.0;
   /// Overrides the rig's coverage when set.
   std::optional<Coverage> coverage;
@@ -58,6 +60,14 @@ struct EmbedReport {
   int input_faces = 0;
   int samples = 0;                                        ///< profile samples placed on the surface
   int crossings = 0;                                      ///< edge crossings and vertex hits cut into the mesh
+  int refinements = 0; ///< curve midpoints the tracer added where a walk strayed or failed
+  int cut_rounds = 0;  ///< extra cuts after two profiles were traced more closely where they came close
+  /// How far each CutChain strays from its drawn curve placed on the
+  /// surface (symmetric Hausdorff distance, mesh units), per profile in rig
+  /// order, and the largest; the tolerance is 1e-3 of the bounding-box diagonal.
+  std::vector<std::pair<std::string, double>> fidelity;
+  double fidelity_max = 0;
+  double fidelity_tolerance = 0;
   std::vector<std::pair<std::string, double>> timings_ms; ///< one entry per stage
   std::vector<std::string> problems;                      ///< why ok is false, one line each
   std::vector<std::string> notes;                         ///< repairs and remarks

@@ -23,8 +23,23 @@ struct Tolerances {
   /// anything. The path's topology stays valid either way.
   static constexpr double crossing_min_param = 1e-6;
 
+  /// A CutChain may stray from its drawn curve, placed on the surface, by
+  /// at most this much (symmetric Hausdorff distance). Where a walk strays
+  /// further the tracer refines; a chain still over it is refused.
+  static constexpr double fidelity_rel = 1e-3;
+  /// Two profiles closer than this (away from a shared node) are refused as
+  /// touching; above it, the tracer refines them apart however fine the mesh.
+  static constexpr double floor_rel = 1e-6;
+  /// How many times a piece between two samples may be halved.
+  static constexpr int refine_depth = 16;
+  /// How many times the cut may be redone after two profiles that met were
+  /// traced more closely.
+  static constexpr int cut_rounds = 8;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
+  [[nodiscard]] double fidelity() const { return fidelity_rel * diagonal; }
+  [[nodiscard]] double floor() const { return floor_rel * diagonal; }
 
   static Tolerances for_model(double bbox_diagonal) {
     Tolerances t;

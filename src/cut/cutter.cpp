@@ -103,10 +103,11 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
                            "' near sample " + std::to_string(pts[k].sample) + ", which is not one of its ends");
         auto [it, fresh] = vertex_owner.emplace(sp.vertex, p);
         if (!fresh)
-          throw EmbedError("cut: profiles '" + in.profile_ids[it->second] + "' and '" + in.profile_ids[p] +
-                           "' cross or touch at input vertex " + std::to_string(sp.vertex) +
-                           ", away from any node (sample " + std::to_string(pts[k].sample) + " of '" +
-                           in.profile_ids[p] + "')");
+          throw ProfilesMeet("cut: profiles '" + in.profile_ids[it->second] + "' and '" + in.profile_ids[p] +
+                                 "' touch at input vertex " + std::to_string(sp.vertex) +
+                                 ", away from any node (sample " + std::to_string(pts[k].sample) + " of '" +
+                                 in.profile_ids[p] + "')",
+                             it->second, p, sp.pos, "input vertex " + std::to_string(sp.vertex));
       } else if (sp.kind == Kind::Edge) {
         splits[sp.edge].push_back({sp.t, p, -1, Vertex()});
       }
@@ -121,8 +122,13 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
           return s.owner_profile >= 0 ? "profile '" + in.profile_ids[s.owner_profile] + "'"
                                       : "node '" + in.node_ids[s.owner_node] + "'";
         };
-        throw EmbedError("cut: " + name(list[i - 1]) + " and " + name(list[i]) + " cross " + describe_edge(e) +
-                         " at the same point, away from any node");
+        const std::string what = "cut: " + name(list[i - 1]) + " and " + name(list[i]) + " cross " +
+                                 describe_edge(e) + " at the same point, away from any node";
+        const auto ends = tm.edge_ends(e);
+        const Vec3 at = (1 - list[i].t) * tm.position(ends[0]) + list[i].t * tm.position(ends[1]);
+        if (list[i].owner_profile >= 0 && list[i - 1].owner_profile >= 0)
+          throw ProfilesMeet(what, list[i - 1].owner_profile, list[i].owner_profile, at, describe_edge(e));
+        throw EmbedError(what);
       }
     const auto ends = tm.edge_ends(e);
     Halfedge h(2 * e);
@@ -159,6 +165,8 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
       const SurfacePoint& sp = in.node_points[i];
       res.node_vertex[i] = mesh.add_isolated_vertex(sp.pos, {VertexOrigin::Kind::InFace, f, 0});
     }
+  // A sample inside a face becomes a vertex of its own there (called once
+  // per path point).
   auto vertex_of = [&](const PathPoint& pp) {
     if (pp.node >= 0)
       return res.node_vertex[pp.node];
@@ -166,7 +174,7 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
       return Vertex(pp.at.vertex);
     if (pp.at.kind == Kind::Edge)
       return edge_vertex(pp.at.edge, pp.at.t);
-    throw TopologyError("cut: a path point inside a face that is not a node");
+    return mesh.add_isolated_vertex(pp.at.pos, {VertexOrigin::Kind::InFace, tm.tri_face(pp.at.tri), 0});
   };
   auto t_on_edge = [&](Vertex v, int e) {
     const VertexOrigin& o = mesh.origin(v);
@@ -215,16 +223,23 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
           if (!step.is_valid() || ++guard > mesh.num_halfedges())
             throw TopologyError("cut: lost the way along " + describe_edge(along));
           if (mesh.tag(step).is_curve())
-            throw EmbedError("cut: profiles '" + in.profile_ids[mesh.tag(step).profile] + "' and '" +
-                             in.profile_ids[p] + "' run along the same part of " + describe_edge(along));
+            throw ProfilesMeet("cut: profiles '" + in.profile_ids[mesh.tag(step).profile] + "' and '" +
+                                   in.profile_ids[p] + "' run along the same part of " + describe_edge(along),
+                               mesh.tag(step).profile, p, (mesh.position(cur) + mesh.position(mesh.to(step))) / 2,
+                               describe_edge(along));
           mesh.set_tag(step, {p, true});
           chain.halfedges.push_back(step);
           cur = mesh.to(step);
           if (cur != vb)
-            if (auto it = owner.find(cur.idx); it != owner.end() && it->second != p)
-              throw EmbedError("cut: profiles '" + in.profile_ids[p] + "' and " +
-                               (it->second >= 0 ? "'" + in.profile_ids[it->second] + "'" : std::string("a node")) +
-                               " cross or touch on " + describe_edge(along) + ", away from any node");
+            if (auto it = owner.find(cur.idx); it != owner.end() && it->second != p) {
+              const std::string what =
+                  "cut: profiles '" + in.profile_ids[p] + "' and " +
+                  (it->second >= 0 ? "'" + in.profile_ids[it->second] + "'" : std::string("a node")) + " touch on " +
+                  describe_edge(along) + ", away from any node";
+              if (it->second >= 0)
+                throw ProfilesMeet(what, it->second, p, mesh.position(cur), describe_edge(along));
+              throw EmbedError(what);
+            }
           chain.vertices.push_back(cur);
           chain.point.push_back(static_cast<int>(k));
         }
@@ -280,8 +295,10 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
         }
         if (bad) {
           const std::string a = in.profile_ids[c.tag.profile], b = in.profile_ids[d.tag.profile];
-          throw EmbedError("cut: profiles '" + a + "' and '" + b + "' cross in input face " + std::to_string(f) +
-                           (a == b ? " (the profile crosses itself)" : ", away from any node"));
+          const Vec3 at = (mesh.position(c.a) + mesh.position(c.b) + mesh.position(d.a) + mesh.position(d.b)) / 4;
+          throw ProfilesMeet("cut: profiles '" + a + "' and '" + b + "' cross in input face " + std::to_string(f) +
+                                 (a == b ? " (the profile crosses itself)" : ", away from any node"),
+                             c.tag.profile, d.tag.profile, at, "input face " + std::to_string(f));
         }
       }
     }

@@ -4,6 +4,7 @@
 // CutChain per profile.
 
 #include "cut/cut_mesh.hpp"
+#include "curvenet/errors.hpp"
 #include "trace/tracer.hpp"
 
 #include <functional>
@@ -28,6 +29,17 @@ struct CutInput {
   std::vector<TracedProfile> traces;
 };
 
+/// Two profiles (or one profile with itself) that cross or touch in the cut,
+/// away from a node: the embedding may trace them more closely and cut again.
+class ProfilesMeet : public EmbedError {
+public:
+  ProfilesMeet(const std::string& what, int first, int second, const Eigen::Vector3d& at, std::string place)
+      : EmbedError(what), first(first), second(second), at(at), place(std::move(place)) {}
+  int first, second;   ///< profile indices (equal for a profile that meets itself)
+  Eigen::Vector3d at;  ///< where, in mesh space
+  std::string place;   ///< "input face 12", "input vertex 7", "input edge 3-4"
+};
+
 struct CutResult {
   std::vector<CutChain> chains;    ///< one per profile
   std::vector<Vertex> node_vertex; ///< per node; invalid for a node no profile uses
@@ -37,8 +49,11 @@ struct CutResult {
 /// Cuts `mesh` (fresh from CutMesh::from_surface) along the traced profiles.
 /// `after_mutation`, when set, is called after every topological edit (tests
 /// use it to run the validator).
-/// \throw EmbedError when two profiles cross or touch away from a node, or
+/// Path points inside a face (samples) become vertices of the cut, so a
+/// chain follows its curve through the face.
+/// \throw ProfilesMeet when two profiles cross or touch away from a node, or
 ///   run along the same edge, naming both profiles and the face or edge.
+/// \throw EmbedError for other faults of a path (a node passed through).
 CutResult cut_mesh(CutMesh& mesh, const TraceMesh& trace, const CutInput& input,
                    const std::function<void()>& after_mutation = {});
 

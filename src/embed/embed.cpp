@@ -3,6 +3,7 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "embed/embedding_impl.hpp"
+#include "embed/fidelity.hpp"
 #include "sample/sampling.hpp"
 #include "trace/tracer.hpp"
 
@@ -132,7 +133,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   TraceMesh tm(mesh, impl->cut);
   clock.lap("bvh");
 
-  // Nodes and samples, in the mesh's object space.
+  // Nodes, in the mesh's object space.
   CutInput& in = impl->input;
   for (const auto& n : rig.nodes) {
     in.node_ids.push_back(n.id);
@@ -140,31 +141,37 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   }
   const int np = static_cast<int>(rig.profiles.size());
   std::vector<TraceInput> tin(np);
+  std::vector<ProfileCurve> curves(np);
   impl->sample_t.resize(np);
+  impl->samples.resize(np);
   for (int p = 0; p < np; ++p) {
     const Profile& pr = rig.profiles[p];
-    Curve curve = pr.curve;
-    for (auto& q : curve.points)
-      q = apply(rig.frame, q);
-    const int a = rig.node_index(pr.from), b = rig.node_index(pr.to);
-    SampledProfile s = sample_profile(curve, in.node_points[a].pos, in.node_points[b].pos, h, options.density);
     in.profile_ids.push_back(pr.id);
-    in.profile_from.push_back(a);
-    in.profile_to.push_back(b);
-    impl->samples.push_back(s.points);
-    tin[p] = {pr.id, std::move(s.points), in.node_points[a], in.node_points[b], a, b};
-    impl->sample_t[p] = std::move(s.t);
-    rep.samples += static_cast<int>(tin[p].samples.size());
+    in.profile_from.push_back(rig.node_index(pr.from));
+    in.profile_to.push_back(rig.node_index(pr.to));
   }
-  clock.lap("sample");
-  progress("trace", 0.0);
-
-  // Trace every profile (independent, so in parallel); report the first failure in profile order.
+  // The sample spacing follows the edge length of the surface near each sample.
+  const double density = options.density;
+  auto spacing = [&](const Vec3& q) { return tm.edge_length(tm.nearest(q).tri) / density; };
   in.traces.resize(np);
   std::vector<std::exception_ptr> errors(np);
   std::atomic<int> done{0};
+  progress("trace", 0.0);
+  // Sample and trace every profile (independent, so in parallel); report
+  // the first failure in profile order.
   tbb::parallel_for(0, np, [&](int p) {
     try {
+      const Profile& pr = rig.profiles[p];
+      Curve curve = pr.curve;
+      for (auto& q : curve.points)
+        q = apply(rig.frame, q);
+      const int a = in.profile_from[p], b = in.profile_to[p];
+      curves[p] = ProfileCurve(curve, in.node_points[a].pos, in.node_points[b].pos);
+      SampledProfile s = sample_profile(curves[p], spacing);
+      impl->samples[p] = s.points;
+      impl->sample_t[p] = s.t;
+      tin[p] = {pr.id, &curves[p], std::move(s.points), std::move(s.t), in.node_points[a], in.node_points[b], a, b,
+                tol.fidelity(), {}};
       in.traces[p] = trace_profile(tm, tin[p], h, tol);
     } catch (...) {
       errors[p] = std::current_exception();
@@ -176,16 +183,92 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   for (auto& e : errors)
     if (e)
       std::rethrow_exception(e);
+  for (int p = 0; p < np; ++p) {
+    rep.samples += static_cast<int>(tin[p].samples.size());
+    rep.refinements += in.traces[p].refinements;
+  }
   progress("trace", 1.0);
   clock.lap("trace");
 
-  impl->result = cut_mesh(impl->cut, tm, in);
+  // Cut. Where two chains meet, their curves may only be closer together
+  // than the tracer followed them: trace the two more closely near there
+  // and cut again, down to the floor.
+  for (int round = 0;; ++round) {
+    if (round > 0)
+      impl->cut = CutMesh::from_surface(mesh);
+    try {
+      impl->result = cut_mesh(impl->cut, tm, in);
+      break;
+    } catch (const ProfilesMeet& meet) {
+      const int p = meet.first, q = meet.second;
+      const TraceMesh::Nearest near = tm.nearest(meet.at);
+      double radius = 4 * tm.edge_length(near.tri);
+      // Keep the ball off the nodes the two share: there they meet by design.
+      for (int x : {in.profile_from[p], in.profile_to[p]})
+        if (x == in.profile_from[q] || x == in.profile_to[q])
+          radius = std::min(radius, (in.node_points[x].pos - meet.at).norm() / 2);
+      const CurveGap gap =
+          curve_gap(in.traces[p], in.traces[q], p == q, meet.at, radius, tm.tri_normal(near.tri));
+      const std::string who = p == q ? "profile '" + in.profile_ids[p] + "' and itself"
+                                     : "profiles '" + in.profile_ids[p] + "' and '" + in.profile_ids[q] + "'";
+      if (gap.cross && gap.distance <= tol.fidelity())
+        throw EmbedError("cut: " + who + " cross in or near " + meet.place + ", away from any node");
+      if (std::getenv("CN_DEBUG")) {
+        std::fprintf(stderr, "meet: %s gap %g radius %g\n", meet.what(), gap.distance, radius);
+        for (int x : {p, q})
+          for (const auto& pp : in.traces[x].points)
+            std::fprintf(stderr, "  %d: kind %d v %d e %d t %g node %d curve %d  %g %g %g\n", x, (int)pp.at.kind, pp.at.vertex, pp.at.edge, pp.at.t, pp.node, (int)pp.on_curve, pp.at.pos.x(), pp.at.pos.y(), pp.at.pos.z());
+      }
+      if (gap.distance <= tol.floor() || round >= Tolerances::cut_rounds) {
+        std::ostringstream msg;
+        msg << "cut: " << who << " touch in or near " << meet.place
+            << ", away from any node: their curves come closer than " << std::setprecision(3)
+            << std::max(gap.distance, tol.floor()) * 1.0000001 << " ("
+            << std::max(gap.distance, tol.floor()) / tol.diagonal << " of the diagonal; the floor is "
+            << Tolerances::floor_rel << ")";
+        throw EmbedError(msg.str());
+      }
+      for (int x : {p, q}) {
+        tin[x].tighter.push_back({meet.at, radius, std::max(tol.floor(), gap.distance / 4)});
+        rep.refinements -= in.traces[x].refinements;
+        in.traces[x] = trace_profile(tm, tin[x], h, tol);
+        rep.refinements += in.traces[x].refinements;
+        if (p == q)
+          break;
+      }
+      ++rep.cut_rounds;
+    }
+  }
   rep.crossings = impl->result.crossings;
   clock.lap("cut");
   if (auto fault = impl->cut.validate())
     throw TopologyError("cut mesh invalid after cutting: " + *fault);
   if (auto fault = validate_chains(impl->cut, in, impl->result))
     throw TopologyError("cut chains invalid: " + *fault);
+  // Fidelity: every chain within the tolerance of its curve.
+  rep.fidelity_tolerance = tol.fidelity();
+  for (int p = 0; p < np; ++p) {
+    const ChainFidelity f = chain_fidelity(impl->cut, impl->result.chains[p], in.traces[p]);
+    rep.fidelity.emplace_back(in.profile_ids[p], f.distance);
+    rep.fidelity_max = std::max(rep.fidelity_max, f.distance);
+    if (f.distance > tol.fidelity()) {
+      if (std::getenv("CN_DEBUG")) {
+        const auto& ch = impl->result.chains[p];
+        for (size_t i = 0; i < ch.vertices.size(); ++i)
+          std::fprintf(stderr, "chain %zu key %d kind %d: %g %g %g\n", i, in.traces[p].points[ch.point[i]].piece,
+                       (int)in.traces[p].points[ch.point[i]].at.kind, impl->cut.position(ch.vertices[i]).x(),
+                       impl->cut.position(ch.vertices[i]).y(), impl->cut.position(ch.vertices[i]).z());
+        for (const auto& r : in.traces[p].reference)
+          std::fprintf(stderr, "ref key %d: %g %g %g\n", r.piece, r.pos.x(), r.pos.y(), r.pos.z());
+      }
+      std::ostringstream msg;
+      msg << "cut: profile '" << in.profile_ids[p] << "' strays " << std::setprecision(3) << f.distance << " ("
+          << f.distance / tol.diagonal << " of the diagonal) from its curve near sample " << f.sample << " at ("
+          << f.at.x() << ", " << f.at.y() << ", " << f.at.z() << "), over the tolerance of "
+          << Tolerances::fidelity_rel << " of the diagonal";
+      throw EmbedError(msg.str());
+    }
+  }
   clock.lap("validate");
 
   impl->regions = find_regions(impl->cut, in.profile_ids, cov, face_component);
@@ -239,6 +322,17 @@ std::string report_to_json(const EmbedReport& r) {
   j["cut_mesh"] = {{"vertices", r.cut_vertices}, {"faces", r.cut_faces}};
   j["samples"] = r.samples;
   j["crossings"] = r.crossings;
+  j["refinements"] = r.refinements;
+  j["cut_rounds"] = r.cut_rounds;
+  {
+    nlohmann::ordered_json per = nlohmann::ordered_json::object();
+    for (const auto& [id, d] : r.fidelity)
+      per[id] = d;
+    j["fidelity"] = {{"tolerance", r.fidelity_tolerance},
+                     {"max", r.fidelity_max},
+                     {"max_relative", r.fidelity_tolerance > 0 ? r.fidelity_max / r.fidelity_tolerance : 0.0},
+                     {"profiles", per}};
+  }
   nlohmann::ordered_json t = nlohmann::ordered_json::object();
   for (const auto& [stage, ms] : r.timings_ms)
     t[stage] = ms;

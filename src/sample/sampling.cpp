@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <limits>
 
 namespace curvenet::detail {
 namespace {
@@ -71,41 +73,104 @@ std::vector<Vec3> evaluate_dense(const Curve& c) {
   return c.points;
 }
 
-SampledProfile sample_profile(const Curve& curve, const Vec3& from, const Vec3& to, double edge_length,
-                              double density) {
-  std::vector<Vec3> dense = evaluate_dense(curve);
-  // Move the ends onto the nodes, fading the displacement along the curve.
+ProfileCurve::ProfileCurve(const Curve& curve, const Vec3& from, const Vec3& to) {
+  points_ = evaluate_dense(curve);
+  // Which dense points the rigger placed.
+  std::vector<size_t> corner_index;
+  switch (curve.kind) {
+  case Curve::Kind::Polyline:
+    for (size_t i = 0; i < points_.size(); ++i)
+      corner_index.push_back(i);
+    break;
+  case Curve::Kind::Bezier: {
+    const size_t segments = (curve.points.size() - 1) / 3;
+    const size_t per = segments > 0 ? (points_.size() - 1) / segments : 1;
+    for (size_t s = 0; s <= segments; ++s)
+      corner_index.push_back(std::min(s * per, points_.size() - 1));
+    break;
+  }
+  case Curve::Kind::Nurbs:
+    corner_index = {0, points_.size() - 1};
+    break;
+  }
   {
-    const auto acc = cumulative_length(dense);
+    const auto acc = cumulative_length(points_);
     const double total = acc.back();
-    const Vec3 d0 = from - dense.front(), d1 = to - dense.back();
-    for (size_t i = 0; i < dense.size(); ++i) {
-      const double s = total > 0 ? acc[i] / total : static_cast<double>(i) / static_cast<double>(dense.size() - 1);
-      dense[i] += (1 - s) * d0 + s * d1;
+    const Vec3 d0 = from - points_.front(), d1 = to - points_.back();
+    for (size_t i = 0; i < points_.size(); ++i) {
+      const double s = total > 0 ? acc[i] / total : static_cast<double>(i) / static_cast<double>(points_.size() - 1);
+      points_[i] += (1 - s) * d0 + s * d1;
     }
-    dense.front() = from;
-    dense.back() = to;
+    points_.front() = from;
+    points_.back() = to;
   }
-  const auto acc = cumulative_length(dense);
+  arc_ = cumulative_length(points_);
+  const double total = length();
+  for (size_t i : corner_index) {
+    const double t = total > 0 ? arc_[i] / total : static_cast<double>(i) / static_cast<double>(points_.size() - 1);
+    if (corners_.empty() || t > corners_.back())
+      corners_.push_back(t);
+  }
+  if (corners_.empty() || corners_.front() != 0.0)
+    corners_.insert(corners_.begin(), 0.0);
+  if (corners_.back() != 1.0)
+    corners_.push_back(1.0);
+  closed_ = from == to;
+}
+
+Vec3 ProfileCurve::at(double t) const {
+  if (points_.size() < 2)
+    return points_.empty() ? Vec3::Zero() : points_.front();
+  const double total = length();
+  if (!(total > 0))
+    return points_.front();
+  const double target = std::clamp(t, 0.0, 1.0) * total;
+  const size_t seg = std::min<size_t>(
+      points_.size() - 2,
+      static_cast<size_t>(std::max<std::ptrdiff_t>(0, std::upper_bound(arc_.begin(), arc_.end(), target) - arc_.begin() - 1)));
+  const double len = arc_[seg + 1] - arc_[seg];
+  const double a = len > 0 ? std::clamp((target - arc_[seg]) / len, 0.0, 1.0) : 0.0;
+  if (t >= 1.0)
+    return points_.back();
+  return (1 - a) * points_[seg] + a * points_[seg + 1];
+}
+
+SampledProfile sample_profile(const ProfileCurve& curve, const SpacingFn& spacing) {
   SampledProfile out;
-  out.length = acc.back();
-  const double ratio = edge_length > 0 ? density * out.length / edge_length : 2.0;
-  const int n = std::max(2, static_cast<int>(std::min(1e7, std::ceil(ratio))));
-  out.points.reserve(n);
-  out.t.reserve(n);
-  size_t seg = 0;
-  for (int i = 0; i < n; ++i) {
-    const double t = static_cast<double>(i) / (n - 1);
-    const double target = t * out.length;
-    while (seg + 2 < dense.size() && acc[seg + 1] < target)
-      ++seg;
-    const double len = acc[seg + 1] - acc[seg];
-    const double a = len > 0 ? std::clamp((target - acc[seg]) / len, 0.0, 1.0) : 0.0;
-    out.points.push_back((1 - a) * dense[seg] + a * dense[seg + 1]);
-    out.t.push_back(t);
+  out.length = curve.length();
+  const double total = out.length;
+  // A closed profile with few corners would give a walk between two
+  // samples on opposite sides of a limb: keep at least 8 segments.
+  const double max_step = curve.closed() ? total / 8 : std::numeric_limits<double>::infinity();
+  // Bounded work: no profile gets more than this many samples.
+  constexpr size_t max_samples = 10'000'000;
+  const auto& corners = curve.corners();
+  out.points.push_back(curve.at(0.0));
+  out.t.push_back(0.0);
+  for (size_t c = 1; c < corners.size(); ++c) {
+    double here = corners[c - 1] * total;
+    const double end = corners[c] * total;
+    while (out.points.size() < max_samples) {
+      double step = total > 0 ? spacing(out.points.back()) : 0.0;
+      step = std::min(step, max_step);
+      if (!(step > 0) || !std::isfinite(step))
+        break;
+      const double left = end - here;
+      const double n = std::ceil(left / step * (1 - 1e-12)); // no extra step for rounding
+      if (!(n > 1))
+        break;
+      here += left / n;
+      out.points.push_back(curve.at(here / total));
+      out.t.push_back(here / total);
+    }
+    out.points.push_back(curve.at(corners[c]));
+    out.t.push_back(corners[c]);
   }
-  out.points.front() = from;
-  out.points.back() = to;
+  if (out.points.size() < 2) {
+    out.points.push_back(curve.at(1.0));
+    out.t.push_back(1.0);
+  }
+  out.t.back() = 1.0;
   return out;
 }
 

@@ -153,6 +153,21 @@ Vec3 TraceMesh::tri_normal(int t) const {
   return (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0])).normalized();
 }
 
+double TraceMesh::edge_length(int t) const {
+  const auto& c = tri_[t];
+  double sum = 0, all = 0;
+  int n = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double len = (position(c[(k + 1) % 3]) - position(c[k])).norm();
+    all += len;
+    if (side_edge_[t][k] >= 0) {
+      sum += len;
+      ++n;
+    }
+  }
+  return n > 0 ? sum / n : all / 3;
+}
+
 std::vector<int> TraceMesh::triangles_of(const SurfacePoint& p) const {
   switch (p.kind) {
   case SurfacePoint::Kind::Vertex:

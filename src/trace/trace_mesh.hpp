@@ -46,6 +46,9 @@ public:
   [[nodiscard]] const std::vector<int>& edge_triangles(int e) const { return edge_tris_[e]; }
   [[nodiscard]] const Vec3& position(int v) const { return mesh_.positions[v]; }
   [[nodiscard]] Vec3 tri_normal(int t) const;
+  /// The mean length of the input edges under triangle t's sides (all
+  /// three sides for a triangle inside a polygon with no input edge).
+  [[nodiscard]] double edge_length(int t) const;
   [[nodiscard]] const SurfaceMesh& mesh() const { return mesh_; }
   /// The two ends of input edge e, in the direction of its half-edge 2e.
   [[nodiscard]] const std::array<int, 2>& edge_ends(int e) const { return edge_ends_[e]; }

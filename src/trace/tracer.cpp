@@ -1,9 +1,11 @@
 #include "trace/tracer.hpp"
 
+#include "core/polyline_distance.hpp"
 #include "core/predicates.hpp"
 #include "curvenet/errors.hpp"
 
 #include <algorithm>
+#include <exception>
 #include <functional>
 #include <cmath>
 #include <sstream>
@@ -80,18 +82,49 @@ public:
     if (!pts.empty()) {
       const PathPoint& last = pts.back();
       const SurfacePoint& l = last.at;
+      if (l.pos == p.pos)
+        return;
       if (p.kind == SurfacePoint::Kind::Vertex && l.kind == SurfacePoint::Kind::Vertex && l.vertex == p.vertex)
         return;
       if (p.kind == SurfacePoint::Kind::Edge && l.kind == SurfacePoint::Kind::Edge && l.edge == p.edge &&
-          last.node < 0) {
+          last.node < 0 && !last.on_curve) {
         // Crossed the edge and came back to it before meeting anything else:
         // the excursion is shorter than one face, keep the later point.
         pts.back().at = p;
         pts.back().sample = sample;
+        pts.back().piece = piece;
         return;
       }
     }
-    pts.push_back({p, -1, sample});
+    pts.push_back({p, -1, sample, piece});
+  }
+
+  int piece = 0; ///< the current walk's number, for the points it emits
+
+  /// A sample, or a midpoint placed on the surface: kept even inside a face,
+  /// so the cut follows the curve through the face instead of a chord.
+  void emit_sample(const SurfacePoint& p, int sample) {
+    auto& pts = out_.points;
+    if (!pts.empty() && redundant(p, pts.back().at))
+      return;
+    if (p.kind != SurfacePoint::Kind::Face) {
+      const size_t before = pts.size();
+      emit(p, sample);
+      if (pts.size() > before)
+        pts.back().on_curve = true;
+      return;
+    }
+    pts.push_back({p, -1, sample, piece, true});
+  }
+
+  /// A sample at the same place as the point before it (within the snap
+  /// distance) adds nothing but a sliver. It can go when every face it
+  /// lies in holds that point too, so the path stays connected.
+  bool redundant(const SurfacePoint& sample, const SurfacePoint& before) const {
+    if ((sample.pos - before.pos).norm() > tol_.node_snap())
+      return false;
+    const std::vector<int> fs = m_.faces_of(sample), fb = m_.faces_of(before);
+    return std::includes(fb.begin(), fb.end(), fs.begin(), fs.end());
   }
 
   Vec3 normal_at(const SurfacePoint& p) const {
@@ -412,36 +445,93 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   const int n = static_cast<int>(in.samples.size());
   out.samples = n;
   out.points.push_back({in.from, in.from_node, 0});
+  out.reference.push_back({in.from.pos, 0, 0});
   Walker walker(mesh, in, mean_edge, tol, out);
-  // Walks from a to b; when that fails (around a thin part, the samples'
-  // closest points can land on opposite sides), the segment is halved at its
-  // projected midpoint, up to four times.
-  std::function<void(const SurfacePoint&, const Vec3&, const SurfacePoint&, const Vec3&, int, int)> segment =
-      [&](const SurfacePoint& a, const Vec3& ra, const SurfacePoint& b, const Vec3& rb, int sample, int depth) {
+  int pieces = 0;
+  auto tolerance_near = [&](const Vec3& a, const Vec3& b) {
+    double t = in.tolerance > 0 ? in.tolerance : tol.fidelity();
+    for (const Tightening& g : in.tighter)
+      if (point_segment_distance(g.centre, a, b) <= g.radius)
+        t = std::min(t, g.tolerance);
+    return t;
+  };
+  auto curve_at = [&](double t, const Vec3& ra, const Vec3& rb) -> Vec3 {
+    return in.curve ? in.curve->at(t) : Vec3((ra + rb) / 2);
+  };
+  // Walks from a to b and compares the piece with the curve placed on the
+  // surface there: a, the curve's midpoint m, b. A piece that strays
+  // further than the tolerance, or a walk that fails, is redone as two
+  // walks through m.
+  std::function<void(const SurfacePoint&, double, const SurfacePoint&, double, int, int)> segment =
+      [&](const SurfacePoint& a, double ta, const SurfacePoint& b, double tb, int sample, int depth) {
         const size_t mark = out.points.size();
+        const double tm = (ta + tb) / 2;
+        const SurfacePoint m = mesh.closest_point(curve_at(tm, a.pos, b.pos));
+        std::exception_ptr failure;
+        walker.piece = ++pieces;
         try {
           walker.walk(a, b, sample);
         } catch (const EmbedError&) {
-          if (depth >= 4)
+          failure = std::current_exception();
+        }
+        const bool last_level = depth >= Tolerances::refine_depth || (b.pos - a.pos).norm() <= tol.floor();
+        if (!failure) {
+          std::vector<Vec3> piece{a.pos};
+          for (size_t k = mark; k < out.points.size(); ++k)
+            piece.push_back(out.points[k].at.pos);
+          piece.push_back(b.pos);
+          const double limit = tolerance_near(a.pos, b.pos);
+          if (hausdorff(piece, {a.pos, m.pos, b.pos}) <= limit) {
+            out.reference.push_back({m.pos, sample, walker.piece});
+            return;
+          }
+          if (last_level) {
+            // Still astray at the finest level: a jump of the placed curve
+            // when its ends lie much farther apart than the curve's own.
+            const double drawn = (curve_at(tb, a.pos, b.pos) - curve_at(ta, a.pos, b.pos)).norm();
+            if ((b.pos - a.pos).norm() > 2 * drawn + limit)
+              out.jumps.push_back(walker.piece);
+            out.reference.push_back({m.pos, sample, walker.piece});
+            return;
+          }
+        } else if (last_level) {
+          std::rethrow_exception(failure);
+        }
+        // Redo the piece through the midpoint. When a walk that strayed
+        // cannot be redone (a walk through the midpoint fails), it stands,
+        // and the fidelity check judges it.
+        std::vector<PathPoint> strayed(out.points.begin() + static_cast<long>(mark), out.points.end());
+        const size_t ref_mark = out.reference.size();
+        const int piece_before = walker.piece;
+        const int refinements_before = out.refinements;
+        out.points.resize(mark);
+        try {
+          ++out.refinements;
+          segment(a, ta, m, tm, sample, depth + 1);
+          walker.emit_sample(m, sample);
+          out.reference.push_back({m.pos, sample, walker.piece});
+          segment(m, tm, b, tb, sample, depth + 1);
+        } catch (const EmbedError&) {
+          if (failure)
             throw;
           out.points.resize(mark);
-          const Vec3 rm = (ra + rb) / 2;
-          const SurfacePoint m = mesh.closest_point(rm);
-          segment(a, ra, m, rm, sample, depth + 1);
-          walker.emit(m, sample);
-          segment(m, rm, b, rb, sample, depth + 1);
+          out.points.insert(out.points.end(), strayed.begin(), strayed.end());
+          out.reference.resize(ref_mark);
+          out.refinements = refinements_before;
+          walker.piece = piece_before;
+          out.reference.push_back({m.pos, sample, walker.piece});
         }
       };
   SurfacePoint prev = in.from;
-  Vec3 prev_raw = in.from.pos;
   for (int i = 1; i < n; ++i) {
     const Vec3 raw = (i == n - 1) ? in.to.pos : in.samples[i];
     const SurfacePoint cur = (i == n - 1) ? in.to : mesh.closest_point(raw);
-    segment(prev, prev_raw, cur, raw, i, 0);
+    const double ta = in.t.empty() ? 0.0 : in.t[i - 1], tb = in.t.empty() ? 1.0 : in.t[i];
+    segment(prev, ta, cur, tb, i, 0);
     if (i < n - 1)
-      walker.emit(cur, i);
+      walker.emit_sample(cur, i);
+    out.reference.push_back({cur.pos, i, walker.piece});
     prev = cur;
-    prev_raw = raw;
   }
   // A path that comes back to a vertex it already passed made an excursion
   // shorter than a face or two around it (rounding near a vertex): drop the
@@ -501,12 +591,54 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
     }
     pts = std::move(kept);
   }
+  // Inside a face the chain needs only the samples that keep it within half
+  // the tolerance of the curve (Douglas-Peucker on each run of samples
+  // between two points on the face's boundary); the others would only add
+  // cut vertices, and on a coarse mesh far from the curve, zig-zags.
+  {
+    auto& pts = out.points;
+    std::vector<char> keep(pts.size(), 1);
+    std::function<void(size_t, size_t, double)> simplify = [&](size_t i, size_t j, double limit) {
+      double worst = -1;
+      size_t at = i;
+      for (size_t k = i + 1; k < j; ++k) {
+        const double d = point_segment_distance(pts[k].at.pos, pts[i].at.pos, pts[j].at.pos);
+        if (d > worst) {
+          worst = d;
+          at = k;
+        }
+      }
+      if (worst <= limit) {
+        for (size_t k = i + 1; k < j; ++k)
+          keep[k] = 0;
+        return;
+      }
+      simplify(i, at, limit);
+      simplify(at, j, limit);
+    };
+    auto in_face = [&](const PathPoint& p) { return p.node < 0 && p.at.kind == SurfacePoint::Kind::Face; };
+    for (size_t i = 0; i + 1 < pts.size();) {
+      size_t j = i + 1;
+      while (j + 1 < pts.size() && in_face(pts[j]))
+        ++j;
+      if (j > i + 1)
+        simplify(i, j, tolerance_near(pts[i].at.pos, pts[j].at.pos) / 2);
+      i = j;
+    }
+    std::vector<PathPoint> kept;
+    for (size_t k = 0; k < pts.size(); ++k)
+      if (keep[k])
+        kept.push_back(pts[k]);
+    pts = std::move(kept);
+  }
   // The end node: merge with a vertex hit at the same place.
   auto& pts = out.points;
-  if (pts.size() > 1 && in.to.kind == SurfacePoint::Kind::Vertex && pts.back().node < 0 &&
-      pts.back().at.kind == SurfacePoint::Kind::Vertex && pts.back().at.vertex == in.to.vertex)
+  if (pts.size() > 1 && pts.back().node < 0 &&
+      ((in.to.kind == SurfacePoint::Kind::Vertex && pts.back().at.kind == SurfacePoint::Kind::Vertex &&
+        pts.back().at.vertex == in.to.vertex) ||
+       (pts.back().on_curve && walker.redundant(pts.back().at, in.to))))
     pts.pop_back();
-  pts.push_back({in.to, in.to_node, n - 1});
+  pts.push_back({in.to, in.to_node, n - 1, walker.piece});
   // A vertex hit right after the start node at the same place is the node itself.
   if (pts.size() > 2 && in.from.kind == SurfacePoint::Kind::Vertex && pts[1].node < 0 &&
       pts[1].at.kind == SurfacePoint::Kind::Vertex && pts[1].at.vertex == in.from.vertex)

@@ -4,6 +4,7 @@
 // come out ordered and connected by construction.
 
 #include "core/tolerances.hpp"
+#include "sample/sampling.hpp"
 #include "trace/trace_mesh.hpp"
 
 #include <string>
@@ -18,25 +19,61 @@ struct PathPoint {
   SurfacePoint at;
   int node = -1;  ///< rig node index for the two end points
   int sample = 0; ///< the sample the walk was heading to (for messages)
+  int piece = 0;  ///< the walk that placed it: increases along the path
+  bool on_curve = false; ///< a sample or midpoint of the curve, not a crossing
+};
+
+/// A point of the drawn curve placed on the surface (its closest point),
+/// for measuring how far the traced path strays from the curve.
+struct ReferencePoint {
+  Vec3 pos;
+  int sample = 0; ///< the sample it is, or the one after it for a point between samples
+  int piece = 0;  ///< the walk that ends at it, or whose midpoint it is
 };
 
 struct TracedProfile {
   std::vector<PathPoint> points; ///< first and last are the profile's nodes
   int samples = 0;
+  /// The curve as placed on the surface: every sample, and the curve's
+  /// midpoint between each two, in order along the profile.
+  std::vector<ReferencePoint> reference;
+  int refinements = 0; ///< midpoints inserted because a walk strayed or failed
+  /// Walks across a jump of the placed curve: where the closest-point
+  /// placement of a curve that lies off the surface jumps (across a concave
+  /// crease), however finely it is sampled. The walk bridges the jump along
+  /// the surface, and the bridge is not measured against the curve.
+  std::vector<int> jumps;
 };
 
 /// Places a node on the surface: its closest point, moved onto a vertex or
 /// an edge when it lies within Tolerances::node_snap() of one.
 SurfacePoint place_node(const TraceMesh& mesh, const Vec3& p, const Tolerances& tol);
 
-struct TraceInput {
-  std::string profile_id;
-  std::vector<Vec3> samples; ///< first and last are ignored: the nodes stand there
-  SurfacePoint from, to;
-  int from_node = -1, to_node = -1;
+/// A ball inside which a profile must follow its curve more closely than
+/// its tolerance (set where two profiles come close together).
+struct Tightening {
+  Vec3 centre = Vec3::Zero();
+  double radius = 0;
+  double tolerance = 0;
 };
 
-/// Traces one profile.
+struct TraceInput {
+  std::string profile_id;
+  const ProfileCurve* curve = nullptr; ///< the drawn curve, for refinement
+  std::vector<Vec3> samples;           ///< first and last are ignored: the nodes stand there
+  std::vector<double> t;               ///< each sample's normalised arc length on `curve`
+  SurfacePoint from, to;
+  int from_node = -1, to_node = -1;
+  /// How far a traced piece may stray from the curve placed on the surface.
+  double tolerance = 0;
+  std::vector<Tightening> tighter;
+};
+
+/// Traces one profile. Between each two consecutive samples the walk's
+/// piece is compared with the curve placed on the surface there (the two
+/// samples and the curve's own midpoint between them); a piece that strays
+/// further than the tolerance, or a walk that fails, is redone through the
+/// midpoint, as two walks (docs/embedding.md).
 /// \throw EmbedError naming the profile, the sample and the face or edge
 ///   where the walk failed (it reached the mesh boundary, or wandered much
 ///   further than the samples are apart: the projection jumped).

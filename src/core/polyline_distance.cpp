@@ -1,0 +1,103 @@
+#include "core/polyline_distance.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace curvenet::detail {
+
+double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+double segment_segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                const Eigen::Vector3d& d) {
+  // Closest points of two segments (clamped line parameters), then the four
+  // end-to-segment distances, which cover the cases the clamping misses.
+  const Eigen::Vector3d u = b - a, v = d - c, w = a - c;
+  const double uu = u.dot(u), uv = u.dot(v), vv = v.dot(v), uw = u.dot(w), vw = v.dot(w);
+  const double den = uu * vv - uv * uv;
+  double best = std::min({point_segment_distance(a, c, d), point_segment_distance(b, c, d),
+                          point_segment_distance(c, a, b), point_segment_distance(d, a, b)});
+  if (den > 0) {
+    const double s = (uv * vw - vv * uw) / den, t = (uu * vw - uv * uw) / den;
+    if (s > 0 && s < 1 && t > 0 && t < 1)
+      best = std::min(best, (a + s * u - (c + t * v)).norm());
+  }
+  return best;
+}
+
+DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to,
+                                    int window) {
+  DirectedDistance out;
+  if (from.empty() || to.empty())
+    return out;
+  auto distance_to = [&](const Eigen::Vector3d& p, int key_lo, int key_hi) {
+    // Segments of `to` with an end whose key is within the window.
+    const auto lo = std::lower_bound(to.begin(), to.end(), key_lo - window,
+                                     [](const KeyedPoint& q, int k) { return q.key < k; });
+    const auto hi = std::upper_bound(to.begin(), to.end(), key_hi + window,
+                                     [](int k, const KeyedPoint& q) { return k < q.key; });
+    size_t first = static_cast<size_t>(lo - to.begin());
+    size_t last = static_cast<size_t>(hi - to.begin()); // one past
+    first = first > 0 ? first - 1 : 0;
+    last = std::min(last, to.size() - 1);
+    if (to.size() == 1)
+      return (to[0].pos - p).norm();
+    if (first >= last) {
+      first = std::min(first, to.size() - 2);
+      last = first + 1;
+    }
+    double best = std::numeric_limits<double>::infinity();
+    for (size_t j = first; j < last; ++j)
+      best = std::min(best, point_segment_distance(p, to[j].pos, to[j + 1].pos));
+    return best;
+  };
+  // A vertex is measured against the keys of its two segments; a
+  // segment's midpoint against the keys of its two ends.
+  for (size_t i = 0; i < from.size(); ++i) {
+    if (from[i].skip)
+      continue;
+    const double d = distance_to(from[i].pos, from[i > 0 ? i - 1 : 0].key, from[std::min(i + 1, from.size() - 1)].key);
+    if (d > out.distance) {
+      out.distance = d;
+      out.at = i;
+    }
+    if (i + 1 < from.size() && !from[i + 1].skip) {
+      const double m = distance_to((from[i].pos + from[i + 1].pos) / 2, from[i].key, from[i + 1].key);
+      if (m > out.distance) {
+        out.distance = m;
+        out.at = i;
+      }
+    }
+  }
+  return out;
+}
+
+double hausdorff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
+  auto directed = [](const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to) {
+    double worst = 0;
+    auto dist = [&](const Eigen::Vector3d& p) {
+      if (to.size() == 1)
+        return (to[0] - p).norm();
+      double best = std::numeric_limits<double>::infinity();
+      for (size_t j = 0; j + 1 < to.size(); ++j)
+        best = std::min(best, point_segment_distance(p, to[j], to[j + 1]));
+      return best;
+    };
+    for (size_t i = 0; i < from.size(); ++i) {
+      worst = std::max(worst, dist(from[i]));
+      if (i + 1 < from.size())
+        worst = std::max(worst, dist((from[i] + from[i + 1]) / 2));
+    }
+    return worst;
+  };
+  if (a.empty() || b.empty())
+    return 0;
+  return std::max(directed(a, b), directed(b, a));
+}
+
+} // namespace curvenet::detail

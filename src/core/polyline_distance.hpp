@@ -1,0 +1,45 @@
+#pragma once
+// Distances between polylines in space: how far a traced path strays from
+// the curve it follows (the symmetric Hausdorff distance), and how close two
+// curves come to each other.
+
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace curvenet::detail {
+
+/// Distance from p to the segment ab.
+double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+
+/// Distance between the segments ab and cd.
+double segment_segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                const Eigen::Vector3d& d);
+
+/// A point of a polyline with a key that does not decrease along it (the
+/// sample a traced point belongs to).
+struct KeyedPoint {
+  Eigen::Vector3d pos;
+  int key = 0;
+  /// Not measured from: this point, and the segment that ends at it. (It is
+  /// still a target for the other polyline's points.)
+  bool skip = false;
+};
+
+/// The largest distance from a point of polyline `from` (its vertices and
+/// the midpoints of its segments) to polyline `to`. A point between vertices
+/// with keys k0 <= k1 of `from` is measured against the segments of `to`
+/// that have an end with a key in [k0 - window, k1 + window]. Restricting the search can only overstate the
+/// distance. Also returns which vertex of `from` is farthest (the segment
+/// start, for a midpoint).
+struct DirectedDistance {
+  double distance = 0;
+  size_t at = 0;
+};
+DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to,
+                                    int window);
+
+/// The same between two short polylines, every segment against every other.
+double hausdorff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b);
+
+} // namespace curvenet::detail

@@ -1,0 +1,97 @@
+#include "embed/fidelity.hpp"
+
+#include "core/polyline_distance.hpp"
+#include "core/predicates.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace curvenet::detail {
+
+ChainFidelity chain_fidelity(const CutMesh& cut, const CutChain& chain, const TracedProfile& trace) {
+  // Keyed by the walk that placed each point, so each is measured against
+  // the curve near it; a walk across a jump of the placed curve is skipped.
+  std::vector<KeyedPoint> c, r;
+  auto jump = [&](int piece) { return std::find(trace.jumps.begin(), trace.jumps.end(), piece) != trace.jumps.end(); };
+  c.reserve(chain.vertices.size());
+  for (size_t i = 0; i < chain.vertices.size(); ++i) {
+    const PathPoint& pp = trace.points[chain.point[i]];
+    c.push_back({cut.position(chain.vertices[i]), pp.piece, jump(pp.piece)});
+  }
+  r.reserve(trace.reference.size());
+  for (const ReferencePoint& q : trace.reference)
+    r.push_back({q.pos, q.piece, jump(q.piece)});
+  const DirectedDistance to_curve = directed_hausdorff(c, r, 1);
+  const DirectedDistance to_chain = directed_hausdorff(r, c, 1);
+  ChainFidelity out;
+  if (to_curve.distance >= to_chain.distance) {
+    out.distance = to_curve.distance;
+    out.sample = c.empty() ? 0 : trace.points[chain.point[to_curve.at]].sample;
+    out.at = c.empty() ? Vec3::Zero() : c[to_curve.at].pos;
+  } else {
+    out.distance = to_chain.distance;
+    out.sample = trace.reference[to_chain.at].sample;
+    out.at = r[to_chain.at].pos;
+  }
+  return out;
+}
+
+namespace {
+
+struct Piece {
+  Vec3 a, b;
+  double arc; // arc length along the curve at a
+};
+
+std::vector<Piece> pieces_near(const TracedProfile& t, const Vec3& at, double radius) {
+  std::vector<Piece> all, near;
+  double arc = 0;
+  for (size_t i = 0; i + 1 < t.reference.size(); ++i) {
+    const Vec3 &a = t.reference[i].pos, &b = t.reference[i + 1].pos;
+    all.push_back({a, b, arc});
+    arc += (b - a).norm();
+  }
+  for (const Piece& p : all)
+    if (point_segment_distance(at, p.a, p.b) <= radius)
+      near.push_back(p);
+  if (near.empty() && !all.empty()) {
+    // Nothing that close: the three pieces nearest to the place.
+    std::sort(all.begin(), all.end(), [&](const Piece& x, const Piece& y) {
+      return point_segment_distance(at, x.a, x.b) < point_segment_distance(at, y.a, y.b);
+    });
+    all.resize(std::min<size_t>(3, all.size()));
+    near = all;
+  }
+  return near;
+}
+
+} // namespace
+
+CurveGap curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, const Vec3& at, double radius,
+                   const Vec3& normal) {
+  const std::vector<Piece> pa = pieces_near(a, at, radius), pb = same ? pa : pieces_near(b, at, radius);
+  // The plane through `at` normal to the surface, for the side tests.
+  const Vec3 n = normal.norm() > 0 ? Vec3(normal.normalized()) : Vec3::UnitZ();
+  const Vec3 u = n.unitOrthogonal(), v = n.cross(u);
+  auto flat = [&](const Vec3& p) { return Eigen::Vector2d((p - at).dot(u), (p - at).dot(v)); };
+  CurveGap out;
+  out.distance = std::numeric_limits<double>::infinity();
+  for (const Piece& x : pa)
+    for (const Piece& y : pb) {
+      if (same && std::abs(x.arc - y.arc) < std::numbers::pi * radius)
+        continue;
+      out.distance = std::min(out.distance, segment_segment_distance(x.a, x.b, y.a, y.b));
+      const Eigen::Vector2d A = flat(x.a), B = flat(x.b), C = flat(y.a), D = flat(y.b);
+      if (orient2d(A, B, C) * orient2d(A, B, D) < 0 && orient2d(C, D, A) * orient2d(C, D, B) < 0)
+        out.cross = true;
+    }
+  if (!std::isfinite(out.distance))
+    out.distance = radius;
+  return out;
+}
+
+} // namespace curvenet::detail
