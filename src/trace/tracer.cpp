@@ -117,11 +117,11 @@ public:
     pts.push_back({p, -1, sample, piece, true});
   }
 
-  /// A sample at the same place as the point before it (within the snap
-  /// distance) adds nothing but a sliver. It can go when every face it
+  /// A sample next to the point before it (within 1/100 of the fidelity
+  /// tolerance) adds nothing but a sliver. It can go when every face it
   /// lies in holds that point too, so the path stays connected.
   bool redundant(const SurfacePoint& sample, const SurfacePoint& before) const {
-    if ((sample.pos - before.pos).norm() > tol_.node_snap())
+    if ((sample.pos - before.pos).norm() > std::max(tol_.node_snap(), tol_.fidelity() / 100))
       return false;
     const std::vector<int> fs = m_.faces_of(sample), fb = m_.faces_of(before);
     return std::includes(fb.begin(), fb.end(), fs.begin(), fs.end());
@@ -591,6 +591,18 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
     }
     pts = std::move(kept);
   }
+  // The end node: merge with a vertex hit at the same place.
+  auto& pts = out.points;
+  if (pts.size() > 1 && pts.back().node < 0 &&
+      ((in.to.kind == SurfacePoint::Kind::Vertex && pts.back().at.kind == SurfacePoint::Kind::Vertex &&
+        pts.back().at.vertex == in.to.vertex) ||
+       (pts.back().on_curve && walker.redundant(pts.back().at, in.to))))
+    pts.pop_back();
+  pts.push_back({in.to, in.to_node, n - 1, walker.piece});
+  // A vertex hit right after the start node at the same place is the node itself.
+  if (pts.size() > 2 && in.from.kind == SurfacePoint::Kind::Vertex && pts[1].node < 0 &&
+      pts[1].at.kind == SurfacePoint::Kind::Vertex && pts[1].at.vertex == in.from.vertex)
+    pts.erase(pts.begin() + 1);
   // Inside a face the chain needs only the samples that keep it within half
   // the tolerance of the curve (Douglas-Peucker on each run of samples
   // between two points on the face's boundary); the others would only add
@@ -631,18 +643,6 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
         kept.push_back(pts[k]);
     pts = std::move(kept);
   }
-  // The end node: merge with a vertex hit at the same place.
-  auto& pts = out.points;
-  if (pts.size() > 1 && pts.back().node < 0 &&
-      ((in.to.kind == SurfacePoint::Kind::Vertex && pts.back().at.kind == SurfacePoint::Kind::Vertex &&
-        pts.back().at.vertex == in.to.vertex) ||
-       (pts.back().on_curve && walker.redundant(pts.back().at, in.to))))
-    pts.pop_back();
-  pts.push_back({in.to, in.to_node, n - 1, walker.piece});
-  // A vertex hit right after the start node at the same place is the node itself.
-  if (pts.size() > 2 && in.from.kind == SurfacePoint::Kind::Vertex && pts[1].node < 0 &&
-      pts[1].at.kind == SurfacePoint::Kind::Vertex && pts[1].at.vertex == in.from.vertex)
-    pts.erase(pts.begin() + 1);
   return out;
 }
 
