@@ -13,8 +13,6 @@
 
 #include <gtest/gtest.h>
 
-#include <iostream>
-
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -107,8 +105,6 @@ TEST(Starter, TubeGetsARingAtEveryJointAndEmbedsOnOtherTessellations) {
   const SurfaceMesh quads = tube();
   StarterOptions opt;
   const StarterResult r = make_starter(quads, make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7}), opt);
-  for (const auto& m : r.messages)
-    std::cerr << "starter: " << m << "\n";
   EXPECT_EQ(r.rings, 5);
   EXPECT_EQ(r.net_components, 1);
   EXPECT_EQ(r.rig.nodes.size(), 20u);            // 5 rings x 4 nodes

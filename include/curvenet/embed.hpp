@@ -22,6 +22,11 @@ struct EmbedOptions {
   /// triangle under the sample. The points the rigger placed are always
   /// samples; the tracer adds midpoints where a walk strays.
   double density = 5.0;
+  /// The mesh is a control cage that stands for its limit surface (transfer
+  /// to or from a cage): its faces are not the surface the curves were
+  /// placed on, so the chains run straight inside them, and their fidelity
+  /// is measured and reported but not enforced.
+  bool cage = false;
   /// Overrides the rig's coverage when set.
   std::optional<Coverage> coverage;
   /// Called with a stage name and the fraction done, for progress display.
@@ -62,12 +67,16 @@ struct EmbedReport {
   int crossings = 0;                                      ///< edge crossings and vertex hits cut into the mesh
   int refinements = 0; ///< curve midpoints the tracer added where a walk strayed or failed
   int cut_rounds = 0;  ///< extra cuts after two profiles were traced more closely where they came close
+  /// Faces a profile runs straight across because its placed curve folds
+  /// there (it crossed itself; the fold is not measured for fidelity).
+  int unfolded_faces = 0;
   /// How far each CutChain strays from its drawn curve placed on the
   /// surface (symmetric Hausdorff distance, mesh units), per profile in rig
   /// order, and the largest; the tolerance is 1e-3 of the bounding-box diagonal.
   std::vector<std::pair<std::string, double>> fidelity;
   double fidelity_max = 0;
   double fidelity_tolerance = 0;
+  bool fidelity_enforced = true; ///< false on a cage (EmbedOptions::cage)
   std::vector<std::pair<std::string, double>> timings_ms; ///< one entry per stage
   std::vector<std::string> problems;                      ///< why ok is false, one line each
   std::vector<std::string> notes;                         ///< repairs and remarks

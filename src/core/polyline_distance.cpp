@@ -77,6 +77,42 @@ DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const s
   return out;
 }
 
+std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points, double tolerance) {
+  if (points.size() <= 2) {
+    std::vector<size_t> all(points.size());
+    for (size_t i = 0; i < all.size(); ++i)
+      all[i] = i;
+    return all;
+  }
+  std::vector<char> keep(points.size(), 0);
+  keep.front() = keep.back() = 1;
+  // An explicit stack: a long polyline must not recurse deeply.
+  std::vector<std::pair<size_t, size_t>> todo{{0, points.size() - 1}};
+  while (!todo.empty()) {
+    const auto [i, j] = todo.back();
+    todo.pop_back();
+    double worst = -1;
+    size_t at = i;
+    for (size_t k = i + 1; k < j; ++k) {
+      const double d = point_segment_distance(points[k], points[i], points[j]);
+      if (d > worst) {
+        worst = d;
+        at = k;
+      }
+    }
+    if (j > i + 1 && worst > tolerance) {
+      keep[at] = 1;
+      todo.emplace_back(i, at);
+      todo.emplace_back(at, j);
+    }
+  }
+  std::vector<size_t> out;
+  for (size_t k = 0; k < points.size(); ++k)
+    if (keep[k])
+      out.push_back(k);
+  return out;
+}
+
 double hausdorff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
   auto directed = [](const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to) {
     double worst = 0;

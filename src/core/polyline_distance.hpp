@@ -39,6 +39,10 @@ struct DirectedDistance {
 DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to,
                                     int window);
 
+/// Which points of a polyline to keep so that it stays within `tolerance`
+/// of the whole (Douglas-Peucker): the two ends always, in order.
+std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points, double tolerance);
+
 /// The same between two short polylines, every segment against every other.
 double hausdorff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b);
 

@@ -298,7 +298,7 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
           const Vec3 at = (mesh.position(c.a) + mesh.position(c.b) + mesh.position(d.a) + mesh.position(d.b)) / 4;
           throw ProfilesMeet("cut: profiles '" + a + "' and '" + b + "' cross in input face " + std::to_string(f) +
                                  (a == b ? " (the profile crosses itself)" : ", away from any node"),
-                             c.tag.profile, d.tag.profile, at, "input face " + std::to_string(f));
+                             c.tag.profile, d.tag.profile, at, "input face " + std::to_string(f), f);
         }
       }
     }

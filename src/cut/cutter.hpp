@@ -33,9 +33,11 @@ struct CutInput {
 /// away from a node: the embedding may trace them more closely and cut again.
 class ProfilesMeet : public EmbedError {
 public:
-  ProfilesMeet(const std::string& what, int first, int second, const Eigen::Vector3d& at, std::string place)
-      : EmbedError(what), first(first), second(second), at(at), place(std::move(place)) {}
+  ProfilesMeet(const std::string& what, int first, int second, const Eigen::Vector3d& at, std::string place,
+               int face = -1)
+      : EmbedError(what), first(first), second(second), face(face), at(at), place(std::move(place)) {}
   int first, second;   ///< profile indices (equal for a profile that meets itself)
+  int face;            ///< the input face where two chords cross, or -1 (at a vertex or along an edge)
   Eigen::Vector3d at;  ///< where, in mesh space
   std::string place;   ///< "input face 12", "input vertex 7", "input edge 3-4"
 };

@@ -104,6 +104,8 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   Stopwatch clock(rep);
   const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
   const double h = mesh.mean_edge_length();
+  // A rig that transfer placed on a control cage says so.
+  const bool cage = options.cage || rig.extensions.count("x_cage") > 0;
   rep.input_vertices = mesh.num_vertices();
   rep.input_faces = mesh.num_faces();
   rep.logical_nodes = static_cast<int>(rig.nodes.size());
@@ -152,7 +154,10 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   }
   // The sample spacing follows the edge length of the surface near each sample.
   const double density = options.density;
-  auto spacing = [&](const Vec3& q) { return tm.edge_length(tm.nearest(q).tri) / density; };
+  // (On a cage, whose faces are not the surface, the mean edge length.)
+  auto spacing = [&](const Vec3& q) {
+    return cage ? h / density : tm.edge_length(tm.nearest(q).tri) / density;
+  };
   in.traces.resize(np);
   std::vector<std::exception_ptr> errors(np);
   std::atomic<int> done{0};
@@ -167,11 +172,11 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
         q = apply(rig.frame, q);
       const int a = in.profile_from[p], b = in.profile_to[p];
       curves[p] = ProfileCurve(curve, in.node_points[a].pos, in.node_points[b].pos);
-      SampledProfile s = sample_profile(curves[p], spacing);
+      SampledProfile s = sample_profile(curves[p], spacing, !cage);
       impl->samples[p] = s.points;
       impl->sample_t[p] = s.t;
       tin[p] = {pr.id, &curves[p], std::move(s.points), std::move(s.t), in.node_points[a], in.node_points[b], a, b,
-                tol.fidelity(), {}};
+                tol.fidelity(), {}, {}, !cage};
       in.traces[p] = trace_profile(tm, tin[p], h, tol);
     } catch (...) {
       errors[p] = std::current_exception();
@@ -211,32 +216,61 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
           curve_gap(in.traces[p], in.traces[q], p == q, meet.at, radius, tm.tri_normal(near.tri));
       const std::string who = p == q ? "profile '" + in.profile_ids[p] + "' and itself"
                                      : "profiles '" + in.profile_ids[p] + "' and '" + in.profile_ids[q] + "'";
-      if (gap.cross && gap.distance <= tol.fidelity())
-        throw EmbedError("cut: " + who + " cross in or near " + meet.place + ", away from any node");
-      if (std::getenv("CN_DEBUG")) {
-        std::fprintf(stderr, "meet: %s gap %g radius %g\n", meet.what(), gap.distance, radius);
-        for (int x : {p, q})
-          for (const auto& pp : in.traces[x].points)
-            std::fprintf(stderr, "  %d: kind %d v %d e %d t %g node %d curve %d  %g %g %g\n", x, (int)pp.at.kind, pp.at.vertex, pp.at.edge, pp.at.t, pp.node, (int)pp.on_curve, pp.at.pos.x(), pp.at.pos.y(), pp.at.pos.z());
-      }
-      if (gap.distance <= tol.floor() || round >= Tolerances::cut_rounds) {
-        std::ostringstream msg;
-        msg << "cut: " << who << " touch in or near " << meet.place
-            << ", away from any node: their curves come closer than " << std::setprecision(3)
-            << std::max(gap.distance, tol.floor()) * 1.0000001 << " ("
-            << std::max(gap.distance, tol.floor()) / tol.diagonal << " of the diagonal; the floor is "
-            << Tolerances::floor_rel << ")";
-        throw EmbedError(msg.str());
-      }
-      for (int x : {p, q}) {
-        tin[x].tighter.push_back({meet.at, radius, std::max(tol.floor(), gap.distance / 4)});
+      auto retrace = [&](int x) {
         rep.refinements -= in.traces[x].refinements;
         in.traces[x] = trace_profile(tm, tin[x], h, tol);
         rep.refinements += in.traces[x].refinements;
-        if (p == q)
-          break;
-      }
+      };
+      const std::vector<int> both = p == q ? std::vector<int>{p} : std::vector<int>{p, q};
       ++rep.cut_rounds;
+      // Run straight across the face where the chains meet, as the walks
+      // between samples do: where the curves placed on this surface fold
+      // (a curve off the surface, projected onto a thin or far-off part),
+      // following their samples inside the face makes the chains cross.
+      auto unfold = [&] {
+        bool any = false;
+        if (meet.face >= 0 && round < Tolerances::cut_rounds)
+          for (int x : both) {
+            auto& faces = tin[x].unfold_faces;
+            if (std::binary_search(faces.begin(), faces.end(), meet.face))
+              continue;
+            faces.insert(std::upper_bound(faces.begin(), faces.end(), meet.face), meet.face);
+            retrace(x);
+            ++rep.unfolded_faces;
+            any = true;
+          }
+        return any;
+      };
+      // A profile that meets itself inside a face folds there, most likely.
+      if (p == q && unfold())
+        continue;
+      if (gap.cross && gap.distance <= tol.fidelity())
+        throw EmbedError("cut: " + who + " cross in or near " + meet.place + ", away from any node");
+      if (gap.distance <= tol.floor()) {
+        std::ostringstream msg;
+        msg << "cut: " << who << " touch in or near " << meet.place
+            << ", away from any node: their curves come closer than " << std::setprecision(3) << tol.floor() << " ("
+            << Tolerances::floor_rel << " of the diagonal)";
+        throw EmbedError(msg.str());
+      }
+      if (round < Tolerances::cut_rounds && gap.distance / 4 < tol.fidelity()) {
+        // The curves come closer than the chains may stray: trace both more
+        // closely near here, so their chains stay apart.
+        for (int x : both) {
+          tin[x].tighter.push_back({meet.at, radius, std::max(tol.floor(), gap.distance / 4)});
+          retrace(x);
+        }
+        continue;
+      }
+      // The curves stay well apart, yet their chains cross inside a face.
+      const bool unfolded = unfold();
+      if (!unfolded) {
+        std::ostringstream msg;
+        msg << "cut: " << who << " cross in or near " << meet.place << ", away from any node, though their curves stay "
+            << std::setprecision(3) << gap.distance << " (" << gap.distance / tol.diagonal
+            << " of the diagonal) apart there: the curves placed on this surface fold";
+        throw EmbedError(msg.str());
+      }
     }
   }
   rep.crossings = impl->result.crossings;
@@ -247,20 +281,12 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     throw TopologyError("cut chains invalid: " + *fault);
   // Fidelity: every chain within the tolerance of its curve.
   rep.fidelity_tolerance = tol.fidelity();
+  rep.fidelity_enforced = !cage;
   for (int p = 0; p < np; ++p) {
     const ChainFidelity f = chain_fidelity(impl->cut, impl->result.chains[p], in.traces[p]);
     rep.fidelity.emplace_back(in.profile_ids[p], f.distance);
     rep.fidelity_max = std::max(rep.fidelity_max, f.distance);
-    if (f.distance > tol.fidelity()) {
-      if (std::getenv("CN_DEBUG")) {
-        const auto& ch = impl->result.chains[p];
-        for (size_t i = 0; i < ch.vertices.size(); ++i)
-          std::fprintf(stderr, "chain %zu key %d kind %d: %g %g %g\n", i, in.traces[p].points[ch.point[i]].piece,
-                       (int)in.traces[p].points[ch.point[i]].at.kind, impl->cut.position(ch.vertices[i]).x(),
-                       impl->cut.position(ch.vertices[i]).y(), impl->cut.position(ch.vertices[i]).z());
-        for (const auto& r : in.traces[p].reference)
-          std::fprintf(stderr, "ref key %d: %g %g %g\n", r.piece, r.pos.x(), r.pos.y(), r.pos.z());
-      }
+    if (f.distance > tol.fidelity() && !cage) {
       std::ostringstream msg;
       msg << "cut: profile '" << in.profile_ids[p] << "' strays " << std::setprecision(3) << f.distance << " ("
           << f.distance / tol.diagonal << " of the diagonal) from its curve near sample " << f.sample << " at ("
@@ -324,6 +350,7 @@ std::string report_to_json(const EmbedReport& r) {
   j["crossings"] = r.crossings;
   j["refinements"] = r.refinements;
   j["cut_rounds"] = r.cut_rounds;
+  j["unfolded_faces"] = r.unfolded_faces;
   {
     nlohmann::ordered_json per = nlohmann::ordered_json::object();
     for (const auto& [id, d] : r.fidelity)
@@ -331,6 +358,7 @@ std::string report_to_json(const EmbedReport& r) {
     j["fidelity"] = {{"tolerance", r.fidelity_tolerance},
                      {"max", r.fidelity_max},
                      {"max_relative", r.fidelity_tolerance > 0 ? r.fidelity_max / r.fidelity_tolerance : 0.0},
+                     {"enforced", r.fidelity_enforced},
                      {"profiles", per}};
   }
   nlohmann::ordered_json t = nlohmann::ordered_json::object();

@@ -20,11 +20,11 @@ ChainFidelity chain_fidelity(const CutMesh& cut, const CutChain& chain, const Tr
   c.reserve(chain.vertices.size());
   for (size_t i = 0; i < chain.vertices.size(); ++i) {
     const PathPoint& pp = trace.points[chain.point[i]];
-    c.push_back({cut.position(chain.vertices[i]), pp.piece, jump(pp.piece)});
+    c.push_back({cut.position(chain.vertices[i]), pp.piece, jump(pp.piece) || pp.unmeasured});
   }
   r.reserve(trace.reference.size());
   for (const ReferencePoint& q : trace.reference)
-    r.push_back({q.pos, q.piece, jump(q.piece)});
+    r.push_back({q.pos, q.piece, jump(q.piece) || q.skip});
   const DirectedDistance to_curve = directed_hausdorff(c, r, 1);
   const DirectedDistance to_chain = directed_hausdorff(r, c, 1);
   ChainFidelity out;
@@ -44,17 +44,13 @@ namespace {
 
 struct Piece {
   Vec3 a, b;
-  double arc; // arc length along the curve at a
+  size_t index; // along the curve
 };
 
 std::vector<Piece> pieces_near(const TracedProfile& t, const Vec3& at, double radius) {
   std::vector<Piece> all, near;
-  double arc = 0;
-  for (size_t i = 0; i + 1 < t.reference.size(); ++i) {
-    const Vec3 &a = t.reference[i].pos, &b = t.reference[i + 1].pos;
-    all.push_back({a, b, arc});
-    arc += (b - a).norm();
-  }
+  for (size_t i = 0; i + 1 < t.reference.size(); ++i)
+    all.push_back({t.reference[i].pos, t.reference[i + 1].pos, i});
   for (const Piece& p : all)
     if (point_segment_distance(at, p.a, p.b) <= radius)
       near.push_back(p);
@@ -82,8 +78,8 @@ CurveGap curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, co
   out.distance = std::numeric_limits<double>::infinity();
   for (const Piece& x : pa)
     for (const Piece& y : pb) {
-      if (same && std::abs(x.arc - y.arc) < std::numbers::pi * radius)
-        continue;
+      if (same && (x.index > y.index ? x.index - y.index : y.index - x.index) <= 1)
+        continue; // neighbours along the curve share an end
       out.distance = std::min(out.distance, segment_segment_distance(x.a, x.b, y.a, y.b));
       const Eigen::Vector2d A = flat(x.a), B = flat(x.b), C = flat(y.a), D = flat(y.b);
       if (orient2d(A, B, C) * orient2d(A, B, D) < 0 && orient2d(C, D, A) * orient2d(C, D, B) < 0)

@@ -19,8 +19,8 @@ struct ChainFidelity {
 ChainFidelity chain_fidelity(const CutMesh& cut, const CutChain& chain, const TracedProfile& trace);
 
 /// How close two placed curves come within `radius` of `at` (for one curve
-/// with itself, `same`: parts of it at least half a turn of the ball apart
-/// along the curve), and whether they cross there, judged with exact
+/// with itself, `same`: its pieces that are not neighbours), and whether
+/// they cross there, judged with exact
 /// orientation tests in the plane through `at` normal to `normal`.
 struct CurveGap {
   double distance = 0;

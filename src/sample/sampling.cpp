@@ -135,7 +135,7 @@ Vec3 ProfileCurve::at(double t) const {
   return (1 - a) * points_[seg] + a * points_[seg + 1];
 }
 
-SampledProfile sample_profile(const ProfileCurve& curve, const SpacingFn& spacing) {
+SampledProfile sample_profile(const ProfileCurve& curve, const SpacingFn& spacing, bool use_corners) {
   SampledProfile out;
   out.length = curve.length();
   const double total = out.length;
@@ -144,7 +144,8 @@ SampledProfile sample_profile(const ProfileCurve& curve, const SpacingFn& spacin
   const double max_step = curve.closed() ? total / 8 : std::numeric_limits<double>::infinity();
   // Bounded work: no profile gets more than this many samples.
   constexpr size_t max_samples = 10'000'000;
-  const auto& corners = curve.corners();
+  const std::vector<double> ends{0.0, 1.0};
+  const auto& corners = use_corners ? curve.corners() : ends;
   out.points.push_back(curve.at(0.0));
   out.t.push_back(0.0);
   for (size_t c = 1; c < corners.size(); ++c) {

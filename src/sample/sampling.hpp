@@ -57,6 +57,8 @@ using SpacingFn = std::function<double(const Vec3&)>;
 /// corners the samples march along the curve in equal steps no longer than
 /// `spacing` where each step starts. A closed profile (its two ends on one
 /// node) gets at least 8 segments.
-SampledProfile sample_profile(const ProfileCurve& curve, const SpacingFn& spacing);
+/// With `corners` false, only the two ends are fixed and the samples are
+/// uniform in arc length at the spacing found at the start.
+SampledProfile sample_profile(const ProfileCurve& curve, const SpacingFn& spacing, bool corners = true);
 
 } // namespace curvenet::detail

@@ -445,7 +445,20 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   const int n = static_cast<int>(in.samples.size());
   out.samples = n;
   out.points.push_back({in.from, in.from_node, 0});
-  out.reference.push_back({in.from.pos, 0, 0});
+  auto folded = [&](const SurfacePoint& sp) {
+    if (!in.inside_faces)
+      return true;
+    if (in.unfold_faces.empty())
+      return false;
+    for (int f : mesh.faces_of(sp))
+      if (std::binary_search(in.unfold_faces.begin(), in.unfold_faces.end(), f))
+        return true;
+    return false;
+  };
+  auto reference = [&](const SurfacePoint& sp, int sample, int piece) {
+    out.reference.push_back({sp.pos, sample, piece, sp.kind == SurfacePoint::Kind::Face && folded(sp)});
+  };
+  reference(in.from, 0, 0);
   Walker walker(mesh, in, mean_edge, tol, out);
   int pieces = 0;
   auto tolerance_near = [&](const Vec3& a, const Vec3& b) {
@@ -481,8 +494,8 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
             piece.push_back(out.points[k].at.pos);
           piece.push_back(b.pos);
           const double limit = tolerance_near(a.pos, b.pos);
-          if (hausdorff(piece, {a.pos, m.pos, b.pos}) <= limit) {
-            out.reference.push_back({m.pos, sample, walker.piece});
+          if (!in.inside_faces || hausdorff(piece, {a.pos, m.pos, b.pos}) <= limit) {
+            reference(m, sample, walker.piece);
             return;
           }
           if (last_level) {
@@ -491,7 +504,7 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
             const double drawn = (curve_at(tb, a.pos, b.pos) - curve_at(ta, a.pos, b.pos)).norm();
             if ((b.pos - a.pos).norm() > 2 * drawn + limit)
               out.jumps.push_back(walker.piece);
-            out.reference.push_back({m.pos, sample, walker.piece});
+            reference(m, sample, walker.piece);
             return;
           }
         } else if (last_level) {
@@ -509,7 +522,7 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
           ++out.refinements;
           segment(a, ta, m, tm, sample, depth + 1);
           walker.emit_sample(m, sample);
-          out.reference.push_back({m.pos, sample, walker.piece});
+          reference(m, sample, walker.piece);
           segment(m, tm, b, tb, sample, depth + 1);
         } catch (const EmbedError&) {
           if (failure)
@@ -519,7 +532,7 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
           out.reference.resize(ref_mark);
           out.refinements = refinements_before;
           walker.piece = piece_before;
-          out.reference.push_back({m.pos, sample, walker.piece});
+          reference(m, sample, walker.piece);
         }
       };
   SurfacePoint prev = in.from;
@@ -530,7 +543,7 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
     segment(prev, ta, cur, tb, i, 0);
     if (i < n - 1)
       walker.emit_sample(cur, i);
-    out.reference.push_back({cur.pos, i, walker.piece});
+    reference(cur, i, walker.piece);
     prev = cur;
   }
   // A path that comes back to a vertex it already passed made an excursion
@@ -610,31 +623,29 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   {
     auto& pts = out.points;
     std::vector<char> keep(pts.size(), 1);
-    std::function<void(size_t, size_t, double)> simplify = [&](size_t i, size_t j, double limit) {
-      double worst = -1;
-      size_t at = i;
-      for (size_t k = i + 1; k < j; ++k) {
-        const double d = point_segment_distance(pts[k].at.pos, pts[i].at.pos, pts[j].at.pos);
-        if (d > worst) {
-          worst = d;
-          at = k;
-        }
-      }
-      if (worst <= limit) {
-        for (size_t k = i + 1; k < j; ++k)
-          keep[k] = 0;
-        return;
-      }
-      simplify(i, at, limit);
-      simplify(at, j, limit);
+    auto simplify = [&](size_t i, size_t j, double limit) {
+      std::vector<Vec3> run;
+      for (size_t k = i; k <= j; ++k)
+        run.push_back(pts[k].at.pos);
+      for (size_t k = i + 1; k < j; ++k)
+        keep[k] = 0;
+      for (size_t k : simplify_polyline(run, limit))
+        keep[i + k] = 1;
     };
     auto in_face = [&](const PathPoint& p) { return p.node < 0 && p.at.kind == SurfacePoint::Kind::Face; };
     for (size_t i = 0; i + 1 < pts.size();) {
       size_t j = i + 1;
       while (j + 1 < pts.size() && in_face(pts[j]))
         ++j;
-      if (j > i + 1)
-        simplify(i, j, tolerance_near(pts[i].at.pos, pts[j].at.pos) / 2);
+      if (j > i + 1) {
+        if (folded(pts[i + 1].at)) {
+          for (size_t k = i + 1; k < j; ++k)
+            keep[k] = 0;
+          pts[j].unmeasured = true;
+        } else {
+          simplify(i, j, tolerance_near(pts[i].at.pos, pts[j].at.pos) / 2);
+        }
+      }
       i = j;
     }
     std::vector<PathPoint> kept;

@@ -21,6 +21,10 @@ struct PathPoint {
   int sample = 0; ///< the sample the walk was heading to (for messages)
   int piece = 0;  ///< the walk that placed it: increases along the path
   bool on_curve = false; ///< a sample or midpoint of the curve, not a crossing
+  /// The path reaches this point straight across a face where the placed
+  /// curve folds (TraceInput::unfold_faces): the segment that ends here is
+  /// not measured against the curve.
+  bool unmeasured = false;
 };
 
 /// A point of the drawn curve placed on the surface (its closest point),
@@ -29,6 +33,7 @@ struct ReferencePoint {
   Vec3 pos;
   int sample = 0; ///< the sample it is, or the one after it for a point between samples
   int piece = 0;  ///< the walk that ends at it, or whose midpoint it is
+  bool skip = false; ///< in a face where the placed curve folds: not measured
 };
 
 struct TracedProfile {
@@ -67,6 +72,13 @@ struct TraceInput {
   /// How far a traced piece may stray from the curve placed on the surface.
   double tolerance = 0;
   std::vector<Tightening> tighter;
+  /// Input faces where the placed curve folds onto itself (the profile's
+  /// chain crossed itself there): the path keeps no samples inside them and
+  /// runs straight across, and the curve there is not measured.
+  std::vector<int> unfold_faces;
+  /// False on a control cage: no samples are kept inside any face, and a
+  /// walk that strays is not redone (only one that fails).
+  bool inside_faces = true;
 };
 
 /// Traces one profile. Between each two consecutive samples the walk's

@@ -4,6 +4,9 @@
 
 #include "curvenet/transfer.hpp"
 
+#include "core/polyline_distance.hpp"
+#include "core/tolerances.hpp"
+
 #include "core/polygon.hpp"
 #include "curvenet/errors.hpp"
 #include "embed/embedding_impl.hpp"
@@ -213,9 +216,18 @@ Rig place_on_target(const Rig& rig, const TraceMesh& source, const TraceMesh& ta
     }
     placed.front() = node_at[p.from];
     placed.back() = node_at[p.to];
-    p.curve.points = without_folds(placed, mapped);
+    // The source's own tessellation shows in its points (a starter ring has
+    // one per source edge it crosses): keep only those the shape needs on
+    // the target, within half the embedding's fidelity tolerance.
+    const std::vector<Vec3> unfolded = without_folds(placed, mapped);
+    p.curve.points.clear();
+    for (size_t k : simplify_polyline(unfolded, detail::Tolerances::fidelity_rel * diag / 2))
+      p.curve.points.push_back(unfolded[k]);
   }
   if (target_cage) {
+    // The rig now lives on a cage: embedding it there (here, and when it is
+    // bound later) treats the mesh as a cage (EmbedOptions::cage).
+    out.extensions["x_cage"] = R"({"levels":)" + std::to_string(opt.target_cage_levels) + "}";
     for (auto& n : out.nodes)
       n.position = target_cage->to_cage(n.position);
     for (auto& p : out.profiles)
@@ -234,7 +246,10 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
   const Mat4 to_source = source_to_target.inverse();
 
-  const Embedding src = embed(source, rig, opt.embed);
+  EmbedOptions source_embed = opt.embed, target_embed = opt.embed;
+  source_embed.cage = opt.source_cage_levels > 0;
+  target_embed.cage = opt.target_cage_levels > 0;
+  const Embedding src = embed(source, rig, source_embed);
   rep.source = src.report();
   if (!rep.source.ok)
     throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
@@ -265,7 +280,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   try {
     result.rig = place_on_target(rig, source_placed, target_placed, opt, source_cage ? &*source_cage : nullptr,
                                  target_cage ? &*target_cage : nullptr, rep.max_node_offset);
-    placed.emplace(embed(target, result.rig, opt.embed));
+    placed.emplace(embed(target, result.rig, target_embed));
   } catch (const EmbedError& e) {
     throw EmbedError(e.what() + apart);
   }
