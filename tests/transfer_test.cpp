@@ -138,7 +138,7 @@ TEST(Transfer, SpotQuadsToTrianglesAgreeWhenPosed) {
   EXPECT_EQ(rows.size(), 3u * 3u);
   expect_rows_pass(rows);
   ASSERT_EQ(refusals.size(), 1u);
-  EXPECT_EQ(refusals[0].rfind("spot_control_mesh.obj: cut: profiles '", 0), 0u) << refusals[0];
+  EXPECT_EQ(refusals[0].rfind("spot_control_mesh.obj: cut: the chains of profiles '", 0), 0u) << refusals[0];
   EXPECT_NE(refusals[0].find("fold"), std::string::npos) << refusals[0];
 }
 

@@ -71,6 +71,18 @@ void print_summary(std::ostream& out, const std::string& mesh_name, const EmbedR
   if (r.outside_faces)
     out << "outside faces: " << r.outside_faces << "\n";
   out << "cut mesh: " << r.cut_vertices << " vertices, " << r.cut_faces << " faces\n";
+  {
+    // The profile that strays most from its curve, and by how much.
+    std::string worst;
+    for (const auto& [id, d] : r.fidelity)
+      if (d == r.fidelity_max)
+        worst = id;
+    const double diag = r.diagonal > 0 ? r.diagonal : 1.0;
+    out << "chain fidelity: " << std::setprecision(3) << r.fidelity_max << " (" << r.fidelity_max / diag
+        << " of the diagonal" << (worst.empty() ? "" : ", profile '" + worst + "'") << "), tolerance "
+        << r.fidelity_tolerance << (r.fidelity_enforced ? "" : " (a cage: not enforced)") << "\n"
+        << std::setprecision(6);
+  }
   double total = 0;
   for (const auto& [s, ms] : r.timings_ms)
     total += ms;

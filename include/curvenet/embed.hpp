@@ -77,6 +77,7 @@ struct EmbedReport {
   double fidelity_max = 0;
   double fidelity_tolerance = 0;
   bool fidelity_enforced = true; ///< false on a cage (EmbedOptions::cage)
+  double diagonal = 0;           ///< the mesh's bounding-box diagonal, which the tolerances scale with
   std::vector<std::pair<std::string, double>> timings_ms; ///< one entry per stage
   std::vector<std::string> problems;                      ///< why ok is false, one line each
   std::vector<std::string> notes;                         ///< repairs and remarks

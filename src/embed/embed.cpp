@@ -212,8 +212,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       for (int x : {in.profile_from[p], in.profile_to[p]})
         if (x == in.profile_from[q] || x == in.profile_to[q])
           radius = std::min(radius, (in.node_points[x].pos - meet.at).norm() / 2);
-      const CurveGap gap =
-          curve_gap(in.traces[p], in.traces[q], p == q, meet.at, radius, tm.tri_normal(near.tri));
+      const double gap = curve_gap(in.traces[p], in.traces[q], p == q, meet.at, radius);
       const std::string who = p == q ? "profile '" + in.profile_ids[p] + "' and itself"
                                      : "profiles '" + in.profile_ids[p] + "' and '" + in.profile_ids[q] + "'";
       auto retrace = [&](int x) {
@@ -244,20 +243,17 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       // A profile that meets itself inside a face folds there, most likely.
       if (p == q && unfold())
         continue;
-      if (gap.cross && gap.distance <= tol.fidelity())
-        throw EmbedError("cut: " + who + " cross in or near " + meet.place + ", away from any node");
-      if (gap.distance <= tol.floor()) {
+      if (gap <= tol.floor()) {
         std::ostringstream msg;
-        msg << "cut: " << who << " touch in or near " << meet.place
-            << ", away from any node: their curves come closer than " << std::setprecision(3) << tol.floor() << " ("
-            << Tolerances::floor_rel << " of the diagonal)";
+        msg << "cut: " << who << " meet or come closer than " << std::setprecision(3) << tol.floor() << " ("
+            << Tolerances::floor_rel << " of the diagonal) in or near " << meet.place << ", away from any node";
         throw EmbedError(msg.str());
       }
-      if (round < Tolerances::cut_rounds && gap.distance / 4 < tol.fidelity()) {
+      if (round < Tolerances::cut_rounds && gap / 4 < tol.fidelity()) {
         // The curves come closer than the chains may stray: trace both more
         // closely near here, so their chains stay apart.
         for (int x : both) {
-          tin[x].tighter.push_back({meet.at, radius, std::max(tol.floor(), gap.distance / 4)});
+          tin[x].tighter.push_back({meet.at, radius, std::max(tol.floor(), gap / 4)});
           retrace(x);
         }
         continue;
@@ -266,8 +262,8 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       const bool unfolded = unfold();
       if (!unfolded) {
         std::ostringstream msg;
-        msg << "cut: " << who << " cross in or near " << meet.place << ", away from any node, though their curves stay "
-            << std::setprecision(3) << gap.distance << " (" << gap.distance / tol.diagonal
+        msg << "cut: the chains of " << who << " cross in or near " << meet.place << ", away from any node, though their curves stay "
+            << std::setprecision(3) << gap << " (" << gap / tol.diagonal
             << " of the diagonal) apart there: the curves placed on this surface fold";
         throw EmbedError(msg.str());
       }
@@ -281,6 +277,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     throw TopologyError("cut chains invalid: " + *fault);
   // Fidelity: every chain within the tolerance of its curve.
   rep.fidelity_tolerance = tol.fidelity();
+  rep.diagonal = tol.diagonal;
   rep.fidelity_enforced = !cage;
   for (int p = 0; p < np; ++p) {
     const ChainFidelity f = chain_fidelity(impl->cut, impl->result.chains[p], in.traces[p]);
@@ -356,6 +353,7 @@ std::string report_to_json(const EmbedReport& r) {
     for (const auto& [id, d] : r.fidelity)
       per[id] = d;
     j["fidelity"] = {{"tolerance", r.fidelity_tolerance},
+                     {"diagonal", r.diagonal},
                      {"max", r.fidelity_max},
                      {"max_relative", r.fidelity_tolerance > 0 ? r.fidelity_max / r.fidelity_tolerance : 0.0},
                      {"enforced", r.fidelity_enforced},

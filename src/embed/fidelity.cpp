@@ -1,14 +1,10 @@
 #include "embed/fidelity.hpp"
 
 #include "core/polyline_distance.hpp"
-#include "core/predicates.hpp"
-
-#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 namespace curvenet::detail {
 
@@ -67,27 +63,16 @@ std::vector<Piece> pieces_near(const TracedProfile& t, const Vec3& at, double ra
 
 } // namespace
 
-CurveGap curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, const Vec3& at, double radius,
-                   const Vec3& normal) {
+double curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, const Vec3& at, double radius) {
   const std::vector<Piece> pa = pieces_near(a, at, radius), pb = same ? pa : pieces_near(b, at, radius);
-  // The plane through `at` normal to the surface, for the side tests.
-  const Vec3 n = normal.norm() > 0 ? Vec3(normal.normalized()) : Vec3::UnitZ();
-  const Vec3 u = n.unitOrthogonal(), v = n.cross(u);
-  auto flat = [&](const Vec3& p) { return Eigen::Vector2d((p - at).dot(u), (p - at).dot(v)); };
-  CurveGap out;
-  out.distance = std::numeric_limits<double>::infinity();
+  double gap = std::numeric_limits<double>::infinity();
   for (const Piece& x : pa)
     for (const Piece& y : pb) {
       if (same && (x.index > y.index ? x.index - y.index : y.index - x.index) <= 1)
         continue; // neighbours along the curve share an end
-      out.distance = std::min(out.distance, segment_segment_distance(x.a, x.b, y.a, y.b));
-      const Eigen::Vector2d A = flat(x.a), B = flat(x.b), C = flat(y.a), D = flat(y.b);
-      if (orient2d(A, B, C) * orient2d(A, B, D) < 0 && orient2d(C, D, A) * orient2d(C, D, B) < 0)
-        out.cross = true;
+      gap = std::min(gap, segment_segment_distance(x.a, x.b, y.a, y.b));
     }
-  if (!std::isfinite(out.distance))
-    out.distance = radius;
-  return out;
+  return std::isfinite(gap) ? gap : radius;
 }
 
 } // namespace curvenet::detail

@@ -19,14 +19,9 @@ struct ChainFidelity {
 ChainFidelity chain_fidelity(const CutMesh& cut, const CutChain& chain, const TracedProfile& trace);
 
 /// How close two placed curves come within `radius` of `at` (for one curve
-/// with itself, `same`: its pieces that are not neighbours), and whether
-/// they cross there, judged with exact
-/// orientation tests in the plane through `at` normal to `normal`.
-struct CurveGap {
-  double distance = 0;
-  bool cross = false;
-};
-CurveGap curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, const Vec3& at, double radius,
-                   const Vec3& normal);
+/// with itself, `same`: its pieces that are not neighbours). Whether two
+/// curves that come this close cross or only touch is not decided: near a
+/// sharp vertex no plane shows it, so refusals say "meet or come closer".
+double curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, const Vec3& at, double radius);
 
 } // namespace curvenet::detail

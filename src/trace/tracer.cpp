@@ -494,8 +494,30 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
             piece.push_back(out.points[k].at.pos);
           piece.push_back(b.pos);
           const double limit = tolerance_near(a.pos, b.pos);
-          if (!in.inside_faces || hausdorff(piece, {a.pos, m.pos, b.pos}) <= limit) {
-            reference(m, sample, walker.piece);
+          // The curve placed on the surface between a and b: m, and more
+          // placed points where it bends away from the chord, so the
+          // reference stands within an eighth of the tolerance of the curve.
+          std::vector<SurfacePoint> placed;
+          std::function<void(const SurfacePoint&, double, const SurfacePoint&, double, const SurfacePoint&, int)> bend =
+              [&](const SurfacePoint& x, double tx, const SurfacePoint& y, double ty, const SurfacePoint& mid,
+                  int level) {
+                const double tmid = (tx + ty) / 2;
+                if (level < 3 && in.inside_faces && point_segment_distance(mid.pos, x.pos, y.pos) > limit / 8) {
+                  bend(x, tx, mid, tmid, mesh.closest_point(curve_at((tx + tmid) / 2, x.pos, mid.pos)), level + 1);
+                  placed.push_back(mid);
+                  bend(mid, tmid, y, ty, mesh.closest_point(curve_at((tmid + ty) / 2, mid.pos, y.pos)), level + 1);
+                } else {
+                  placed.push_back(mid);
+                }
+              };
+          bend(a, ta, b, tb, m, 0);
+          std::vector<Vec3> curve{a.pos};
+          for (const SurfacePoint& q : placed)
+            curve.push_back(q.pos);
+          curve.push_back(b.pos);
+          if (!in.inside_faces || hausdorff(piece, curve) <= limit) {
+            for (const SurfacePoint& q : placed)
+              reference(q, sample, walker.piece);
             return;
           }
           if (last_level) {
