@@ -148,24 +148,26 @@ TEST(Fidelity, ARingRoundAThinLimbWhoseTrianglesAreLongerThanItIsRound) {
 }
 
 TEST(Fidelity, TwoRingsAHundredthOfAnEdgeApartAreBothCut) {
-  // A coarse tube (edges about 0.5 long): two rings at heights 1 and
-  // 1 + 0.005, each a closed loop through one node, tilted so that they do
-  // not run along the mesh's rows. Disjoint, so both are cut: three regions.
+  // A coarse tube of sliver triangles (six around, two rows), and two rings
+  // that are sections of parallel tilted planes a hundredth of the mean edge
+  // length apart, each a closed loop through one node. Straight chords
+  // between their edge crossings would cross; the rings do not, so both are
+  // cut: three regions.
   TubeSpec ts;
-  ts.around = 12;
-  ts.along = 8;
+  ts.around = 6;
+  ts.along = 2;
   ts.cap_rings = 2;
   ts.triangulate = true;
   const SurfaceMesh m = make_surface_mesh(make_capped_tube(ts), "coarse tube");
-  const double gap = 0.01 * m.mean_edge_length();
+  const detail::SectionMesh sections(m);
+  const Vec3 normal = Vec3(0.45, 1, 0.3).normalized();
   Rig rig;
   for (int k = 0; k < 2; ++k) {
     const std::string id = k == 0 ? "near" : "far";
-    std::vector<Vec3> loop;
-    for (int i = 0; i <= 96; ++i) {
-      const double a = 2 * std::numbers::pi * i / 96;
-      loop.push_back(on_facets(ts, a, 2.0 + 0.3 * std::cos(a) + k * gap));
-    }
+    const auto loops = detail::plane_sections(sections, Vec3(0, 2, 0) + k * 0.01 * m.mean_edge_length() * normal, normal);
+    ASSERT_EQ(loops.size(), 1u);
+    std::vector<Vec3> loop = loops[0].points;
+    loop.push_back(loop.front());
     rig.nodes.push_back({id, loop.front()});
     rig.profiles.push_back(profile(id, id, id, loop));
   }
