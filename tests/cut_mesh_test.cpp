@@ -176,3 +176,32 @@ TEST(CutMesh, ALayoutFollowsTheTracersTrianglesAfterTheLoopStartMoves) {
           << "triangle " << t << " corner " << c[k];
   }
 }
+
+TEST(CutMesh, InputComponentsAgreeWithTheMeshsOwn) {
+  // Two boxes apart, a grid (open) and a tube: counts, closedness, Euler
+  // characteristic and the face numbering, against mesh_components().
+  RawMesh two = test::box();
+  const RawMesh other = test::box(2);
+  const int offset = static_cast<int>(two.positions.size());
+  for (const auto& p : other.positions)
+    two.positions.push_back(p + Eigen::Vector3d(5, 0, 0));
+  for (int f = 0; f + 1 < static_cast<int>(other.face_offsets.size()); ++f) {
+    std::vector<int> c;
+    for (int k = other.face_offsets[f]; k < other.face_offsets[f + 1]; ++k)
+      c.push_back(other.face_vertices[k] + offset);
+    two.add_face(c);
+  }
+  for (const SurfaceMesh& m : {make_surface_mesh(two, "two boxes"), make_surface_mesh(test::grid(3, 2, true), "grid"),
+                               test::tube(12, 6, 3, false)}) {
+    std::vector<int> mine, theirs;
+    const auto a = detail::input_components(detail::CutMesh::from_surface(m), mine);
+    const auto b = mesh_components(m, &theirs);
+    ASSERT_EQ(a.size(), b.size()) << m.source;
+    for (size_t c = 0; c < a.size(); ++c) {
+      EXPECT_EQ(a[c].faces, b[c].faces);
+      EXPECT_EQ(a[c].closed, b[c].closed);
+      EXPECT_EQ(a[c].euler, b[c].euler);
+    }
+    EXPECT_EQ(mine, theirs);
+  }
+}

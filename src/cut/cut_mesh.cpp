@@ -32,20 +32,66 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
   for (int v = 0; v < nv; ++v)
     m.vertex_origin_[v] = {VertexOrigin::Kind::Input, v, 0};
   m.vertex_halfedge_.assign(nv, Halfedge());
-  std::unordered_map<long long, int> edge_of;
-  auto key = [nv](int a, int b) { return static_cast<long long>(std::min(a, b)) * nv + std::max(a, b); };
-  for (int f = 0; f < mesh.num_faces(); ++f) {
+  // Input edges, numbered in the order they are first met, face by face:
+  // the corners grouped by their edge's smaller vertex (compressed rows),
+  // and each corner's edge found among the few of its group.
+  const int nf = mesh.num_faces();
+  const size_t corners = mesh.face_vertices.size();
+  auto corner_ends = [&](size_t c, int f) {
+    const auto loop = mesh.face(f);
+    const size_t first = static_cast<size_t>(mesh.face_offsets[f]);
+    const size_t i = c - first;
+    return std::pair<int, int>{loop[i], loop[(i + 1) % loop.size()]};
+  };
+  std::vector<int> corner_face(corners);
+  for (int f = 0; f < nf; ++f)
+    for (int c = mesh.face_offsets[f]; c < mesh.face_offsets[f + 1]; ++c)
+      corner_face[c] = f;
+  std::vector<int> group_offset(static_cast<size_t>(nv) + 1, 0), group(corners);
+  for (size_t c = 0; c < corners; ++c) {
+    const auto [a, b] = corner_ends(c, corner_face[c]);
+    ++group_offset[std::min(a, b) + 1];
+  }
+  for (int v = 0; v < nv; ++v)
+    group_offset[v + 1] += group_offset[v];
+  {
+    std::vector<int> fill(group_offset.begin(), group_offset.end() - 1);
+    for (size_t c = 0; c < corners; ++c) {
+      const auto [a, b] = corner_ends(c, corner_face[c]);
+      group[fill[std::min(a, b)]++] = static_cast<int>(c);
+    }
+  }
+  std::vector<int> corner_edge(corners, -1);
+  m.to_.reserve(corners + 16);
+  m.next_.reserve(corners + 16);
+  m.prev_.reserve(corners + 16);
+  m.face_.reserve(corners + 16);
+  m.tag_.reserve(corners + 16);
+  m.edge_origin_.reserve(corners / 2 + 8);
+  std::vector<Halfedge> loop;
+  for (int f = 0; f < nf; ++f) {
     auto c = mesh.face(f);
     const int n = static_cast<int>(c.size());
-    std::vector<Halfedge> loop;
+    loop.clear();
     for (int i = 0; i < n; ++i) {
+      const size_t corner = static_cast<size_t>(mesh.face_offsets[f] + i);
       const int a = c[i], b = c[(i + 1) % n];
-      auto [it, fresh] = edge_of.emplace(key(a, b), m.num_edges());
-      if (fresh) {
-        m.new_edge(Vertex(a), Vertex(b), it->second);
+      const int lo = std::min(a, b), hi = std::max(a, b);
+      // The first corner of this edge, in face order (corners are numbered so).
+      int first = static_cast<int>(corner);
+      for (int g = group_offset[lo]; g < group_offset[lo + 1]; ++g) {
+        const auto [x, y] = corner_ends(static_cast<size_t>(group[g]), corner_face[group[g]]);
+        if (std::max(x, y) == hi && group[g] < first)
+          first = group[g];
+      }
+      int e = corner_edge[first];
+      if (e < 0) {
+        e = m.num_edges();
+        m.new_edge(Vertex(a), Vertex(b), e);
         m.input_edge_ends_.push_back({a, b});
       }
-      Halfedge h(2 * it->second);
+      corner_edge[corner] = e;
+      Halfedge h(2 * e);
       if (m.to(h) != Vertex(b))
         h = twin(h);
       if (m.face_[h.idx].is_valid())
@@ -81,6 +127,61 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
     if (boundary_out[v].is_valid())
       m.vertex_halfedge_[v] = boundary_out[v];
   return m;
+}
+
+std::vector<ComponentInfo> input_components(const CutMesh& m, std::vector<int>& face_component) {
+  const int nf = m.num_faces();
+  std::vector<int> parent(nf);
+  for (int f = 0; f < nf; ++f)
+    parent[f] = f;
+  auto find = [&](int x) {
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (int e = 0; e < m.num_edges(); ++e) {
+    const Face a = m.face(Halfedge(2 * e)), b = m.face(Halfedge(2 * e + 1));
+    if (a.is_valid() && b.is_valid()) {
+      const int ra = find(a.idx), rb = find(b.idx);
+      if (ra != rb)
+        parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+  // Number the components by their first face.
+  std::vector<int> id(nf, -1);
+  face_component.assign(nf, -1);
+  std::vector<ComponentInfo> out;
+  for (int f = 0; f < nf; ++f) {
+    const int r = find(f);
+    if (id[r] < 0) {
+      id[r] = static_cast<int>(out.size());
+      out.emplace_back();
+    }
+    face_component[f] = id[r];
+    out[id[r]].faces++;
+  }
+  std::vector<int> nverts(out.size(), 0), nedges(out.size(), 0);
+  std::vector<char> open(out.size(), 0);
+  for (int e = 0; e < m.num_edges(); ++e) {
+    const Halfedge h(2 * e);
+    const Face f = m.face(h).is_valid() ? m.face(h) : m.face(CutMesh::twin(h));
+    const int c = face_component[f.idx];
+    nedges[c]++;
+    if (m.is_boundary(h) || m.is_boundary(CutMesh::twin(h)))
+      open[c] = 1;
+  }
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    const Halfedge h = m.halfedge(Vertex(v));
+    if (!h.is_valid())
+      continue;
+    const Face f = m.face(h).is_valid() ? m.face(h) : m.face(CutMesh::twin(h));
+    nverts[face_component[f.idx]]++;
+  }
+  for (size_t c = 0; c < out.size(); ++c) {
+    out[c].closed = !open[c];
+    out[c].euler = nverts[c] - nedges[c] + out[c].faces;
+  }
+  return out;
 }
 
 void CutMesh::set_tag(Halfedge h, CurveTag t) {

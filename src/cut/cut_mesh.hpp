@@ -150,4 +150,9 @@ private:
   mutable std::unordered_map<int, Layout> layouts_; // input face -> layout
 };
 
+/// The connected components of a cut mesh fresh from from_surface (so its
+/// elements are the input's): the same as mesh_components() on the input,
+/// numbered by their first face, from the half-edges in linear time.
+std::vector<ComponentInfo> input_components(const CutMesh& mesh, std::vector<int>& face_component);
+
 } // namespace curvenet::detail

@@ -25,7 +25,8 @@ std::vector<int> edges_of(const TraceMesh& tm, const SurfacePoint& p) {
     return {p.edge};
   if (p.kind != Kind::Vertex)
     return {};
-  return tm.vertex_edges(p.vertex);
+  const auto l = tm.vertex_edges(p.vertex);
+  return {l.begin(), l.end()};
 }
 
 int seg_cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, const Eigen::Vector2d& d) {

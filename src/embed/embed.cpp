@@ -113,8 +113,11 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   rep.components = net_components(rig);
   rep.notes = mesh.notes;
 
+  // Build the surface structures.
+  impl->cut = CutMesh::from_surface(mesh);
   std::vector<int> face_component;
-  const auto comps = mesh_components(mesh, &face_component);
+  const auto comps = input_components(impl->cut, face_component);
+  clock.lap("halfedges");
   rep.mesh_components = static_cast<int>(comps.size());
   bool all_closed = true, higher_genus = false;
   for (const auto& c : comps) {
@@ -130,8 +133,6 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   if (!higher_genus)
     rep.expected_regions = cov == Coverage::Full ? C + K - V + E : E - V + C;
 
-  // Build the surface structures.
-  impl->cut = CutMesh::from_surface(mesh);
   TraceMesh tm(mesh, impl->cut);
   clock.lap("bvh");
 

@@ -56,14 +56,16 @@ bool point_query(RTCPointQueryFunctionArguments* args) {
 } // namespace
 
 TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) {
-  vertex_tris_.resize(mesh.num_vertices());
-  vertex_edges_.resize(mesh.num_vertices());
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(2 * static_cast<size_t>(cut.num_edges()));
+  edge_ends_.reserve(cut.num_edges());
   for (int e = 0; e < cut.num_edges(); ++e) {
     edge_ends_.push_back({cut.from(Halfedge(2 * e)).idx, cut.to(Halfedge(2 * e)).idx});
-    vertex_edges_[edge_ends_[e][0]].push_back(e);
-    vertex_edges_[edge_ends_[e][1]].push_back(e);
+    pairs.emplace_back(edge_ends_[e][0], e);
+    pairs.emplace_back(edge_ends_[e][1], e);
   }
-  edge_tris_.resize(cut.num_edges());
+  vertex_edges_ = Adjacency::build(mesh.num_vertices(), pairs);
+  tri_.reserve(2 * static_cast<size_t>(mesh.num_faces()));
   std::map<std::pair<int, int>, std::pair<int, int>> diagonal; // (a,b) -> (tri, side), within one face
   for (int f = 0; f < mesh.num_faces(); ++f) {
     const std::vector<Halfedge> loop = cut.face_loop(Face(f));
@@ -89,10 +91,7 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
       side_edge_.push_back(se);
       nbr_.push_back({-1, -1, -1});
       for (int k = 0; k < 3; ++k) {
-        vertex_tris_[tri_[t][k]].push_back(t);
-        if (se[k] >= 0) {
-          edge_tris_[se[k]].push_back(t);
-        } else {
+        if (se[k] < 0) {
           const int a = tri_[t][k], b = tri_[t][(k + 1) % 3];
           auto key = std::make_pair(std::min(a, b), std::max(a, b));
           auto it = diagonal.find(key);
@@ -107,6 +106,17 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
       }
     }
   }
+  pairs.clear();
+  for (int t = 0; t < num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k)
+      pairs.emplace_back(tri_[t][k], t);
+  vertex_tris_ = Adjacency::build(mesh.num_vertices(), pairs);
+  pairs.clear();
+  for (int t = 0; t < num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k)
+      if (side_edge_[t][k] >= 0)
+        pairs.emplace_back(side_edge_[t][k], t);
+  edge_tris_ = Adjacency::build(cut.num_edges(), pairs);
   for (int t = 0; t < num_triangles(); ++t)
     for (int k = 0; k < 3; ++k) {
       const int e = side_edge_[t][k];
@@ -153,6 +163,20 @@ Vec3 TraceMesh::tri_normal(int t) const {
   return (position(c[1]) - position(c[0])).cross(position(c[2]) - position(c[0])).normalized();
 }
 
+Adjacency Adjacency::build(int keys, const std::vector<std::pair<int, int>>& pairs) {
+  Adjacency a;
+  a.offset_.assign(static_cast<size_t>(keys) + 1, 0);
+  for (const auto& [k, v] : pairs)
+    ++a.offset_[k + 1];
+  for (int k = 0; k < keys; ++k)
+    a.offset_[k + 1] += a.offset_[k];
+  a.items_.resize(pairs.size());
+  std::vector<int> fill(a.offset_.begin(), a.offset_.end() - 1);
+  for (const auto& [k, v] : pairs)
+    a.items_[fill[k]++] = v;
+  return a;
+}
+
 double TraceMesh::edge_length(int t) const {
   const auto& c = tri_[t];
   double sum = 0, all = 0;
@@ -170,10 +194,14 @@ double TraceMesh::edge_length(int t) const {
 
 std::vector<int> TraceMesh::triangles_of(const SurfacePoint& p) const {
   switch (p.kind) {
-  case SurfacePoint::Kind::Vertex:
-    return vertex_tris_[p.vertex];
-  case SurfacePoint::Kind::Edge:
-    return edge_tris_[p.edge];
+  case SurfacePoint::Kind::Vertex: {
+    const auto l = vertex_tris_[p.vertex];
+    return {l.begin(), l.end()};
+  }
+  case SurfacePoint::Kind::Edge: {
+    const auto l = edge_tris_[p.edge];
+    return {l.begin(), l.end()};
+  }
   case SurfacePoint::Kind::Face: {
     std::vector<int> out{p.tri};
     // On a diagonal of its polygon: the triangle across it holds p too.

@@ -8,6 +8,8 @@
 #include <array>
 #include <memory>
 #include <optional>
+#include <span>
+#include <utility>
 #include <vector>
 
 namespace curvenet::detail {
@@ -26,6 +28,19 @@ struct SurfacePoint {
   Vec3 pos = Vec3::Zero();
 };
 
+/// Lists of ints for each of n keys, in one flat array (compressed rows).
+class Adjacency {
+public:
+  /// Builds the lists from (key, value) pairs; each list keeps the pairs' order.
+  static Adjacency build(int keys, const std::vector<std::pair<int, int>>& pairs);
+  [[nodiscard]] std::span<const int> operator[](int key) const {
+    return {items_.data() + offset_[key], static_cast<size_t>(offset_[key + 1] - offset_[key])};
+  }
+
+private:
+  std::vector<int> offset_, items_;
+};
+
 class TraceMesh {
 public:
   /// \pre `cut` is CutMesh::from_surface(mesh), not yet cut. The trace mesh
@@ -42,8 +57,8 @@ public:
   [[nodiscard]] int side_edge(int t, int k) const { return side_edge_[t][k]; }
   /// Triangle across side k of t, or -1 on the boundary.
   [[nodiscard]] int neighbour(int t, int k) const { return nbr_[t][k]; }
-  [[nodiscard]] const std::vector<int>& vertex_triangles(int v) const { return vertex_tris_[v]; }
-  [[nodiscard]] const std::vector<int>& edge_triangles(int e) const { return edge_tris_[e]; }
+  [[nodiscard]] std::span<const int> vertex_triangles(int v) const { return vertex_tris_[v]; }
+  [[nodiscard]] std::span<const int> edge_triangles(int e) const { return edge_tris_[e]; }
   [[nodiscard]] const Vec3& position(int v) const { return mesh_.positions[v]; }
   [[nodiscard]] Vec3 tri_normal(int t) const;
   /// The mean length of the input edges under triangle t's sides (all
@@ -53,14 +68,14 @@ public:
   /// The two ends of input edge e, in the direction of its half-edge 2e.
   [[nodiscard]] const std::array<int, 2>& edge_ends(int e) const { return edge_ends_[e]; }
   /// Input edges around input vertex v.
-  [[nodiscard]] const std::vector<int>& vertex_edges(int v) const { return vertex_edges_[v]; }
+  [[nodiscard]] std::span<const int> vertex_edges(int v) const { return vertex_edges_[v]; }
 
   /// The surface point at input vertex v.
   [[nodiscard]] SurfacePoint vertex_point(int v) const {
     SurfacePoint p;
     p.kind = SurfacePoint::Kind::Vertex;
     p.vertex = v;
-    p.tri = vertex_tris_[v].empty() ? -1 : vertex_tris_[v][0];
+    p.tri = vertex_tris_[v].empty() ? -1 : vertex_tris_[v].front();
     p.pos = position(v);
     return p;
   }
@@ -93,13 +108,13 @@ public:
 private:
   const SurfaceMesh& mesh_;
   std::vector<std::array<int, 2>> edge_ends_;
-  std::vector<std::vector<int>> vertex_edges_;
+  Adjacency vertex_edges_;
   std::vector<std::array<int, 3>> tri_;
   std::vector<int> tri_face_;
   std::vector<std::array<int, 3>> side_edge_;
   std::vector<std::array<int, 3>> nbr_;
-  std::vector<std::vector<int>> vertex_tris_;
-  std::vector<std::vector<int>> edge_tris_;
+  Adjacency vertex_tris_;
+  Adjacency edge_tris_;
   struct Bvh;
   std::unique_ptr<Bvh> bvh_;
 };

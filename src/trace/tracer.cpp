@@ -611,8 +611,10 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
     auto edges_through = [&](const SurfacePoint& p) -> std::vector<int> {
       if (p.kind == SurfacePoint::Kind::Edge)
         return {p.edge};
-      if (p.kind == SurfacePoint::Kind::Vertex)
-        return mesh.vertex_edges(p.vertex);
+      if (p.kind == SurfacePoint::Kind::Vertex) {
+        const auto l = mesh.vertex_edges(p.vertex);
+        return {l.begin(), l.end()};
+      }
       return {};
     };
     std::vector<PathPoint> kept;
