@@ -149,14 +149,17 @@ TEST(CutMesh, ALayoutFollowsTheTracersTrianglesAfterTheLoopStartMoves) {
   // neighbour's side moves the start of its loop; its layout must still be
   // the unfolding of the triangles the tracer walks.
   RawMesh r;
-  r.positions = {{0.357342, 0.328408, -0.355631}, {0.20055, 0.268675, -0.675}, {0.257589, 0.182798, -0.649506},
-                 {0.0254884, 0.458356, -0.369115}, {0.35, 0.05, -0.6}};
+  r.positions = {{0.357342, 0.328408, -0.355631},
+                 {0.20055, 0.268675, -0.675},
+                 {0.257589, 0.182798, -0.649506},
+                 {0.0254884, 0.458356, -0.369115},
+                 {0.35, 0.05, -0.6}};
   r.add_face(std::vector<int>{0, 1, 2, 3});
   r.add_face(std::vector<int>{1, 0, 4});
   const SurfaceMesh s = make_surface_mesh(r, "folded");
   CutMesh m = CutMesh::from_surface(s);
   const TraceMesh tm(s, m); // the tracer's triangles, from the fresh mesh
-  Halfedge across; // 1 -> 0, in the triangle
+  Halfedge across;          // 1 -> 0, in the triangle
   for (Halfedge h : m.face_loop(Face(1)))
     if (m.from(h).idx == 1 && m.to(h).idx == 0)
       across = h;

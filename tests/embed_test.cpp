@@ -47,7 +47,6 @@ std::vector<Vec3> arc(double y, double a0, double a1, int n = 32) {
   return out;
 }
 
-
 void expect_counts(const EmbedReport& r, int nodes, int profiles, int regions) {
   EXPECT_TRUE(r.ok) << (r.problems.empty() ? "" : r.problems[0]);
   EXPECT_EQ(r.logical_nodes, nodes);

@@ -3,12 +3,12 @@
 // each point moved to its closest surface point, against the chain's
 // polyline, both ways), so it does not take the report's word for it.
 
+#include "core/polyline_distance.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/starter.hpp"
 #include "curvenet/transfer.hpp"
-#include "core/polyline_distance.hpp"
 #include "embed/embedding_impl.hpp"
 #include "helpers.hpp"
 #include "sample/sampling.hpp"
@@ -140,8 +140,8 @@ TEST(Fidelity, ARingRoundAThinLimbWhoseTrianglesAreLongerThanItIsRound) {
     std::vector<Vec3> line;
     for (int i = 0; i <= 8; ++i)
       line.push_back(on_facets(ts, angle, 1.0 + i / 8.0));
-    rig.profiles.push_back(profile(std::string("line_") + end, std::string("lower_") + end,
-                                   std::string("upper_") + end, line));
+    rig.profiles.push_back(
+        profile(std::string("line_") + end, std::string("lower_") + end, std::string("upper_") + end, line));
   }
   const Embedding e = embed(m, rig);
   expect_faithful(m, rig, e, 4);
@@ -271,7 +271,8 @@ TEST(Fidelity, RandomNetsOfDisjointRingsAreNeverRefused) {
   // on the very surface the embedding sees: on a quad that is not flat, a
   // curve on one of its two triangulations lies off the other.)
   std::vector<std::pair<std::string, SurfaceMesh>> meshes;
-  for (const auto& [around, along, tri] : std::vector<std::tuple<int, int, bool>>{{6, 2, true}, {9, 3, false}, {40, 30, true}}) {
+  for (const auto& [around, along, tri] :
+       std::vector<std::tuple<int, int, bool>>{{6, 2, true}, {9, 3, false}, {40, 30, true}}) {
     TubeSpec ts;
     ts.around = around;
     ts.along = along;
@@ -306,7 +307,8 @@ TEST(Fidelity, RandomNetsOfDisjointRingsAreNeverRefused) {
       std::vector<double> offsets;
       const int planes = 1 + static_cast<int>(unit(rng) * 4);
       for (int k = 0; k < planes; ++k) {
-        const Vec3 at = lo + (hi - lo).cwiseProduct(Vec3(0.15 + 0.7 * unit(rng), 0.15 + 0.7 * unit(rng), 0.15 + 0.7 * unit(rng)));
+        const Vec3 at =
+            lo + (hi - lo).cwiseProduct(Vec3(0.15 + 0.7 * unit(rng), 0.15 + 0.7 * unit(rng), 0.15 + 0.7 * unit(rng)));
         offsets.push_back(at.dot(normal));
         if (unit(rng) < 0.4)
           offsets.push_back(at.dot(normal) + h * std::pow(10.0, -1 - 2 * unit(rng))); // 0.1 to 0.001 edges apart
@@ -337,7 +339,8 @@ TEST(Fidelity, RandomNetsOfDisjointRingsAreNeverRefused) {
       if (rig.profiles.empty())
         continue;
       ++nets;
-      SCOPED_TRACE(name + ", trial " + std::to_string(trial) + ": " + std::to_string(rig.profiles.size()) + " profiles");
+      SCOPED_TRACE(name + ", trial " + std::to_string(trial) + ": " + std::to_string(rig.profiles.size()) +
+                   " profiles");
       try {
         const Embedding e = embed(mesh, rig);
         // Each loop splits the closed surface once: F = loops + 1.

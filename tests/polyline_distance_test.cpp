@@ -17,13 +17,13 @@ TEST(PolylineDistance, PointToSegmentClampsToTheEnds) {
 
 TEST(PolylineDistance, SegmentToSegmentInEveryCase) {
   // Skew: the common perpendicular, of length 1.
-  EXPECT_NEAR(segment_segment_distance({-1, 0, 0}, {1, 0, 0}, {0, -1, 1}, {0, 1, 1}), 1, 1e-15);
+  EXPECT_NEAR(segment_distance({-1, 0, 0}, {1, 0, 0}, {0, -1, 1}, {0, 1, 1}), 1, 1e-15);
   // Crossing in a plane: zero.
-  EXPECT_NEAR(segment_segment_distance({-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}), 0, 1e-15);
+  EXPECT_NEAR(segment_distance({-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}), 0, 1e-15);
   // Parallel and overlapping, 2 apart.
-  EXPECT_NEAR(segment_segment_distance({0, 0, 0}, {4, 0, 0}, {1, 2, 0}, {3, 2, 0}), 2, 1e-15);
+  EXPECT_NEAR(segment_distance({0, 0, 0}, {4, 0, 0}, {1, 2, 0}, {3, 2, 0}), 2, 1e-15);
   // Apart along their line: end to end.
-  EXPECT_NEAR(segment_segment_distance({0, 0, 0}, {1, 0, 0}, {4, 0, 0}, {5, 0, 0}), 3, 1e-15);
+  EXPECT_NEAR(segment_distance({0, 0, 0}, {1, 0, 0}, {4, 0, 0}, {5, 0, 0}), 3, 1e-15);
 }
 
 TEST(PolylineDistance, HausdorffIsSymmetricAndSeesBothWays) {

@@ -30,8 +30,8 @@ TEST(Sampling, SpacingFollowsTheLocalEdgeLength) {
   // samples on the fine half.
   Curve c;
   c.points = {{0, 0, 0}, {10, 0, 0}};
-  const auto s = sample_profile(ProfileCurve(c, {0, 0, 0}, {10, 0, 0}),
-                                [](const Vec3& p) { return p.x() < 5 ? 0.1 : 1.0; });
+  const auto s =
+      sample_profile(ProfileCurve(c, {0, 0, 0}, {10, 0, 0}), [](const Vec3& p) { return p.x() < 5 ? 0.1 : 1.0; });
   int fine = 0, coarse = 0;
   for (size_t i = 1; i < s.points.size(); ++i) {
     const double step = (s.points[i] - s.points[i - 1]).norm();

@@ -1,10 +1,10 @@
 #include "commands.hpp"
 
+#include "curvenet/compare.hpp"
+#include "curvenet/deform.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
-#include "curvenet/compare.hpp"
-#include "curvenet/deform.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
@@ -17,10 +17,10 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
-#include <set>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -156,7 +156,8 @@ Rig rig_for(const DeformArgs& a) {
     for (const auto& [node, w] : rig.weights)
       for (const auto& [joint, v] : w)
         if (!names.count(joint))
-          throw InputError(a.skeleton, joint, "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
+          throw InputError(a.skeleton, joint,
+                           "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
   }
   if (!rig.has_skeleton)
     throw InputError(a.rig, "/skeleton", "the rig has no skeleton: give one in the rig or with --skeleton");
@@ -180,15 +181,17 @@ BindOptions bind_options(const DeformArgs& a) {
 
 void print_bind(std::ostream& out, const Binding& b) {
   const BindReport& r = b.report();
-  out << "binding: " << r.vertices << " vertices, " << r.constrained << " constrained, " << r.free << " free, " << r.rigid
-      << " rigid\n";
-  out << "influences per vertex: " << std::fixed << std::setprecision(2) << r.mean_influences << std::defaultfloat << std::setprecision(6) << "\n";
+  out << "binding: " << r.vertices << " vertices, " << r.constrained << " constrained, " << r.free << " free, "
+      << r.rigid << " rigid\n";
+  out << "influences per vertex: " << std::fixed << std::setprecision(2) << r.mean_influences << std::defaultfloat
+      << std::setprecision(6) << "\n";
   out << "negative Laplacian weights: " << r.negative_weights_before << " before, " << r.negative_weights_after
       << " after " << r.flips << " intrinsic flips\n";
   double total = 0;
   for (const auto& [s, ms] : r.timings_ms)
     total += ms;
-  out << "bind time: " << std::fixed << std::setprecision(1) << total << " ms\n" << std::defaultfloat << std::setprecision(6);
+  out << "bind time: " << std::fixed << std::setprecision(1) << total << " ms\n"
+      << std::defaultfloat << std::setprecision(6);
   for (const auto& n : r.notes)
     out << "note: " << n << "\n";
 }
@@ -292,8 +295,8 @@ int run_animate(const AnimateArgs& a) {
   }
   std::cout << "Curvenet animate: SUCCESS\n";
   print_bind(std::cout, b);
-  std::cout << "clip: " << clips.clip_names[clip] << " (" << clip << "), frames " << first << ":" << last << " at " << a.fps
-            << " fps\n";
+  std::cout << "clip: " << clips.clip_names[clip] << " (" << clip << "), frames " << first << ":" << last << " at "
+            << a.fps << " fps\n";
   std::cout << "output: " << (a.obj_sequence.empty() ? a.out : a.obj_sequence) << " (" << frames << " frames, " << nv
             << " vertices)\n";
   return 0;
@@ -336,10 +339,10 @@ int run_transfer(const TransferArgs& a) {
   if (rep.ok)
     write_rig(r.rig, a.out);
   std::cout << "Curvenet transfer: " << (rep.ok ? "SUCCESS" : "FAILED") << "\n";
-  std::cout << "source: " << std::filesystem::path(a.from).filename().string() << " (" << source.num_faces() << " faces), "
-            << rep.source.regions << " regions\n";
-  std::cout << "target: " << std::filesystem::path(a.to).filename().string() << " (" << target.num_faces() << " faces), "
-            << rep.target.regions << " regions, expected "
+  std::cout << "source: " << std::filesystem::path(a.from).filename().string() << " (" << source.num_faces()
+            << " faces), " << rep.source.regions << " regions\n";
+  std::cout << "target: " << std::filesystem::path(a.to).filename().string() << " (" << target.num_faces()
+            << " faces), " << rep.target.regions << " regions, expected "
             << (rep.target.expected_regions ? std::to_string(*rep.target.expected_regions) : "not determined") << "\n";
   std::cout << "logical nodes: " << rep.target.logical_nodes << "\nprofiles: " << rep.target.profiles << "\n";
   std::cout << "unmapped faces: " << rep.target.unmapped_faces << "\n";
@@ -350,8 +353,8 @@ int run_transfer(const TransferArgs& a) {
       worst = &g;
   if (worst)
     std::cout << "least agreeing region: " << 100 * worst->agree << "% (" << worst->key << ")\n";
-  std::cout << "surfaces apart before the transfer: " << rep.shape.percent(rep.shape.mean) << "% of the diagonal on average, "
-            << rep.shape.percent(rep.shape.max) << "% at most\n";
+  std::cout << "surfaces apart before the transfer: " << rep.shape.percent(rep.shape.mean)
+            << "% of the diagonal on average, " << rep.shape.percent(rep.shape.max) << "% at most\n";
   std::cout << "largest node move onto the target: " << rep.max_node_offset << "% of the diagonal\n"
             << std::defaultfloat << std::setprecision(6);
   for (const auto& p : rep.problems)
@@ -415,7 +418,9 @@ int run_starter(const StarterArgs& a) {
     std::string ext = std::filesystem::path(a.mesh).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
     if (ext != ".gltf" && ext != ".glb" && ext != ".fbx")
-      throw InputError(a.mesh, "", "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
+      throw InputError(
+          a.mesh, "",
+          "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
     joints = load_skinned_mesh(a.mesh).joints;
   }
   StarterOptions opt;
@@ -428,8 +433,8 @@ int run_starter(const StarterArgs& a) {
   write_rig(r.rig, a.out);
   const int V = static_cast<int>(r.rig.nodes.size()), E = static_cast<int>(r.rig.profiles.size());
   std::cout << "Curvenet starter: SUCCESS\n";
-  std::cout << "mesh: " << std::filesystem::path(a.mesh).filename().string() << " (" << mesh.num_vertices() << " vertices, "
-            << mesh.num_faces() << " faces)\n";
+  std::cout << "mesh: " << std::filesystem::path(a.mesh).filename().string() << " (" << mesh.num_vertices()
+            << " vertices, " << mesh.num_faces() << " faces)\n";
   std::cout << "joints: " << joints.size() << "\n";
   std::cout << "rings: " << r.rings << "\n";
   std::cout << "nodes: " << V << "\n";
@@ -506,9 +511,10 @@ int run_demo(const DemoArgs& a) {
     write_file_atomic((out / "transfer.report.json").string(), transfer_report_json(tr.report));
     all_ok = all_ok && tr.report.ok;
     std::ostringstream s;
-    s << "transfer tube_quads -> tube_tris: " << (tr.report.ok ? "SUCCESS" : "FAILED") << ", " << tr.report.target.regions
-      << "/" << tr.report.source.regions << " regions, " << std::fixed << std::setprecision(2) << 100 * tr.report.agreement
-      << "% of the area in the region of the same identity" << std::defaultfloat << std::setprecision(6);
+    s << "transfer tube_quads -> tube_tris: " << (tr.report.ok ? "SUCCESS" : "FAILED") << ", "
+      << tr.report.target.regions << "/" << tr.report.source.regions << " regions, " << std::fixed
+      << std::setprecision(2) << 100 * tr.report.agreement << "% of the area in the region of the same identity"
+      << std::defaultfloat << std::setprecision(6);
     lines.push_back(s.str());
   }
   // Bend the tube's two joints over 24 frames, through the tube net, on both
@@ -543,7 +549,8 @@ int run_demo(const DemoArgs& a) {
   for (const auto& l : lines)
     std::cout << "  " << l << "\n";
   std::cout << "outputs in " << out.string()
-            << "/ (meshes, rigs, reports, region previews, cut meshes, bend caches: Mesh Cache, forward +Y, up +Z, on the OBJ)\n";
+            << "/ (meshes, rigs, reports, region previews, cut meshes, bend caches: Mesh Cache, forward +Y, up +Z, on "
+               "the OBJ)\n";
   return all_ok ? 0 : 1;
 }
 

@@ -63,8 +63,8 @@ struct EmbedReport {
   int cut_faces = 0;
   int input_vertices = 0;
   int input_faces = 0;
-  int samples = 0;                                        ///< profile samples placed on the surface
-  int crossings = 0;                                      ///< edge crossings and vertex hits cut into the mesh
+  int samples = 0;     ///< profile samples placed on the surface
+  int crossings = 0;   ///< edge crossings and vertex hits cut into the mesh
   int refinements = 0; ///< curve midpoints the tracer added where a walk strayed or failed
   int cut_rounds = 0;  ///< extra cuts after two profiles were traced more closely where they came close
   /// Faces a profile runs straight across because its placed curve folds

@@ -13,21 +13,39 @@ double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a
   return (a + t * ab - p).norm();
 }
 
-double segment_segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                                const Eigen::Vector3d& d) {
-  // Closest points of two segments (clamped line parameters), then the four
-  // end-to-segment distances, which cover the cases the clamping misses.
-  const Eigen::Vector3d u = b - a, v = d - c, w = a - c;
-  const double uu = u.dot(u), uv = u.dot(v), vv = v.dot(v), uw = u.dot(w), vw = v.dot(w);
-  const double den = uu * vv - uv * uv;
-  double best = std::min({point_segment_distance(a, c, d), point_segment_distance(b, c, d),
-                          point_segment_distance(c, a, b), point_segment_distance(d, a, b)});
-  if (den > 0) {
-    const double s = (uv * vw - vv * uw) / den, t = (uu * vw - uv * uw) / den;
-    if (s > 0 && s < 1 && t > 0 && t < 1)
-      best = std::min(best, (a + s * u - (c + t * v)).norm());
+double segment_distance(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& q0,
+                        const Eigen::Vector3d& q1, Eigen::Vector3d* on_q) {
+  // Closest points of two segments (Ericson 5.1.9), clamped.
+  const Eigen::Vector3d d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0, t = 0;
+  if (a <= 0 && e <= 0) {
+    if (on_q)
+      *on_q = q0;
+    return r.norm();
   }
-  return best;
+  if (a <= 0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2), den = a * e - b * b;
+      s = den > 0 ? std::clamp((b * f - c * e) / den, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  if (on_q)
+    *on_q = q0 + t * d2;
+  return ((p0 + s * d1) - (q0 + t * d2)).norm();
 }
 
 DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to,
@@ -37,10 +55,10 @@ DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const s
     return out;
   auto distance_to = [&](const Eigen::Vector3d& p, int key_lo, int key_hi) {
     // Segments of `to` with an end whose key is within the window.
-    const auto lo = std::lower_bound(to.begin(), to.end(), key_lo - window,
-                                     [](const KeyedPoint& q, int k) { return q.key < k; });
-    const auto hi = std::upper_bound(to.begin(), to.end(), key_hi + window,
-                                     [](int k, const KeyedPoint& q) { return k < q.key; });
+    const auto lo =
+        std::lower_bound(to.begin(), to.end(), key_lo - window, [](const KeyedPoint& q, int k) { return q.key < k; });
+    const auto hi =
+        std::upper_bound(to.begin(), to.end(), key_hi + window, [](int k, const KeyedPoint& q) { return k < q.key; });
     size_t first = static_cast<size_t>(lo - to.begin());
     size_t last = static_cast<size_t>(hi - to.begin()); // one past
     first = first > 0 ? first - 1 : 0;

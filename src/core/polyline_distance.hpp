@@ -12,9 +12,9 @@ namespace curvenet::detail {
 /// Distance from p to the segment ab.
 double point_segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b);
 
-/// Distance between the segments ab and cd.
-double segment_segment_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                                const Eigen::Vector3d& d);
+/// Distance between segments p0-p1 and q0-q1; `on_q` gets the closest point on q.
+double segment_distance(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& q0,
+                        const Eigen::Vector3d& q1, Eigen::Vector3d* on_q = nullptr);
 
 /// A point of a polyline with a key that does not decrease along it (the
 /// sample a traced point belongs to).
@@ -36,8 +36,7 @@ struct DirectedDistance {
   double distance = 0;
   size_t at = 0;
 };
-DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to,
-                                    int window);
+DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to, int window);
 
 /// Which points of a polyline to keep so that it stays within `tolerance`
 /// of the whole (Douglas-Peucker): the two ends always, in order.

@@ -123,8 +123,8 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
           return s.owner_profile >= 0 ? "profile '" + in.profile_ids[s.owner_profile] + "'"
                                       : "node '" + in.node_ids[s.owner_node] + "'";
         };
-        const std::string what = "cut: " + name(list[i - 1]) + " and " + name(list[i]) + " cross " +
-                                 describe_edge(e) + " at the same point, away from any node";
+        const std::string what = "cut: " + name(list[i - 1]) + " and " + name(list[i]) + " cross " + describe_edge(e) +
+                                 " at the same point, away from any node";
         const auto ends = tm.edge_ends(e);
         const Vec3 at = (1 - list[i].t) * tm.position(ends[0]) + list[i].t * tm.position(ends[1]);
         if (list[i].owner_profile >= 0 && list[i - 1].owner_profile >= 0)

@@ -3,8 +3,8 @@
 // edge, then split every crossed face along its profile segments. Builds one
 // CutChain per profile.
 
-#include "cut/cut_mesh.hpp"
 #include "curvenet/errors.hpp"
+#include "cut/cut_mesh.hpp"
 #include "trace/tracer.hpp"
 
 #include <functional>
@@ -36,10 +36,10 @@ public:
   ProfilesMeet(const std::string& what, int first, int second, const Eigen::Vector3d& at, std::string place,
                int face = -1)
       : EmbedError(what), first(first), second(second), face(face), at(at), place(std::move(place)) {}
-  int first, second;   ///< profile indices (equal for a profile that meets itself)
-  int face;            ///< the input face where two chords cross, or -1 (at a vertex or along an edge)
-  Eigen::Vector3d at;  ///< where, in mesh space
-  std::string place;   ///< "input face 12", "input vertex 7", "input edge 3-4"
+  int first, second;  ///< profile indices (equal for a profile that meets itself)
+  int face;           ///< the input face where two chords cross, or -1 (at a vertex or along an edge)
+  Eigen::Vector3d at; ///< where, in mesh space
+  std::string place;  ///< "input face 12", "input vertex 7", "input edge 3-4"
 };
 
 struct CutResult {

@@ -156,9 +156,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   // The sample spacing follows the edge length of the surface near each sample.
   const double density = options.density;
   // (On a cage, whose faces are not the surface, the mean edge length.)
-  auto spacing = [&](const Vec3& q) {
-    return cage ? h / density : tm.edge_length(tm.nearest(q).tri) / density;
-  };
+  auto spacing = [&](const Vec3& q) { return cage ? h / density : tm.edge_length(tm.nearest(q).tri) / density; };
   in.traces.resize(np);
   std::vector<std::exception_ptr> errors(np);
   std::atomic<int> done{0};
@@ -176,8 +174,18 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       SampledProfile s = sample_profile(curves[p], spacing, !cage);
       impl->samples[p] = s.points;
       impl->sample_t[p] = s.t;
-      tin[p] = {pr.id, &curves[p], std::move(s.points), std::move(s.t), in.node_points[a], in.node_points[b], a, b,
-                tol.fidelity(), {}, {}, !cage};
+      tin[p] = {pr.id,
+                &curves[p],
+                std::move(s.points),
+                std::move(s.t),
+                in.node_points[a],
+                in.node_points[b],
+                a,
+                b,
+                tol.fidelity(),
+                {},
+                {},
+                !cage};
       in.traces[p] = trace_profile(tm, tin[p], h, tol);
     } catch (...) {
       errors[p] = std::current_exception();
@@ -263,9 +271,9 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       const bool unfolded = unfold();
       if (!unfolded) {
         std::ostringstream msg;
-        msg << "cut: the chains of " << who << " cross in or near " << meet.place << ", away from any node, though their curves stay "
-            << std::setprecision(3) << gap << " (" << gap / tol.diagonal
-            << " of the diagonal) apart there: the curves placed on this surface fold";
+        msg << "cut: the chains of " << who << " cross in or near " << meet.place
+            << ", away from any node, though their curves stay " << std::setprecision(3) << gap << " ("
+            << gap / tol.diagonal << " of the diagonal) apart there: the curves placed on this surface fold";
         throw EmbedError(msg.str());
       }
     }
@@ -288,8 +296,8 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       std::ostringstream msg;
       msg << "cut: profile '" << in.profile_ids[p] << "' strays " << std::setprecision(3) << f.distance << " ("
           << f.distance / tol.diagonal << " of the diagonal) from its curve near sample " << f.sample << " at ("
-          << f.at.x() << ", " << f.at.y() << ", " << f.at.z() << "), over the tolerance of "
-          << Tolerances::fidelity_rel << " of the diagonal";
+          << f.at.x() << ", " << f.at.y() << ", " << f.at.z() << "), over the tolerance of " << Tolerances::fidelity_rel
+          << " of the diagonal";
       throw EmbedError(msg.str());
     }
   }

@@ -70,7 +70,7 @@ double curve_gap(const TracedProfile& a, const TracedProfile& b, bool same, cons
     for (const Piece& y : pb) {
       if (same && (x.index > y.index ? x.index - y.index : y.index - x.index) <= 1)
         continue; // neighbours along the curve share an end
-      gap = std::min(gap, segment_segment_distance(x.a, x.b, y.a, y.b));
+      gap = std::min(gap, segment_distance(x.a, x.b, y.a, y.b));
     }
   return std::isfinite(gap) ? gap : radius;
 }

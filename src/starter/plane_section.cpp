@@ -136,40 +136,6 @@ int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& ori
   return wn;
 }
 
-double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, Vec3* on_q) {
-  // Closest points of two segments (Ericson 5.1.9), clamped.
-  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
-  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
-  double s = 0, t = 0;
-  if (a <= 0 && e <= 0) {
-    if (on_q)
-      *on_q = q0;
-    return r.norm();
-  }
-  if (a <= 0) {
-    t = std::clamp(f / e, 0.0, 1.0);
-  } else {
-    const double c = d1.dot(r);
-    if (e <= 0) {
-      s = std::clamp(-c / a, 0.0, 1.0);
-    } else {
-      const double b = d1.dot(d2), den = a * e - b * b;
-      s = den > 0 ? std::clamp((b * f - c * e) / den, 0.0, 1.0) : 0.0;
-      t = (b * s + f) / e;
-      if (t < 0) {
-        t = 0;
-        s = std::clamp(-c / a, 0.0, 1.0);
-      } else if (t > 1) {
-        t = 1;
-        s = std::clamp((b - c) / a, 0.0, 1.0);
-      }
-    }
-  }
-  if (on_q)
-    *on_q = q0 + t * d2;
-  return ((p0 + s * d1) - (q0 + t * d2)).norm();
-}
-
 double polyline_distance(const std::vector<Vec3>& a, bool ca, const std::vector<Vec3>& b, bool cb) {
   double best = std::numeric_limits<double>::infinity();
   const size_t na = ca ? a.size() : a.size() - 1, nb = cb ? b.size() : b.size() - 1;

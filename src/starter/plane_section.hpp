@@ -5,6 +5,7 @@
 // perturbation), so every section passes through edge interiors and the
 // polylines close on a closed surface.
 
+#include "core/polyline_distance.hpp"
 #include "curvenet/surface_mesh.hpp"
 
 #include <array>
@@ -47,9 +48,6 @@ std::array<Vec3, 2> plane_basis(const Vec3& n);
 /// Winding number of a closed polygon (in the plane through `origin` with
 /// normal `normal`) around point p of that plane; exact orientation tests.
 int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& origin, const Vec3& normal);
-
-/// Distance between segments p0-p1 and q0-q1; `on_q` gets the closest point on q.
-double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, Vec3* on_q = nullptr);
 
 /// Smallest distance between two polylines (closed when `closed_*`).
 double polyline_distance(const std::vector<Vec3>& a, bool closed_a, const std::vector<Vec3>& b, bool closed_b);

@@ -5,9 +5,9 @@
 #include "curvenet/errors.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <exception>
 #include <functional>
-#include <cmath>
 #include <sstream>
 #include <unordered_map>
 

@@ -17,9 +17,9 @@ namespace curvenet::detail {
 /// an input face (or an input edge).
 struct PathPoint {
   SurfacePoint at;
-  int node = -1;  ///< rig node index for the two end points
-  int sample = 0; ///< the sample the walk was heading to (for messages)
-  int piece = 0;  ///< the walk that placed it: increases along the path
+  int node = -1;         ///< rig node index for the two end points
+  int sample = 0;        ///< the sample the walk was heading to (for messages)
+  int piece = 0;         ///< the walk that placed it: increases along the path
   bool on_curve = false; ///< a sample or midpoint of the curve, not a crossing
   /// The path reaches this point straight across a face where the placed
   /// curve folds (TraceInput::unfold_faces): the segment that ends here is
@@ -31,8 +31,8 @@ struct PathPoint {
 /// for measuring how far the traced path strays from the curve.
 struct ReferencePoint {
   Vec3 pos;
-  int sample = 0; ///< the sample it is, or the one after it for a point between samples
-  int piece = 0;  ///< the walk that ends at it, or whose midpoint it is
+  int sample = 0;    ///< the sample it is, or the one after it for a point between samples
+  int piece = 0;     ///< the walk that ends at it, or whose midpoint it is
   bool skip = false; ///< in a face where the placed curve folds: not measured
 };
 

@@ -28,7 +28,9 @@ using namespace detail;
 
 namespace {
 
-Vec3 apply(const Mat4& m, const Vec3& p) { return (m * p.homogeneous()).head<3>(); }
+Vec3 apply(const Mat4& m, const Vec3& p) {
+  return (m * p.homogeneous()).head<3>();
+}
 
 std::string percent(double x) {
   std::ostringstream s;
@@ -185,8 +187,9 @@ Rig place_on_target(const Rig& rig, const TraceMesh& source, const TraceMesh& ta
   for (auto& n : out.nodes) {
     const auto [point, offset] = project.place(from_source(n.position));
     if (offset > opt.max_offset * diag)
-      throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) + " of the diagonal off the target " +
-                       target.mesh().source + " (the frames do not line the meshes up, or the target is another shape)");
+      throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) +
+                       " of the diagonal off the target " + target.mesh().source +
+                       " (the frames do not line the meshes up, or the target is another shape)");
     max_node_offset = std::max(max_node_offset, 100 * offset / diag);
     n.position = point;
     node_at[n.id] = point;
@@ -240,7 +243,8 @@ Rig place_on_target(const Rig& rig, const TraceMesh& source, const TraceMesh& ta
 
 } // namespace
 
-TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const TransferOptions& opt) {
+TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target,
+                        const TransferOptions& opt) {
   TransferResult result;
   TransferReport& rep = result.report;
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
@@ -338,14 +342,16 @@ std::string transfer_report_json(const TransferReport& r) {
   j["ok"] = r.ok;
   j["agreement"] = r.agreement;
   j["max_node_offset_percent"] = r.max_node_offset;
-  j["shape_distance"] = {{"mean_percent", r.shape.percent(r.shape.mean)}, {"max_percent", r.shape.percent(r.shape.max)}};
+  j["shape_distance"] = {{"mean_percent", r.shape.percent(r.shape.mean)},
+                         {"max_percent", r.shape.percent(r.shape.max)}};
   auto counts = [](const EmbedReport& e) {
     return nlohmann::ordered_json{{"ok", e.ok},
                                   {"logical_nodes", e.logical_nodes},
                                   {"profiles", e.profiles},
                                   {"components", e.components},
                                   {"regions", e.regions},
-                                  {"expected_regions", e.expected_regions ? nlohmann::ordered_json(*e.expected_regions) : nlohmann::ordered_json(nullptr)},
+                                  {"expected_regions", e.expected_regions ? nlohmann::ordered_json(*e.expected_regions)
+                                                                          : nlohmann::ordered_json(nullptr)},
                                   {"unmapped_faces", e.unmapped_faces}};
   };
   j["source"] = counts(r.source);
