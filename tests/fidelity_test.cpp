@@ -53,7 +53,7 @@ std::vector<double> measured_fidelity(const SurfaceMesh& mesh, const Rig& rig, c
     const Vec3 to = impl.input.node_points[rig.node_index(pr.to)].pos;
     const detail::ProfileCurve curve(pr.curve, from, to);
     std::vector<Vec3> placed;
-    constexpr int n = 800;
+    constexpr int n = 2000;
     for (int i = 0; i <= n; ++i)
       placed.push_back(tm.nearest(curve.at(static_cast<double>(i) / n)).point);
     std::vector<Vec3> chain;
