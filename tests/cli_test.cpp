@@ -4,6 +4,8 @@
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include <cstdlib>
@@ -436,4 +438,34 @@ TEST(Cli, DemoRunsOnGeneratedData) {
   EXPECT_NE(r.out.find("transfer tube_quads -> tube_tris: SUCCESS"), std::string::npos) << r.out;
   EXPECT_EQ(fs::file_size(dir / "out" / "tube_tris.bend.pc2"),
             32u + 24u * 3u * sizeof(float) * read_raw_mesh((dir / "out" / "tube_tris.obj").string()).positions.size());
+}
+
+TEST(Cli, EveryFileOfTheDamagedCorpusIsRefusedInOneLine) {
+  // tests/data/bad holds one fault per file. Each is refused with exit code
+  // 2 and one line on stderr that names the file, and nothing is written.
+  // Under the sanitizer build this replays the corpus under ASan and UBSan.
+  const auto dir = test::temp_dir("corpus");
+  write(dir / "quad.obj", kQuad);
+  write(dir / "ok.cnrig.json", kRig);
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(CURVENET_SOURCE_DIR) / "tests" / "data" / "bad")) {
+    const std::string path = entry.path().string(), name = entry.path().filename().string();
+    std::string args;
+    if (name.ends_with(".cnrig.json"))
+      args = "embed " + (dir / "quad.obj").string() + " " + path + " --report " + (dir / "out.json").string();
+    else if (name.ends_with(".pose.json"))
+      args = "pose " + (dir / "quad.obj").string() + " " + (dir / "ok.cnrig.json").string() + " " + path + " -o " +
+             (dir / "out.obj").string();
+    else
+      args = "compare " + path + " " + path;
+    SCOPED_TRACE(name);
+    const CliRun r = run(args, dir);
+    ++files;
+    EXPECT_EQ(r.code, 2) << r.out << r.err;
+    EXPECT_EQ(r.err.rfind("curvenet: error: " + path + ": ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out.json"));
+    EXPECT_FALSE(fs::exists(dir / "out.obj"));
+  }
+  EXPECT_GE(files, 15);
 }

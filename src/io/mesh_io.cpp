@@ -6,6 +6,7 @@
 #include "curvenet/io.hpp"
 #include "io/assimp_scene.hpp"
 #include "io/gltf_scene.hpp"
+#include "io/obj_check.hpp"
 
 #include <tiny_obj_loader.h>
 
@@ -29,6 +30,7 @@ std::string lower_extension(const std::string& path) {
 }
 
 RawMesh read_obj(const std::string& path) {
+  detail::check_obj(path);
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;
   config.vertex_color = false;

@@ -3,6 +3,7 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "io/gltf_scene.hpp"
+#include "io/obj_check.hpp"
 
 #include <tiny_obj_loader.h>
 
@@ -19,6 +20,7 @@ InputTopology read_input_topology(const std::string& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   InputTopology out;
   if (ext == ".obj") {
+    detail::check_obj(path);
     tinyobj::ObjReaderConfig config;
     config.triangulate = false;
     tinyobj::ObjReader reader;
@@ -29,8 +31,11 @@ InputTopology read_input_topology(const std::string& path) {
       out.faces.positions.emplace_back(a.vertices[3 * v], a.vertices[3 * v + 1], a.vertices[3 * v + 2]);
     for (size_t t = 0; t < a.texcoords.size() / 2; ++t)
       out.uv.emplace_back(a.texcoords[2 * t], a.texcoords[2 * t + 1]);
-    const bool has_normals = !a.normals.empty();
-    out.num_normals = has_normals ? static_cast<int>(a.normals.size() / 3) : static_cast<int>(out.faces.positions.size());
+    // Corners with a normal keep its slot; corners without one share a slot
+    // per vertex, after the file's own normals.
+    const int file_normals = static_cast<int>(a.normals.size() / 3);
+    out.num_normals = file_normals;
+    std::vector<int> vertex_slot(out.faces.positions.size(), -1);
     std::vector<int> corners;
     for (const auto& shape : reader.GetShapes()) {
       size_t k = 0;
@@ -40,7 +45,14 @@ InputTopology read_input_topology(const std::string& path) {
           const auto& idx = shape.mesh.indices[k];
           corners.push_back(idx.vertex_index);
           out.corner_uv.push_back(idx.texcoord_index);
-          out.corner_normal.push_back(has_normals && idx.normal_index >= 0 ? idx.normal_index : idx.vertex_index);
+          if (idx.normal_index >= 0 && idx.normal_index < file_normals) {
+            out.corner_normal.push_back(idx.normal_index);
+          } else {
+            int& slot = vertex_slot[idx.vertex_index];
+            if (slot < 0)
+              slot = out.num_normals++;
+            out.corner_normal.push_back(slot);
+          }
         }
         out.faces.add_face(corners);
       }

@@ -1,0 +1,82 @@
+// Mesh readers against damaged files: every fault is refused with the file,
+// the line or element, and what is wrong; valid but unusual files read.
+// The damaged files live in tests/data/bad/, one fault each.
+
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/mesh_output.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+using namespace curvenet;
+namespace fs = std::filesystem;
+
+namespace {
+std::string corpus(const std::string& name) {
+  return std::string(CURVENET_SOURCE_DIR) + "/tests/data/" + name;
+}
+
+/// Loading refuses the file with an InputError naming the file and the
+/// element, whose message holds `says`.
+void expect_refused(const std::string& name, const std::string& element, const std::string& says) {
+  const std::string path = corpus(name);
+  try {
+    load_mesh(path);
+    ADD_FAILURE() << name << " was read";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.element(), element) << e.what();
+    EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+}
+} // namespace
+
+TEST(MeshIo, ObjCoordinatesMustBeFiniteNumbers) {
+  expect_refused("bad/obj_nan.obj", "line 1", "'nan' is not a finite number");
+  expect_refused("bad/obj_inf.obj", "line 1", "'inf' is not a finite number");
+  expect_refused("bad/obj_word.obj", "line 1", "'abc' is not a finite number");
+  expect_refused("bad/obj_comma.obj", "line 1", "'1,5' is not a finite number");
+  expect_refused("bad/obj_hex.obj", "line 1", "'0x10' is not a finite number");
+  expect_refused("bad/obj_overflow.obj", "line 1", "'1e999' is not a finite number");
+  expect_refused("bad/obj_missing_z.obj", "line 1", "vertex has 2 coordinates, needs 3");
+  expect_refused("bad/obj_normal_nan.obj", "line 4", "normal coordinate 'nan'");
+}
+
+TEST(MeshIo, ObjIndicesMustReferToElementsThatExist) {
+  expect_refused("bad/obj_vertex_out_of_range.obj", "line 4", "refers to vertex 99, and the file has 3");
+  expect_refused("bad/obj_normal_out_of_range.obj", "line 5", "refers to normal 99999, and the file has 1");
+  expect_refused("bad/obj_texcoord_out_of_range.obj", "line 5", "refers to texture coordinate 7");
+  expect_refused("bad/obj_zero_index.obj", "line 4", "index 0");
+  expect_refused("bad/obj_negative_out_of_range.obj", "line 4", "refers to vertex -4, and there are 3 before it");
+  expect_refused("bad/obj_four_indices.obj", "line 4", "more than three indices");
+}
+
+TEST(MeshIo, ObjFacesNeedThreeCorners) {
+  expect_refused("bad/obj_two_corners.obj", "line 5", "face has 2 corners, needs at least 3");
+}
+
+TEST(MeshIo, ObjWithRelativeIndicesCommentsAndColoursReads) {
+  const SurfaceMesh m = load_mesh(corpus("good/obj_relative.obj"));
+  EXPECT_EQ(m.num_vertices(), 4);
+  EXPECT_EQ(m.num_faces(), 4);
+}
+
+TEST(MeshIo, ObjNormalsThatSomeFacesDoNotUseGiveEveryCornerAnExistingSlot) {
+  // Two faces use the file's two normals; the other two have none, so their
+  // four vertices get slots of their own after the file's.
+  const InputTopology t = read_input_topology(corpus("good/obj_some_normals.obj"));
+  EXPECT_EQ(t.num_normals, 2 + 4);
+  for (int slot : t.corner_normal) {
+    EXPECT_GE(slot, 0);
+    EXPECT_LT(slot, t.num_normals);
+  }
+  const std::string text = posed_obj(t, t.faces.positions);
+  const fs::path out = fs::temp_directory_path() / "curvenet_mesh_io_normals.obj";
+  write_file_atomic(out.string(), text);
+  EXPECT_EQ(load_mesh(out.string()).num_faces(), 4);
+  fs::remove(out);
+}
