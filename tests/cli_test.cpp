@@ -109,7 +109,7 @@ TEST(Cli, BadInputFailsCleanlyWithNoOutput) {
   };
   const Case cases[] = {
       {"fin.obj", "ok.cnrig.json", "fin.obj", "edge 0-1"},
-      {"nan.obj", "ok.cnrig.json", "nan.obj", "vertex 2"},
+      {"nan.obj", "ok.cnrig.json", "nan.obj", "line 3"},
       {"flat.obj", "ok.cnrig.json", "flat.obj", "face 0"},
       {"nothere.obj", "ok.cnrig.json", "nothere.obj", "no such file"},
       {"quad.obj", "dup.cnrig.json", "dup.cnrig.json", "/nodes/1/id"},
