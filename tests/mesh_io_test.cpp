@@ -80,3 +80,40 @@ TEST(MeshIo, ObjNormalsThatSomeFacesDoNotUseGiveEveryCornerAnExistingSlot) {
   EXPECT_EQ(load_mesh(out.string()).num_faces(), 4);
   fs::remove(out);
 }
+
+TEST(MeshIo, PlyAndOffReadTheirVerticesInFileOrder) {
+  // The same tetrahedron as ASCII PLY, binary PLY of both byte orders (with
+  // extra properties and an extra element to read past) and COFF with
+  // vertex and face colours.
+  for (const char* name : {"good/ply_ascii.ply", "good/ply_binary_big_endian.ply", "good/ply_binary_little_endian.ply",
+                           "good/off_colours.off"}) {
+    SCOPED_TRACE(name);
+    const RawMesh raw = read_raw_mesh(corpus(name));
+    ASSERT_EQ(raw.positions.size(), 4u);
+    EXPECT_EQ(raw.positions[1], Eigen::Vector3d(1, 0, 0));
+    EXPECT_EQ(raw.positions[3], Eigen::Vector3d(0, 0, 1));
+    ASSERT_EQ(raw.face_offsets.size(), 5u);
+    EXPECT_EQ(raw.face_vertices[1], 2);
+    EXPECT_EQ(raw.face_vertices.back(), 3);
+    EXPECT_EQ(load_mesh(corpus(name)).num_faces(), 4);
+  }
+}
+
+TEST(MeshIo, PlyHeadersAndCountsAreCheckedBeforeTheData) {
+  expect_refused("bad/ply_no_end_header.ply", "header", "no 'end_header' line");
+  expect_refused("bad/ply_huge_count.ply", "element vertex", "declares 2147483648 records");
+  expect_refused("bad/ply_truncated_binary.ply", "face 3", "truncated");
+  expect_refused("bad/ply_index_out_of_range.ply", "face 3", "refers to vertex 9, and there are 4");
+  expect_refused("bad/ply_negative_index.ply", "face 2", "refers to vertex -2");
+  expect_refused("bad/ply_nan.ply", "vertex 1", "'nan' is not a finite number");
+  expect_refused("bad/ply_two_corners.ply", "face 3", "a face has 2 corners");
+}
+
+TEST(MeshIo, OffCountsAndIndicesAreChecked) {
+  expect_refused("bad/off_not_off.off", "header", "not an OFF file");
+  expect_refused("bad/off_huge_count.off", "header", "declares 2147483648 vertices");
+  expect_refused("bad/off_index_out_of_range.off", "face 3", "refers to vertex 4, and there are 4");
+  expect_refused("bad/off_nan.off", "vertex 2", "'inf' is not a finite number");
+  // Too short for its counts: found from the header alone.
+  expect_refused("bad/off_truncated.off", "header", "more than the file's 64 bytes can hold");
+}

@@ -1,5 +1,6 @@
 // Mesh readers. OBJ goes through tinyobjloader (it keeps the file's vertex
-// order), glTF/GLB through tinygltf (exact accessors), and PLY, OFF and FBX
+// order) after a strict check of its own, glTF/GLB through tinygltf (exact
+// accessors), PLY and OFF through readers of our own (ply_off.cpp), and FBX
 // through assimp. Validation and welding happen in make_surface_mesh.
 
 #include "curvenet/errors.hpp"
@@ -7,6 +8,7 @@
 #include "io/assimp_scene.hpp"
 #include "io/gltf_scene.hpp"
 #include "io/obj_check.hpp"
+#include "io/ply_off.hpp"
 
 #include <tiny_obj_loader.h>
 
@@ -82,7 +84,11 @@ RawMesh read_raw_mesh(const std::string& path) {
     return read_obj(path);
   if (ext == ".gltf" || ext == ".glb")
     return read_gltf(path);
-  if (ext == ".ply" || ext == ".off" || ext == ".fbx")
+  if (ext == ".ply")
+    return detail::read_ply(path);
+  if (ext == ".off")
+    return detail::read_off(path);
+  if (ext == ".fbx")
     return read_assimp(path);
   throw InputError(path, "", "unknown mesh format '" + ext + "' (expected .obj, .ply, .off, .gltf, .glb or .fbx)");
 }
