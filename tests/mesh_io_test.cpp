@@ -117,3 +117,26 @@ TEST(MeshIo, OffCountsAndIndicesAreChecked) {
   // Too short for its counts: found from the header alone.
   expect_refused("bad/off_truncated.off", "header", "more than the file's 64 bytes can hold");
 }
+
+TEST(MeshIo, GltfIndicesBoundsAndHierarchyAreCheckedBeforeAnythingReadsThem) {
+  EXPECT_EQ(load_mesh(corpus("good/gltf_triangle.gltf")).num_faces(), 1);
+  expect_refused("bad/gltf_scene_out_of_range.gltf", "scene", "the default scene 7 does not exist");
+  expect_refused("bad/gltf_count_overflow.gltf", "mesh 0 primitive 0 POSITION",
+                 "accessor of 1152921504606846977 elements reads past the end of its buffer view");
+  expect_refused("bad/gltf_view_past_buffer.gltf", "mesh 0 primitive 0 POSITION", "reaches past the end of buffer 0");
+  expect_refused("bad/gltf_node_cycle.gltf", "node 0", "the node hierarchy has a cycle");
+  expect_refused("bad/gltf_own_child.gltf", "node 1", "is its own child");
+  expect_refused("bad/gltf_mesh_out_of_range.gltf", "node 0", "refers to mesh 5, and there are 1");
+  expect_refused("bad/gltf_position_vec2.gltf", "mesh 0 primitive 0 POSITION", "wrong type");
+  expect_refused("bad/gltf_indices_vec3.gltf", "mesh 0 primitive 0 indices", "wrong type");
+}
+
+TEST(MeshIo, GltfAnimationsAreCheckedOnLoad) {
+  expect_refused("bad/gltf_rotation_vec3.gltf", "animation 0 'spin' channel 0", "a rotation output must be VEC4");
+  expect_refused("bad/gltf_times_not_increasing.gltf", "animation 0 'spin' sampler 0 input",
+                 "key times do not increase at key 1");
+  expect_refused("bad/gltf_bad_interpolation.gltf", "animation 0 'spin' sampler 0", "unknown interpolation 'SMOOTH'");
+  expect_refused("bad/gltf_sampler_out_of_range.gltf", "animation 0 'spin' channel 0", "refers to sampler 3");
+  expect_refused("bad/gltf_bad_path.gltf", "animation 0 'spin' channel 0", "unknown target path 'colour'");
+  expect_refused("bad/gltf_nan_translation.gltf", "", "number overflow");
+}

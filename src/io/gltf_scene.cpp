@@ -7,7 +7,9 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 
 namespace curvenet::detail {
@@ -31,17 +33,31 @@ struct AccessorReader {
     if (acc.bufferView < 0 || acc.bufferView >= static_cast<int>(m.bufferViews.size()))
       throw InputError(path, what, "accessor has no buffer view");
     const auto& view = m.bufferViews[acc.bufferView];
-    const auto& buf = m.buffers.at(view.buffer);
+    if (view.buffer < 0 || view.buffer >= static_cast<int>(m.buffers.size()))
+      throw InputError(path, what, "buffer view " + std::to_string(acc.bufferView) + " has no buffer");
+    const auto& buf = m.buffers[view.buffer];
     ncomp = tinygltf::GetNumComponentsInType(acc.type);
     const int csize = tinygltf::GetComponentSizeInBytes(acc.componentType);
     if (ncomp <= 0 || csize <= 0)
       throw InputError(path, what, "accessor has an unknown type");
-    stride = acc.ByteStride(view) > 0 ? static_cast<size_t>(acc.ByteStride(view)) : static_cast<size_t>(ncomp * csize);
-    const size_t start = view.byteOffset + acc.byteOffset;
-    const size_t need = acc.count == 0 ? 0 : start + stride * (acc.count - 1) + static_cast<size_t>(ncomp * csize);
-    if (need > buf.data.size())
-      throw InputError(path, what, "accessor reads past the end of its buffer");
-    base = buf.data.data() + start;
+    const size_t element = static_cast<size_t>(ncomp) * static_cast<size_t>(csize);
+    const int byte_stride = acc.ByteStride(view);
+    if (byte_stride < 0)
+      throw InputError(path, what, "buffer view has an invalid byteStride");
+    stride = byte_stride > 0 ? static_cast<size_t>(byte_stride) : element;
+    // Bounds without overflow: the view within its buffer, the accessor
+    // within its view, every element within the accessor's part of it.
+    const size_t buffer_size = buf.data.size();
+    if (view.byteOffset > buffer_size || view.byteLength > buffer_size - view.byteOffset)
+      throw InputError(path, what, "buffer view " + std::to_string(acc.bufferView) + " reaches past the end of buffer " +
+                                       std::to_string(view.buffer));
+    if (acc.byteOffset > view.byteLength)
+      throw InputError(path, what, "accessor starts past the end of its buffer view");
+    const size_t room = view.byteLength - acc.byteOffset;
+    if (acc.count > 0 && (element > room || (acc.count - 1) > (room - element) / stride))
+      throw InputError(path, what, "accessor of " + std::to_string(acc.count) +
+                                       " elements reads past the end of its buffer view");
+    base = buf.data.data() + view.byteOffset + acc.byteOffset;
   }
 
   [[nodiscard]] size_t count() const { return acc.count; }
@@ -188,6 +204,162 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   }
 }
 
+/// Every index, type and count the readers below rely on, checked once: a
+/// damaged file is refused naming the element, before anything reads it.
+void validate_model(const tinygltf::Model& m, const std::string& path) {
+  auto in_range = [](int i, size_t n) { return i >= 0 && static_cast<size_t>(i) < n; };
+  const size_t nodes = m.nodes.size();
+  auto finite = [](const std::vector<double>& v) {
+    return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+  };
+  if (m.defaultScene >= 0 && !in_range(m.defaultScene, m.scenes.size()))
+    throw InputError(path, "scene", "the default scene " + std::to_string(m.defaultScene) + " does not exist (the file has " +
+                                        std::to_string(m.scenes.size()) + ")");
+  for (size_t s = 0; s < m.scenes.size(); ++s)
+    for (int n : m.scenes[s].nodes)
+      if (!in_range(n, nodes))
+        throw InputError(path, "scene " + std::to_string(s), "refers to node " + std::to_string(n) + ", and there are " +
+                                                                 std::to_string(nodes));
+  // The hierarchy: children that exist, one parent each, and no cycle.
+  std::vector<int> parent(nodes, -1);
+  for (size_t i = 0; i < nodes; ++i) {
+    const auto& node = m.nodes[i];
+    const std::string what = "node " + std::to_string(i);
+    for (int c : node.children) {
+      if (!in_range(c, nodes))
+        throw InputError(path, what, "has child " + std::to_string(c) + ", and there are " + std::to_string(nodes) + " nodes");
+      if (c == static_cast<int>(i))
+        throw InputError(path, what, "is its own child");
+      if (parent[c] >= 0)
+        throw InputError(path, "node " + std::to_string(c), "has two parents (" + std::to_string(parent[c]) + " and " +
+                                                                std::to_string(i) + ")");
+      parent[c] = static_cast<int>(i);
+    }
+    if (node.mesh >= 0 && !in_range(node.mesh, m.meshes.size()))
+      throw InputError(path, what, "refers to mesh " + std::to_string(node.mesh) + ", and there are " +
+                                       std::to_string(m.meshes.size()));
+    if (node.skin >= 0 && !in_range(node.skin, m.skins.size()))
+      throw InputError(path, what, "refers to skin " + std::to_string(node.skin) + ", and there are " +
+                                       std::to_string(m.skins.size()));
+    if (!(node.matrix.empty() || node.matrix.size() == 16) || !(node.translation.empty() || node.translation.size() == 3) ||
+        !(node.rotation.empty() || node.rotation.size() == 4) || !(node.scale.empty() || node.scale.size() == 3))
+      throw InputError(path, what, "matrix, translation, rotation or scale has the wrong number of values");
+    if (!finite(node.matrix) || !finite(node.translation) || !finite(node.rotation) || !finite(node.scale))
+      throw InputError(path, what, "a transform value is not a finite number");
+  }
+  for (size_t i = 0; i < nodes; ++i) {
+    size_t steps = 0;
+    for (int c = parent[i]; c >= 0; c = parent[c])
+      if (++steps > nodes)
+        throw InputError(path, "node " + std::to_string(i), "the node hierarchy has a cycle");
+  }
+  auto accessor = [&](int a, const std::string& what, std::initializer_list<int> types,
+                      std::initializer_list<int> components) {
+    if (!in_range(a, m.accessors.size()))
+      throw InputError(path, what, "refers to accessor " + std::to_string(a) + ", and there are " +
+                                       std::to_string(m.accessors.size()));
+    const auto& acc = m.accessors[a];
+    if (types.size() > 0 && std::find(types.begin(), types.end(), acc.type) == types.end())
+      throw InputError(path, what, "accessor " + std::to_string(a) + " has the wrong type for it");
+    if (components.size() > 0 &&
+        std::find(components.begin(), components.end(), acc.componentType) == components.end())
+      throw InputError(path, what, "accessor " + std::to_string(a) + " has the wrong component type for it");
+    AccessorReader check(m, a, path, what); // bounds
+    return check.count();
+  };
+  using T = std::initializer_list<int>;
+  const T floats{TINYGLTF_COMPONENT_TYPE_FLOAT};
+  const T uv_types{TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT};
+  const T index_types{TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                      TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT};
+  for (size_t mi = 0; mi < m.meshes.size(); ++mi)
+    for (size_t pi = 0; pi < m.meshes[mi].primitives.size(); ++pi) {
+      const auto& prim = m.meshes[mi].primitives[pi];
+      const std::string what = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
+      for (const auto& [name, a] : prim.attributes) {
+        const std::string w = what + " " + name;
+        if (name == "POSITION")
+          accessor(a, w, {TINYGLTF_TYPE_VEC3}, floats);
+        else if (name == "TEXCOORD_0")
+          accessor(a, w, {TINYGLTF_TYPE_VEC2}, uv_types);
+        else if (name == "JOINTS_0")
+          accessor(a, w, {TINYGLTF_TYPE_VEC4}, {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+        else if (name == "WEIGHTS_0")
+          accessor(a, w, {TINYGLTF_TYPE_VEC4}, uv_types);
+        else
+          accessor(a, w, {}, {});
+      }
+      if (prim.indices >= 0)
+        accessor(prim.indices, what + " indices", {TINYGLTF_TYPE_SCALAR}, index_types);
+    }
+  for (size_t si = 0; si < m.skins.size(); ++si) {
+    const auto& skin = m.skins[si];
+    const std::string what = "skin " + std::to_string(si);
+    std::vector<char> seen(nodes, 0);
+    for (int j : skin.joints) {
+      if (!in_range(j, nodes))
+        throw InputError(path, what, "joint node " + std::to_string(j) + " does not exist (there are " +
+                                         std::to_string(nodes) + " nodes)");
+      if (seen[j]++)
+        throw InputError(path, what, "lists node " + std::to_string(j) + " twice");
+    }
+    if (skin.inverseBindMatrices >= 0 &&
+        accessor(skin.inverseBindMatrices, what + " inverseBindMatrices", {TINYGLTF_TYPE_MAT4}, floats) <
+            skin.joints.size())
+      throw InputError(path, what, "inverseBindMatrices must hold one MAT4 per joint");
+  }
+  for (size_t ai = 0; ai < m.animations.size(); ++ai) {
+    const auto& anim = m.animations[ai];
+    const std::string what = "animation " + std::to_string(ai) + (anim.name.empty() ? "" : " '" + anim.name + "'");
+    for (size_t si = 0; si < anim.samplers.size(); ++si) {
+      const auto& sampler = anim.samplers[si];
+      const std::string w = what + " sampler " + std::to_string(si);
+      if (sampler.interpolation != "LINEAR" && sampler.interpolation != "STEP" && sampler.interpolation != "CUBICSPLINE")
+        throw InputError(path, w, "unknown interpolation '" + sampler.interpolation + "'");
+      const size_t keys = accessor(sampler.input, w + " input", {TINYGLTF_TYPE_SCALAR}, floats);
+      accessor(sampler.output, w + " output", {}, {});
+      const AccessorReader times(m, sampler.input, path, w + " input");
+      double last = -std::numeric_limits<double>::infinity();
+      for (size_t k = 0; k < keys; ++k) {
+        const double t = times.get(k, 0);
+        if (!std::isfinite(t))
+          throw InputError(path, w + " input", "key time " + std::to_string(k) + " is not a finite number");
+        if (!(t > last))
+          throw InputError(path, w + " input", "key times do not increase at key " + std::to_string(k));
+        last = t;
+      }
+    }
+    for (size_t ci = 0; ci < anim.channels.size(); ++ci) {
+      const auto& ch = anim.channels[ci];
+      const std::string w = what + " channel " + std::to_string(ci);
+      if (!in_range(ch.sampler, anim.samplers.size()))
+        throw InputError(path, w, "refers to sampler " + std::to_string(ch.sampler) + ", and there are " +
+                                      std::to_string(anim.samplers.size()));
+      if (ch.target_node >= 0 && !in_range(ch.target_node, nodes))
+        throw InputError(path, w, "targets node " + std::to_string(ch.target_node) + ", and there are " +
+                                      std::to_string(nodes));
+      const std::string& target = ch.target_path;
+      if (target != "translation" && target != "rotation" && target != "scale" && target != "weights")
+        throw InputError(path, w, "unknown target path '" + target + "'");
+      if (target == "weights")
+        continue;
+      const auto& sampler = anim.samplers[ch.sampler];
+      const auto& out = m.accessors[sampler.output];
+      const int want = target == "rotation" ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3;
+      if (out.type != want)
+        throw InputError(path, w, "a " + target + " output must be " + (target == "rotation" ? "VEC4" : "VEC3"));
+      const size_t keys = m.accessors[sampler.input].count;
+      if (out.count < keys * (sampler.interpolation == "CUBICSPLINE" ? 3 : 1))
+        throw InputError(path, w, "output has fewer values than the input has times");
+      const AccessorReader values(m, sampler.output, path, w + " output");
+      for (size_t k = 0; k < values.count(); ++k)
+        for (int c = 0; c < values.ncomp; ++c)
+          if (!std::isfinite(values.get(k, c)))
+            throw InputError(path, w + " output", "value " + std::to_string(k) + " is not a finite number");
+    }
+  }
+}
+
 std::vector<int> scene_roots(const tinygltf::Model& model, const std::vector<int>& parent) {
   const int scene = model.defaultScene >= 0 ? model.defaultScene : (model.scenes.empty() ? -1 : 0);
   if (scene >= 0)
@@ -213,8 +385,10 @@ GltfScene read_gltf_scene(const std::string& path) {
   if (!ok) {
     while (!err.empty() && std::isspace(static_cast<unsigned char>(err.back())))
       err.pop_back();
+    std::replace(err.begin(), err.end(), '\n', ';'); // one line
     throw InputError(path, "", "cannot read glTF: " + (err.empty() ? std::string("unknown error") : err));
   }
+  validate_model(*model, path);
   GltfScene scene;
   scene.path = path;
   scene.node_parent.assign(model->nodes.size(), -1);

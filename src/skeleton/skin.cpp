@@ -7,6 +7,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -116,8 +117,9 @@ int SkinnedMesh::find_clip(const std::string& key) const {
     if (clip_names[c] == key)
       return c;
   if (!key.empty() && std::all_of(key.begin(), key.end(), [](unsigned char ch) { return std::isdigit(ch); })) {
-    const long i = std::stol(key);
-    if (i < num_clips())
+    long long i = 0;
+    const auto [end, ec] = std::from_chars(key.data(), key.data() + key.size(), i);
+    if (ec == std::errc() && end == key.data() + key.size() && i < num_clips())
       return static_cast<int>(i);
   }
   return -1;
