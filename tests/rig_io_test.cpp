@@ -90,3 +90,13 @@ TEST(RigIo, RefusesWithTheJsonPathOfTheFault) {
 TEST(RigIo, MalformedJsonNamesTheLine) {
   EXPECT_EQ(element_of("{\n  \"format\": \"curvenet-rig\",\n  \"version\": 1,,\n}"), "line 3, column 16");
 }
+
+TEST(RigIo, TheTextItselfIsCheckedWithLinesAndColumns) {
+  // Malformed, a number out of range, a key twice: the line and column.
+  EXPECT_EQ(element_of("{\"format\":\"curvenet-rig\",\n \"version\":1,\n \"nodes\":["), "line 3, column 11");
+  EXPECT_EQ(element_of(minimal("", R"(,"x_big":1e999)")), "line 1, column 84");
+  EXPECT_EQ(element_of(minimal("", R"(,"id":"again")")), "/nodes/0/id (line 1, column 76)");
+  // Integers are integers in range: 2^32 + 1 is not version 1.
+  EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":4294967297,"nodes":[],"profiles":[]})"), "/version");
+  EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1.0,"nodes":[],"profiles":[]})"), "/version");
+}

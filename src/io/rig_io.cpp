@@ -3,6 +3,7 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "io/json_text.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -129,10 +130,7 @@ public:
       const std::string np = path + "/nurbs";
       const Json& n = p["nurbs"];
       only_keys(n, np, {"degree", "points", "knots", "weights"});
-      const Json& d = require(n, np, "degree");
-      if (!d.is_number_integer() || d.get<int>() < 1)
-        fail(np + "/degree", "expected a positive integer");
-      c.degree = d.get<int>();
+      c.degree = static_cast<int>(detail::json_integer(require(n, np, "degree"), source_, np + "/degree", 1, 32));
       c.points = points(require(n, np, "points"), np + "/points", static_cast<size_t>(c.degree) + 1);
       const Json& k = require(n, np, "knots");
       if (!k.is_array())
@@ -172,8 +170,7 @@ public:
     only_keys(root, "", {"format", "version", "coverage", "frame", "nodes", "profiles", "skeleton", "weights"});
     if (string(require(root, "", "format"), "/format") != "curvenet-rig")
       fail("/format", "must be \"curvenet-rig\"");
-    const Json& version = require(root, "", "version");
-    if (!version.is_number_integer() || version.get<int>() != 1)
+    if (detail::json_integer(require(root, "", "version"), source_, "/version", 1, 1) != 1)
       fail("/version", "only version 1 is supported");
     if (root.contains("coverage")) {
       const std::string c = string(root["coverage"], "/coverage");
@@ -303,26 +300,7 @@ Json matrix_json(const Mat4& m) {
 } // namespace
 
 Rig parse_rig(const std::string& text, const std::string& source) {
-  Json root;
-  try {
-    root = Json::parse(text);
-  } catch (const Json::parse_error& e) {
-    // Turn the byte offset into a line and column.
-    size_t line = 1, col = 1;
-    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
-      if (text[i] == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
-    std::string what = e.what();
-    auto pos = what.find("syntax error");
-    throw InputError(source, "line " + std::to_string(line) + ", column " + std::to_string(col),
-                     "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
-  }
-  return RigReader(source).read(root);
+  return RigReader(source).read(detail::parse_json(text, source));
 }
 
 Rig read_rig(const std::string& path) {

@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/json_text.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -19,12 +21,7 @@ Mat4 JointPose::matrix() const {
 }
 
 Pose parse_pose(const std::string& text, const std::string& source) {
-  nlohmann::json root;
-  try {
-    root = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(source, "byte " + std::to_string(e.byte), std::string("malformed JSON: ") + e.what());
-  }
+  const nlohmann::ordered_json root = detail::parse_json(text, source);
   auto fail = [&](const std::string& path, const std::string& msg) { throw InputError(source, path, msg); };
   if (!root.is_object())
     fail("/", "expected an object");
@@ -33,15 +30,16 @@ Pose parse_pose(const std::string& text, const std::string& source) {
       fail("/" + it.key(), "unknown key '" + it.key() + "'");
   if (!root.contains("format") || root["format"] != "curvenet-pose")
     fail("/format", "must be \"curvenet-pose\"");
-  if (!root.contains("version") || root["version"] != 1)
+  if (!root.contains("version"))
     fail("/version", "only version 1 is supported");
+  detail::json_integer(root["version"], source, "/version", 1, 1);
   Pose pose;
   if (!root.contains("joints"))
     return pose;
   const auto& joints = root["joints"];
   if (!joints.is_object())
     fail("/joints", "expected an object");
-  auto numbers = [&](const nlohmann::json& j, size_t n, const std::string& path) {
+  auto numbers = [&](const nlohmann::ordered_json& j, size_t n, const std::string& path) {
     if (!j.is_array() || j.size() != n)
       fail(path, "expected an array of " + std::to_string(n) + " numbers");
     std::vector<double> v;

@@ -1,0 +1,144 @@
+#include "io/json_text.hpp"
+
+#include "curvenet/errors.hpp"
+
+#include <optional>
+#include <set>
+#include <vector>
+
+namespace curvenet::detail {
+
+std::string line_column(const std::string& text, size_t byte) {
+  size_t line = 1, col = 1;
+  for (size_t i = 0; i < byte && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(col);
+}
+
+namespace {
+
+struct Duplicate {
+  size_t byte = 0;
+  std::string key, path;
+};
+
+/// Scans a text that parsed as JSON for a key that appears twice in one
+/// object, keeping the JSON path on the way.
+std::optional<Duplicate> find_duplicate_key(const std::string& t) {
+  struct Frame {
+    bool object = false;
+    std::set<std::string> keys;
+    std::string path;      // of this container
+    std::string key;       // the current member's key (objects)
+    long long index = -1;  // the current element (arrays)
+    bool expect_key = true;
+  };
+  std::vector<Frame> stack;
+  auto child_path = [&]() {
+    if (stack.empty())
+      return std::string();
+    const Frame& f = stack.back();
+    return f.path + "/" + (f.object ? f.key : std::to_string(f.index));
+  };
+  auto element_starts = [&]() { // a value begins in the current container
+    if (!stack.empty() && !stack.back().object)
+      ++stack.back().index;
+  };
+  for (size_t i = 0; i < t.size(); ++i) {
+    const char c = t[i];
+    if (c == '"') {
+      const size_t start = i;
+      std::string s;
+      for (++i; i < t.size() && t[i] != '"'; ++i) {
+        if (t[i] == '\\' && i + 1 < t.size())
+          s += t[++i]; // the escaped character, near enough for telling keys apart
+        else
+          s += t[i];
+      }
+      if (!stack.empty() && stack.back().object && stack.back().expect_key) {
+        Frame& f = stack.back();
+        if (!f.keys.insert(s).second)
+          return Duplicate{start, s, f.path + "/" + s};
+        f.key = s;
+        f.expect_key = false;
+      } else {
+        element_starts();
+      }
+    } else if (c == '{' || c == '[') {
+      element_starts();
+      Frame f;
+      f.object = c == '{';
+      f.path = child_path();
+      stack.push_back(std::move(f));
+    } else if (c == '}' || c == ']') {
+      if (!stack.empty())
+        stack.pop_back();
+    } else if (c == ',') {
+      if (!stack.empty() && stack.back().object)
+        stack.back().expect_key = true;
+    } else if (c != ':' && c != ' ' && c != '\n' && c != '\r' && c != '\t') {
+      // A number, true, false or null: one element.
+      element_starts();
+      while (i + 1 < t.size() && t[i + 1] != ',' && t[i + 1] != '}' && t[i + 1] != ']' && t[i + 1] != ' ' &&
+             t[i + 1] != '\n' && t[i + 1] != '\r' && t[i + 1] != '\t')
+        ++i;
+    }
+  }
+  return std::nullopt;
+}
+
+} // namespace
+
+nlohmann::ordered_json parse_json(const std::string& text, const std::string& source) {
+  nlohmann::ordered_json root;
+  try {
+    root = nlohmann::ordered_json::parse(text);
+  } catch (const nlohmann::ordered_json::parse_error& e) {
+    std::string what = e.what();
+    const auto pos = what.find("syntax error");
+    throw InputError(source, line_column(text, e.byte > 0 ? e.byte - 1 : 0),
+                     "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+  } catch (const nlohmann::ordered_json::out_of_range& e) {
+    // A number too large for a double: find the token for its place.
+    const std::string what = e.what();
+    const auto q = what.find('\'');
+    const std::string token = q == std::string::npos ? "" : what.substr(q + 1, what.rfind('\'') - q - 1);
+    const size_t at = token.empty() ? std::string::npos : text.find(token);
+    throw InputError(source, at == std::string::npos ? std::string("") : line_column(text, at),
+                     "the number " + (token.empty() ? std::string("") : "'" + token + "' ") +
+                         "is out of range (not a finite number)");
+  }
+  if (const auto d = find_duplicate_key(text))
+    throw InputError(source, d->path + " (" + line_column(text, d->byte) + ")",
+                     "the key '" + d->key + "' appears twice in one object");
+  return root;
+}
+
+long long json_integer(const nlohmann::ordered_json& j, const std::string& source, const std::string& path,
+                       long long lo, long long hi) {
+  auto fail = [&]() -> long long {
+    throw InputError(source, path,
+                     "expected an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", not " +
+                         j.dump());
+  };
+  if (j.is_number_unsigned()) {
+    const auto v = j.get<unsigned long long>();
+    if (v > static_cast<unsigned long long>(hi) || static_cast<long long>(v) < lo)
+      return fail();
+    return static_cast<long long>(v);
+  }
+  if (!j.is_number_integer())
+    return fail();
+  const auto v = j.get<long long>();
+  if (v < lo || v > hi)
+    return fail();
+  return v;
+}
+
+} // namespace curvenet::detail
