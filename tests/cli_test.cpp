@@ -472,3 +472,71 @@ TEST(Cli, EveryFileOfTheDamagedCorpusIsRefusedInOneLine) {
   }
   EXPECT_GE(files, 15);
 }
+
+TEST(Cli, NumbersInOptionsAreWholeFiniteAndInRange) {
+  const auto dir = test::temp_dir("numbers");
+  write(dir / "quad.obj", kQuad);
+  write(dir / "ok.cnrig.json", kRig);
+  const std::string mesh = (dir / "quad.obj").string(), rig = (dir / "ok.cnrig.json").string();
+  struct Case {
+    std::string args, says;
+  };
+  const Case cases[] = {
+      {"embed " + mesh + " " + rig + " --density nan", "--density: 'nan' is not a finite number"},
+      {"embed " + mesh + " " + rig + " --density 1e6", "--density: '1e6' is outside (0, 1000]"},
+      {"starter " + mesh + " -o x.json --first-angle inf", "--first-angle: 'inf' is not a finite number"},
+      {"animate " + mesh + " " + rig + " c.glb --fps nan -o x.pc2", "--fps: 'nan' is not a finite number"},
+      {"transfer " + rig + " --from " + mesh + " --to " + mesh + " -o x.json --source-frame 1,0,0,0,0,0,0,0,0,0,1,0,0,0,0,1",
+       "--source-frame: 1,0,0,0,0,0,0,0,0,0,1,0,0,0,0,1: the matrix is singular"},
+      {"transfer " + rig + " --from " + mesh + " --to " + mesh + " -o x.json --target-frame 1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,nan",
+       "'nan' is not a finite number"},
+      {"embed " + mesh, "RIG is required"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.args);
+    const CliRun r = run(c.args, dir);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(r.err.rfind("curvenet: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+TEST(Cli, FramesAreTwoWholeNumbersAroundOneColon) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("frames");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
+  ASSERT_EQ(run("starter " + gltf + " -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
+  for (const std::string frames : {"1.5:3y", "1:2:3", "0:1e3", "3:", ":4", "a:b", "5:2"}) {
+    SCOPED_TRACE(frames);
+    const CliRun r = run("animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " --frames " + frames +
+                             " -o " + (dir / "x.pc2").string(),
+                         dir);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(r.err.rfind("curvenet: error: --frames: " + frames + ": ", 0), 0u) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "x.pc2"));
+  }
+}
+
+TEST(Cli, APoseThatWouldWriteNonFiniteNumbersIsRefused) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("huge_pose");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
+  ASSERT_EQ(run("starter " + gltf + " -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
+  const Rig rig = read_rig((dir / "rs.cnrig.json").string());
+  // Each joint scaled by 1e200: the child's world scale is 1e400, past a double.
+  std::string joints;
+  for (const auto& j : rig.joints)
+    joints += (joints.empty() ? "\"" : ",\"") + j.name + R"(":{"scale":[1e200,1e200,1e200]})";
+  write(dir / "huge.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{)" + joints + "}}");
+  const CliRun r = run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + (dir / "huge.pose.json").string() +
+                           " -o " + (dir / "out.obj").string(),
+                       dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err.rfind("curvenet: error: " + (dir / "huge.pose.json").string() + ": vertex ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("not a finite number"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out.obj"));
+}

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 using namespace curvenet;
 
 namespace {
@@ -99,4 +101,24 @@ TEST(RigIo, TheTextItselfIsCheckedWithLinesAndColumns) {
   // Integers are integers in range: 2^32 + 1 is not version 1.
   EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":4294967297,"nodes":[],"profiles":[]})"), "/version");
   EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1.0,"nodes":[],"profiles":[]})"), "/version");
+}
+
+TEST(RigIo, MatricesThatWouldGiveNaNAreRefused) {
+  // A singular bind matrix, and a frame that is not a similarity.
+  EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
+      {"name":"j","parent":null,"bind":[1,0,0,0, 0,0,0,0, 0,0,1,0, 0,0,0,1]}]}})"),
+            "/skeleton/joints/0/bind");
+  EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"frame":[2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1],
+      "nodes":[],"profiles":[]})"),
+            "/frame");
+  // A rotation, a uniform scale and a translation are a similarity.
+  EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"frame":[0,-2,0,5, 2,0,0,0, 0,0,2,1, 0,0,0,1],
+      "nodes":[],"profiles":[]})"),
+            "(accepted)");
+}
+
+TEST(RigIo, NothingNonFiniteIsWritten) {
+  Rig rig = parse_rig(minimal(), "t.cnrig.json");
+  rig.nodes[0].position.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(rig_to_json(rig), Error);
 }

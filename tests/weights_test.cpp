@@ -1,7 +1,9 @@
 // Automatic weights: the two rules, and which one follows a real skin better.
 
+#include "curvenet/deform.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/weights.hpp"
+#include "generate/tube.hpp"
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -92,4 +94,15 @@ TEST(Weights, TheDefaultRuleFollowsTheHandsOwnSkinBetter) {
               b.mean);
   EXPECT_EQ(AutoWeightOptions{}.rule, WeightRule::BlendZone);
   EXPECT_LT(b.mean, 0.5 * s.mean);
+}
+
+TEST(Weights, GivenWeightsAreNormalisedWithoutOverflow) {
+  Rig rig;
+  rig.has_skeleton = true;
+  rig.joints = make_tube_skeleton({1, 2});
+  rig.nodes = {{"n", {0, 1, 0}}};
+  rig.weights["n"] = {{rig.joints[0].name, 1e308}, {rig.joints[1].name, 1e308}};
+  const Rig out = complete_weights(rig);
+  EXPECT_DOUBLE_EQ(out.weights.at("n").at(rig.joints[0].name), 0.5);
+  EXPECT_DOUBLE_EQ(out.weights.at("n").at(rig.joints[1].name), 0.5);
 }

@@ -11,9 +11,11 @@
 #include "curvenet/starter.hpp"
 #include "curvenet/subdivide.hpp"
 #include "curvenet/transfer.hpp"
+#include "core/matrix_checks.hpp"
 #include "generate/tube.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -211,6 +213,16 @@ int run_bind(const BindArgs& a) {
   return 0;
 }
 
+namespace {
+/// Positions a pose or clip put out of range are refused, naming that file.
+void check_posed(const std::vector<Vec3>& positions, const std::string& file, const std::string& what) {
+  for (size_t v = 0; v < positions.size(); ++v)
+    if (!positions[v].allFinite())
+      throw InputError(file, what + "vertex " + std::to_string(v),
+                       "the pose moves it out of range (not a finite number); nothing was written");
+}
+} // namespace
+
 int run_pose(const PoseArgs& a) {
   const SurfaceMesh mesh = load_mesh(a.mesh);
   const InputTopology topo = read_input_topology(a.mesh);
@@ -220,6 +232,7 @@ int run_pose(const PoseArgs& a) {
   const auto M = skinning_matrices(b.joints(), pose, a.pose);
   std::vector<Vec3> out(b.num_input_vertices());
   b.deform(M, out);
+  check_posed(out, a.pose, "");
   write_file_atomic(a.out, posed_obj(topo, out)); // deform() returns the file's own vertex order
   std::cout << "Curvenet pose: SUCCESS\n";
   print_bind(std::cout, b);
@@ -239,15 +252,16 @@ int run_animate(const AnimateArgs& a) {
   const auto [t0, t1] = clips.clip_range(clip);
   int first = static_cast<int>(std::floor(t0 * a.fps + 1e-9)), last = static_cast<int>(std::ceil(t1 * a.fps - 1e-9));
   if (!a.frames.empty()) {
+    // Exactly two whole numbers around one colon: "1.5:3y", "1:2:3" and
+    // "0:1e3" are refused.
     const auto colon = a.frames.find(':');
-    try {
-      if (colon == std::string::npos)
-        throw std::invalid_argument("no colon");
-      first = std::stoi(a.frames.substr(0, colon));
-      last = std::stoi(a.frames.substr(colon + 1));
-    } catch (const std::exception&) {
+    auto whole = [&](std::string_view t, int& out) {
+      const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), out);
+      return !t.empty() && ec == std::errc() && end == t.data() + t.size();
+    };
+    const std::string_view text = a.frames;
+    if (colon == std::string::npos || !whole(text.substr(0, colon), first) || !whole(text.substr(colon + 1), last))
       throw InputError("--frames", a.frames, "expected A:B, two whole frame numbers");
-    }
     if (last < first)
       throw InputError("--frames", a.frames, "the last frame comes before the first");
   }
@@ -267,6 +281,7 @@ int run_animate(const AnimateArgs& a) {
       if (rig_joints.count(name))
         pose[name] = entry;
     b.deform(skinning_matrices(b.joints(), pose, a.clip_file), out);
+    check_posed(out, a.clip_file, "frame " + std::to_string(first + f) + " ");
   };
   // Frames are independent: each is computed in parallel into its own slot,
   // so the result does not depend on the number of threads.
@@ -308,16 +323,24 @@ Mat4 parse_matrix(const std::string& text, const char* option) {
   std::replace(t.begin(), t.end(), ',', ' ');
   std::istringstream in(t);
   std::vector<double> v;
-  double x = 0;
-  while (in >> x)
+  std::string token;
+  while (in >> token) {
+    double x = 0;
+    const char* b = token.data() + (token[0] == '+');
+    const auto [end, ec] = std::from_chars(b, token.data() + token.size(), x);
+    if (ec != std::errc() || end != token.data() + token.size() || !std::isfinite(x))
+      throw InputError(option, text, "'" + token + "' is not a finite number");
     v.push_back(x);
-  if (v.size() != 16 || !in.eof())
+  }
+  if (v.size() != 16)
     throw InputError(option, text, "expected 16 numbers (a 4x4 matrix, row by row)");
   Mat4 m;
   for (int k = 0; k < 16; ++k)
     m(k / 4, k % 4) = v[k];
   if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1)
     throw InputError(option, text, "the last row of the matrix must be 0 0 0 1");
+  if (!detail::invertible(m))
+    throw InputError(option, text, "the matrix is singular");
   return m;
 }
 } // namespace

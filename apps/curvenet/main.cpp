@@ -11,7 +11,33 @@
 
 #include <CLI/CLI.hpp>
 
+#include <charconv>
+#include <cmath>
 #include <iostream>
+#include <sstream>
+
+namespace {
+
+/// A whole, finite number in [lo, hi] (CLI11's own number checks let `nan`
+/// through, and print the range of a double in 309 digits).
+CLI::Validator finite_in(double lo, double hi, bool lo_open = false) {
+  std::ostringstream range;
+  range << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+  return CLI::Validator(
+      [lo, hi, lo_open, r = range.str()](std::string& text) -> std::string {
+        double v = 0;
+        const char* b = text.data() + (!text.empty() && text[0] == '+');
+        const auto [end, ec] = std::from_chars(b, text.data() + text.size(), v);
+        if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
+          return "'" + text + "' is not a finite number";
+        if (v < lo || v > hi || (lo_open && v == lo))
+          return "'" + text + "' is outside " + r;
+        return "";
+      },
+      "NUMBER in " + range.str());
+}
+
+} // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"curvenet: topology-independent character deformation with curve networks"};
@@ -27,8 +53,8 @@ int main(int argc, char** argv) {
   embed->add_option("--cut-mesh", embed_args.cut_mesh, "Write the cut mesh as OBJ (with one polyline per CutChain)");
   embed->add_option("--coverage", embed_args.coverage, "Override the rig's coverage")
       ->check(CLI::IsMember({"full", "local", "auto"}));
-  embed->add_option("--density", embed_args.density, "Profile samples per mean edge length (rho)")
-      ->check(CLI::PositiveNumber);
+  embed->add_option("--density", embed_args.density, "Profile samples per local edge length (rho), at most 1000")
+      ->check(finite_in(0, 1000, true));
   embed->add_flag("--progress,!--no-progress", embed_args.progress,
                   "Show progress on stderr (default: when stderr is a terminal)");
 
@@ -45,7 +71,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 16));
   starter->add_option("--first-angle", starter_args.first_angle,
                       "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(finite_in(-360, 360));
   starter->add_option("--coverage", starter_args.coverage, "Coverage of the net")
       ->capture_default_str()
       ->check(CLI::IsMember({"full", "local"}));
@@ -80,7 +107,7 @@ int main(int argc, char** argv) {
   deform_options(animate, anim_args);
   animate->add_option("CLIP", anim_args.clip_file, "glTF or GLB file with skins and animations")->required();
   animate->add_option("--clip", anim_args.clip, "Clip name or index (default: the first)");
-  animate->add_option("--fps", anim_args.fps, "Frames per second")->capture_default_str()->check(CLI::PositiveNumber);
+  animate->add_option("--fps", anim_args.fps, "Frames per second")->capture_default_str()->check(finite_in(0, 10000, true));
   animate->add_option("--frames", anim_args.frames, "Frames A:B, inclusive (default: the clip's range)");
   auto* out_opt = animate->add_option("-o,--output", anim_args.out, "PC2 file to write");
   auto* seq_opt = animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
@@ -126,8 +153,16 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+    // One line, like every other failure.
+    std::string what = e.what();
+    what = what.substr(0, what.find('\n'));
+    std::cerr << "curvenet: error: " << what << "\n";
+    return 2;
   }
   try {
     if (*embed)

@@ -67,14 +67,19 @@ Rig complete_weights(const Rig& rig, const AutoWeightOptions& options) {
   for (const Node& n : rig.nodes) {
     std::map<std::string, double> w;
     auto it = rig.weights.find(n.id);
-    double sum = 0;
-    if (it != rig.weights.end())
+    // Normalised without overflow: {1e308, 1e308} is two halves.
+    double largest = 0, sum = 0;
+    if (it != rig.weights.end()) {
       for (const auto& [j, v] : it->second)
-        sum += v;
+        largest = std::max(largest, v);
+      if (largest > 0)
+        for (const auto& [j, v] : it->second)
+          sum += v / largest;
+    }
     if (sum > 0) {
       for (const auto& [j, v] : it->second)
         if (v > 0)
-          w[j] = v / sum;
+          w[j] = (v / largest) / sum;
     } else {
       for (const auto& [j, v] : auto_weights(rig.joints, n.position, options))
         w[rig.joints[j].name] = v;

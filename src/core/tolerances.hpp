@@ -36,6 +36,12 @@ struct Tolerances {
   /// traced more closely.
   static constexpr int cut_rounds = 8;
 
+  /// A matrix whose smallest singular value is at most this fraction of its
+  /// largest is singular (bind matrices, frames, inverse bind matrices).
+  static constexpr double invertible_rel = 1e-12;
+  /// A rig's frame is a similarity when M^T M = s^2 I to this relative error.
+  static constexpr double similarity_rel = 1e-6;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
   [[nodiscard]] double fidelity() const { return fidelity_rel * diagonal; }

@@ -8,6 +8,7 @@
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <iomanip>
@@ -81,6 +82,10 @@ InputTopology read_input_topology(const std::string& path) {
 
 std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>& positions) {
   const RawMesh& f = t.faces;
+  for (size_t v = 0; v < positions.size(); ++v)
+    if (!positions[v].allFinite())
+      throw Error("the posed vertex " + std::to_string(v) +
+                  " is not finite (the pose scales or moves the mesh out of range); nothing was written");
   // Normals: area-weighted face normals summed into each normal slot.
   std::vector<Eigen::Vector3d> normals(t.num_normals, Eigen::Vector3d::Zero());
   for (size_t face = 0; face + 1 < f.face_offsets.size(); ++face) {
@@ -117,6 +122,11 @@ std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>
 }
 
 std::string pc2_cache(int points, int frames, float start_frame, const std::vector<float>& data) {
+  for (size_t i = 0; i < data.size(); ++i)
+    if (!std::isfinite(data[i]))
+      throw Error("frame " + std::to_string(i / (3 * static_cast<size_t>(std::max(points, 1)))) +
+                  " of the cache has a position that is not finite in single precision (the pose scales or moves "
+                  "the mesh out of range); nothing was written");
   std::string out(32 + data.size() * sizeof(float), '\0');
   char* p = out.data();
   std::memcpy(p, "POINTCACHE2\0", 12);

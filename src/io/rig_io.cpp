@@ -3,6 +3,7 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "core/matrix_checks.hpp"
 #include "io/json_text.hpp"
 
 #include <nlohmann/json.hpp>
@@ -183,8 +184,11 @@ public:
       else
         fail("/coverage", "must be \"full\", \"local\" or \"auto\", not \"" + c + "\"");
     }
-    if (root.contains("frame"))
+    if (root.contains("frame")) {
       rig.frame = matrix(root["frame"], "/frame");
+      if (!detail::similarity(rig.frame))
+        fail("/frame", "the frame must be a similarity (a rotation, a uniform scale and a translation)");
+    }
     for (auto it = root.begin(); it != root.end(); ++it)
       if (it.key().rfind("x_", 0) == 0)
         rig.extensions[it.key()] = it->dump();
@@ -247,6 +251,8 @@ public:
         if (!joint_names.insert(j.name).second)
           fail(path + "/name", "duplicate joint name '" + j.name + "'");
         j.bind = matrix(require(joints[i], path, "bind"), path + "/bind");
+        if (!detail::invertible(j.bind))
+          fail(path + "/bind", "the bind matrix is singular");
         rig.joints.push_back(std::move(j));
       }
     }
@@ -312,7 +318,39 @@ Rig read_rig(const std::string& path) {
   return parse_rig(s.str(), path);
 }
 
+namespace {
+/// No rig is written with a number that is not finite: it would read back
+/// as null, or not at all.
+void check_finite(const Rig& rig) {
+  auto bad = [](const Eigen::Vector3d& p) { return !p.allFinite(); };
+  if (!rig.frame.allFinite())
+    throw Error("rig: the frame is not finite; nothing was written");
+  for (const auto& n : rig.nodes)
+    if (bad(n.position))
+      throw Error("rig: node '" + n.id + "' has a position that is not finite; nothing was written");
+  for (const auto& p : rig.profiles) {
+    for (const auto& q : p.curve.points)
+      if (bad(q))
+        throw Error("rig: profile '" + p.id + "' has a point that is not finite; nothing was written");
+    for (double k : p.curve.knots)
+      if (!std::isfinite(k))
+        throw Error("rig: profile '" + p.id + "' has a knot that is not finite; nothing was written");
+    for (double k : p.curve.weights)
+      if (!std::isfinite(k))
+        throw Error("rig: profile '" + p.id + "' has a weight that is not finite; nothing was written");
+  }
+  for (const auto& j : rig.joints)
+    if (!j.bind.allFinite())
+      throw Error("rig: joint '" + j.name + "' has a bind matrix that is not finite; nothing was written");
+  for (const auto& [node, w] : rig.weights)
+    for (const auto& [joint, v] : w)
+      if (!std::isfinite(v))
+        throw Error("rig: the weight of node '" + node + "' for joint '" + joint + "' is not finite; nothing was written");
+}
+} // namespace
+
 std::string rig_to_json(const Rig& rig) {
+  check_finite(rig);
   Json root;
   root["format"] = "curvenet-rig";
   root["version"] = 1;

@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <charconv>
+
+#include "core/matrix_checks.hpp"
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -41,6 +43,17 @@ SkinnedMesh load_skinned_mesh(const std::string& path) {
   const auto& skin = model.skins.at(scene->skin);
   const auto ibm = detail::inverse_bind_matrices(*scene);
   const int nslots = static_cast<int>(skin.joints.size());
+  {
+    // Singular matrices would give NaN joints (and `null` in a rig written from them).
+    const auto world = detail::node_world_matrices(*scene, -1, 0);
+    for (int s = 0; s < nslots; ++s) {
+      if (!detail::invertible(ibm[s]))
+        throw InputError(path, "skin " + std::to_string(scene->skin) + " inverseBindMatrices " + std::to_string(s),
+                         "is singular");
+      if (!detail::invertible(world[skin.joints[s]]))
+        throw InputError(path, "node " + std::to_string(skin.joints[s]), "the joint's world matrix is singular");
+    }
+  }
   std::vector<int> slot_of_node(model.nodes.size(), -1);
   for (int s = 0; s < nslots; ++s)
     slot_of_node.at(skin.joints[s]) = s;

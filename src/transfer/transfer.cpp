@@ -4,6 +4,7 @@
 
 #include "curvenet/transfer.hpp"
 
+#include "core/matrix_checks.hpp"
 #include "core/polyline_distance.hpp"
 #include "core/tolerances.hpp"
 
@@ -247,6 +248,10 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
                         const TransferOptions& opt) {
   TransferResult result;
   TransferReport& rep = result.report;
+  if (!detail::invertible(opt.source_frame))
+    throw InputError("source frame", "", "the matrix is singular or not finite");
+  if (!detail::invertible(opt.target_frame))
+    throw InputError("target frame", "", "the matrix is singular or not finite");
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
   const Mat4 to_source = source_to_target.inverse();
 
