@@ -540,3 +540,46 @@ TEST(Cli, APoseThatWouldWriteNonFiniteNumbersIsRefused) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out.obj"));
 }
+
+TEST(Cli, MultipleOutputsAreAllOrNothingAndStaleTemporariesAreCleaned) {
+  const auto dir = test::temp_dir("all_or_nothing");
+  write(dir / "quad.obj", kQuad);
+  write(dir / "ok.cnrig.json", kRig);
+  const std::string mesh = (dir / "quad.obj").string(), rig = (dir / "ok.cnrig.json").string();
+  const fs::path report = dir / "r.json", bad = dir / "quad.obj" / "cannot.ply"; // a file is not a folder
+  // embed: the report is not left behind when the preview cannot be written.
+  CliRun r = run("embed " + mesh + " " + rig + " --report " + report.string() + " --regions " + bad.string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(report));
+  // transfer: neither is the report when the rig cannot be written.
+  r = run("transfer " + rig + " --from " + mesh + " --to " + mesh + " --report " + report.string() + " -o " + bad.string(),
+          dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(fs::exists(report));
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos) << entry.path();
+  // A temporary file a killed run left beside a destination goes when the
+  // destination is next written; one of a live process stays.
+  const fs::path stale = report.string() + ".tmp-curvenet-2147483646", live = report.string() + ".tmp-curvenet-1";
+  write(stale, "half a report");
+  write(live, "another run's");
+  EXPECT_EQ(run("embed " + mesh + " " + rig + " --report " + report.string(), dir).code, 0);
+  EXPECT_TRUE(fs::exists(report));
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(live)); // pid 1 is alive
+}
+
+TEST(Cli, AnimateRefusesMoreFramesThanItsCap) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("max_frames");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
+  ASSERT_EQ(run("starter " + gltf + " -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
+  const std::string base = "animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " -o " +
+                           (dir / "x.pc2").string() + " --frames 0:200000000";
+  CliRun r = run(base, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "curvenet: error: --frames: 0:200000000: 200000001 frames is more than --max-frames (100000)\n");
+  EXPECT_FALSE(fs::exists(dir / "x.pc2"));
+}

@@ -113,16 +113,16 @@ int run_embed(const EmbedArgs& a) {
   const Embedding emb = embed(mesh, rig, opt);
   EmbedReport rep = emb.report();
   rep.timings_ms.insert(rep.timings_ms.begin(), {"load", load_ms}); // reading happens here, outside the library
-  // Everything is computed before anything is written.
-  const std::string report_text = a.report.empty() ? "" : report_to_json(rep);
-  const std::string regions_text = a.regions.empty() ? "" : emb.regions_ply();
-  const std::string cut_text = a.cut_mesh.empty() ? "" : emb.cut_mesh_obj();
+  // All or nothing: everything is computed and written to temporary files
+  // before any output is moved into place.
+  OutputFiles files;
   if (!a.report.empty())
-    write_file_atomic(a.report, report_text);
+    files.add(a.report, report_to_json(rep));
   if (!a.regions.empty())
-    write_file_atomic(a.regions, regions_text);
+    files.add(a.regions, emb.regions_ply());
   if (!a.cut_mesh.empty())
-    write_file_atomic(a.cut_mesh, cut_text);
+    files.add(a.cut_mesh, emb.cut_mesh_obj());
+  files.commit();
   print_summary(std::cout, std::filesystem::path(a.mesh).filename().string(), rep);
   return rep.ok ? 0 : 1;
 }
@@ -265,6 +265,10 @@ int run_animate(const AnimateArgs& a) {
     if (last < first)
       throw InputError("--frames", a.frames, "the last frame comes before the first");
   }
+  if (static_cast<long long>(last) - first + 1 > a.max_frames)
+    throw InputError("--frames", std::to_string(first) + ":" + std::to_string(last),
+                     std::to_string(static_cast<long long>(last) - first + 1) + " frames is more than --max-frames (" +
+                         std::to_string(a.max_frames) + ")");
   std::set<std::string> rig_joints;
   for (const auto& j : rig.joints)
     rig_joints.insert(j.name);
@@ -284,30 +288,56 @@ int run_animate(const AnimateArgs& a) {
     check_posed(out, a.clip_file, "frame " + std::to_string(first + f) + " ");
   };
   // Frames are independent: each is computed in parallel into its own slot,
-  // so the result does not depend on the number of threads.
+  // so the result does not depend on the number of threads. All or nothing:
+  // the frames go to temporary files, moved into place at the end.
+  OutputFiles files;
   if (!a.obj_sequence.empty()) {
     const InputTopology topo = read_input_topology(a.mesh);
     std::filesystem::create_directories(a.obj_sequence);
-    tbb::parallel_for(0, frames, [&](int f) {
-      std::vector<Vec3> out(nv);
-      frame_positions(f, out);
-      std::ostringstream name;
-      name << "frame_" << std::setw(4) << std::setfill('0') << first + f << ".obj";
-      write_file_atomic((std::filesystem::path(a.obj_sequence) / name.str()).string(), posed_obj(topo, out));
-    });
+    std::vector<std::string> texts(static_cast<size_t>(frames));
+    // In blocks, so that no more than a block of frames is held at once.
+    const int block = 64;
+    for (int b0 = 0; b0 < frames; b0 += block) {
+      const int b1 = std::min(frames, b0 + block);
+      tbb::parallel_for(b0, b1, [&](int f) {
+        std::vector<Vec3> out(nv);
+        frame_positions(f, out);
+        texts[f] = posed_obj(topo, out);
+      });
+      for (int f = b0; f < b1; ++f) {
+        std::ostringstream name;
+        name << "frame_" << std::setw(4) << std::setfill('0') << first + f << ".obj";
+        files.add((std::filesystem::path(a.obj_sequence) / name.str()).string(), texts[f]);
+        std::string().swap(texts[f]);
+      }
+    }
   } else {
-    std::vector<float> data(static_cast<size_t>(frames) * nv * 3);
+    // Streamed to the cache in blocks of frames (about 64 MB at a time),
+    // each block computed in parallel.
+    std::ostream& pc2 = files.stream(a.out);
+    pc2 << pc2_header(nv, frames, static_cast<float>(first));
+    const int block = static_cast<int>(std::clamp<long long>((64ll << 20) / (12ll * std::max(nv, 1)), 1, 256));
+    std::vector<float> data(static_cast<size_t>(std::min(block, frames)) * nv * 3);
     tbb::enumerable_thread_specific<std::vector<Vec3>> buffers([nv] { return std::vector<Vec3>(nv); });
-    tbb::parallel_for(0, frames, [&](int f) {
-      std::vector<Vec3>& out = buffers.local(); // one buffer per thread, not per frame
-      frame_positions(f, out);
-      float* dst = data.data() + static_cast<size_t>(f) * nv * 3;
-      for (int i = 0; i < nv; ++i)
-        for (int c = 0; c < 3; ++c)
-          dst[3 * i + c] = static_cast<float>(out[i][c]);
-    });
-    write_file_atomic(a.out, pc2_cache(nv, frames, static_cast<float>(first), data));
+    for (int b0 = 0; b0 < frames; b0 += block) {
+      const int b1 = std::min(frames, b0 + block);
+      tbb::parallel_for(b0, b1, [&](int f) {
+        std::vector<Vec3>& out = buffers.local(); // one buffer per thread, not per frame
+        frame_positions(f, out);
+        float* dst = data.data() + static_cast<size_t>(f - b0) * nv * 3;
+        for (int i = 0; i < nv; ++i)
+          for (int c = 0; c < 3; ++c) {
+            dst[3 * i + c] = static_cast<float>(out[i][c]);
+            if (!std::isfinite(dst[3 * i + c]))
+              throw InputError(a.clip_file, "frame " + std::to_string(first + f) + " vertex " + std::to_string(i),
+                               "the pose moves it out of the range of a PC2 cache (single precision); nothing was written");
+          }
+      });
+      pc2.write(reinterpret_cast<const char*>(data.data()),
+                static_cast<std::streamsize>(static_cast<size_t>(b1 - b0) * nv * 3 * sizeof(float)));
+    }
   }
+  files.commit();
   std::cout << "Curvenet animate: SUCCESS\n";
   print_bind(std::cout, b);
   std::cout << "clip: " << clips.clip_names[clip] << " (" << clip << "), frames " << first << ":" << last << " at "
@@ -357,10 +387,12 @@ int run_transfer(const TransferArgs& a) {
   opt.target_cage_levels = a.to_cage;
   const TransferResult r = transfer(rig, source, target, opt);
   const TransferReport& rep = r.report;
+  OutputFiles files; // the report and the rig, all or nothing
   if (!a.report.empty())
-    write_file_atomic(a.report, transfer_report_json(rep));
+    files.add(a.report, transfer_report_json(rep));
   if (rep.ok)
-    write_rig(r.rig, a.out);
+    files.add(a.out, rig_to_json(r.rig));
+  files.commit();
   std::cout << "Curvenet transfer: " << (rep.ok ? "SUCCESS" : "FAILED") << "\n";
   std::cout << "source: " << std::filesystem::path(a.from).filename().string() << " (" << source.num_faces()
             << " faces), " << rep.source.regions << " regions\n";

@@ -38,6 +38,7 @@ int run_pose(const PoseArgs& args);
 struct AnimateArgs : DeformArgs {
   std::string clip_file, clip, frames, out, obj_sequence;
   double fps = 24;
+  long long max_frames = 100000;
 };
 int run_animate(const AnimateArgs& args);
 

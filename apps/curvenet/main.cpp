@@ -109,6 +109,9 @@ int main(int argc, char** argv) {
   animate->add_option("--clip", anim_args.clip, "Clip name or index (default: the first)");
   animate->add_option("--fps", anim_args.fps, "Frames per second")->capture_default_str()->check(finite_in(0, 10000, true));
   animate->add_option("--frames", anim_args.frames, "Frames A:B, inclusive (default: the clip's range)");
+  animate->add_option("--max-frames", anim_args.max_frames, "Refuse more frames than this")
+      ->capture_default_str()
+      ->check(CLI::Range(1ll, 100000000ll));
   auto* out_opt = animate->add_option("-o,--output", anim_args.out, "PC2 file to write");
   auto* seq_opt = animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
   out_opt->excludes(seq_opt);

@@ -8,6 +8,8 @@
 #include "curvenet/rig.hpp"
 #include "curvenet/surface_mesh.hpp"
 
+#include <memory>
+#include <ostream>
 #include <string>
 
 namespace curvenet {
@@ -34,6 +36,32 @@ void write_rig(const Rig& rig, const std::string& path);
 /// Writes `contents` to `path` through a temporary file and a rename.
 /// \throw Error when the file cannot be written.
 void write_file_atomic(const std::string& path, const std::string& contents);
+
+/// Files written all or nothing. Each goes to a temporary file beside its
+/// destination (`DEST.tmp-curvenet-PID`); commit() moves them all into
+/// place. Until then the destinations are untouched, and if commit() is
+/// never reached (an exception), the destructor removes the temporary
+/// files. Temporary files that a killed run left beside a destination are
+/// removed when the destination is next written.
+class OutputFiles {
+public:
+  OutputFiles();
+  OutputFiles(const OutputFiles&) = delete;
+  OutputFiles& operator=(const OutputFiles&) = delete;
+  ~OutputFiles();
+  /// \throw Error naming the path when it cannot be written.
+  void add(const std::string& path, const std::string& contents);
+  /// A stream to write `path` progressively (a point cache frame by frame).
+  /// Write errors are found by commit().
+  std::ostream& stream(const std::string& path);
+  /// \throw Error naming the first file that could not be finished.
+  void commit();
+
+private:
+  struct File;
+  std::vector<std::unique_ptr<File>> files_;
+  bool committed_ = false;
+};
 
 /// Writes a polygon mesh as OBJ with 17 significant digits.
 std::string mesh_to_obj(const std::vector<Vec3>& positions, const std::vector<int>& face_offsets,

@@ -34,4 +34,7 @@ std::string posed_obj(const InputTopology& topology, const std::vector<Eigen::Ve
 /// one sample per frame. `data` holds frames * points * 3 floats.
 std::string pc2_cache(int points, int frames, float start_frame, const std::vector<float>& data);
 
+/// The 32-byte header of a PC2 cache, for writing its frames as a stream.
+std::string pc2_header(int points, int frames, float start_frame);
+
 } // namespace curvenet

@@ -328,6 +328,17 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
           throw InputError(path, w + " input", "key times do not increase at key " + std::to_string(k));
         last = t;
       }
+      // A declared time range must agree with the keys (it gives the clip's length).
+      const auto& acc = m.accessors[sampler.input];
+      if (keys > 0 && acc.minValues.size() == 1 && acc.maxValues.size() == 1) {
+        const double first = times.get(0, 0), end = times.get(keys - 1, 0);
+        auto near = [](double a, double b) { return std::abs(a - b) <= 1e-6 * std::max({1.0, std::abs(a), std::abs(b)}); };
+        if (!near(acc.minValues[0], first) || !near(acc.maxValues[0], end))
+          throw InputError(path, w + " input",
+                           "declares its times to run from " + std::to_string(acc.minValues[0]) + " to " +
+                               std::to_string(acc.maxValues[0]) + ", but its keys run from " + std::to_string(first) +
+                               " to " + std::to_string(end));
+      }
     }
     for (size_t ci = 0; ci < anim.channels.size(); ++ci) {
       const auto& ch = anim.channels[ci];

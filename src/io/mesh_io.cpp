@@ -14,6 +14,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cstdlib>
+#include <csignal>
+#include <cerrno>
 #include <cctype>
 #include <cstring>
 #include <filesystem>
@@ -112,33 +115,97 @@ std::string mesh_to_obj(const std::vector<Vec3>& positions, const std::vector<in
   return out.str();
 }
 
-void write_file_atomic(const std::string& path, const std::string& contents) {
+namespace {
+
+constexpr const char* kTempTag = ".tmp-curvenet-";
+
+std::string temp_name(const std::string& path) { return path + kTempTag + std::to_string(::getpid()); }
+
+/// Removes DEST.tmp-curvenet-PID files whose process is gone: what a killed
+/// run left behind.
+void remove_stale_temporaries(const std::filesystem::path& dest) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path dir = dest.has_parent_path() ? dest.parent_path() : fs::path(".");
+  const std::string prefix = dest.filename().string() + kTempTag;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0)
+      continue;
+    const std::string pid_text = name.substr(prefix.size());
+    if (pid_text.empty() || !std::all_of(pid_text.begin(), pid_text.end(), [](unsigned char c) { return std::isdigit(c); }))
+      continue;
+    const long pid = std::strtol(pid_text.c_str(), nullptr, 10);
+    if (pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH))
+      fs::remove(it->path(), ec);
+  }
+}
+
+} // namespace
+
+struct OutputFiles::File {
+  std::string dest, temp;
+  std::ofstream out;
+};
+
+OutputFiles::OutputFiles() = default;
+
+OutputFiles::~OutputFiles() {
+  if (committed_)
+    return;
+  for (auto& f : files_) {
+    f->out.close();
+    std::error_code ec;
+    std::filesystem::remove(f->temp, ec);
+  }
+}
+
+std::ostream& OutputFiles::stream(const std::string& path) {
   namespace fs = std::filesystem;
   const fs::path target(path);
-  if (target.has_parent_path()) {
-    std::error_code ec;
-    fs::create_directories(target.parent_path(), ec);
-  }
-  const fs::path tmp = target.string() + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out)
-      throw Error(path + ": cannot open for writing");
-    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
-    out.flush();
-    if (!out) {
-      out.close();
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path + ": write failed");
-    }
-  }
   std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path + ": cannot move the finished file into place");
+  if (target.has_parent_path())
+    fs::create_directories(target.parent_path(), ec);
+  remove_stale_temporaries(target);
+  auto f = std::make_unique<File>();
+  f->dest = path;
+  f->temp = temp_name(path);
+  f->out.open(f->temp, std::ios::binary | std::ios::trunc);
+  if (!f->out)
+    throw Error(path + ": cannot open for writing");
+  files_.push_back(std::move(f));
+  return files_.back()->out;
+}
+
+void OutputFiles::add(const std::string& path, const std::string& contents) {
+  std::ostream& out = stream(path);
+  out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
+  out.flush();
+  if (!out)
+    throw Error(path + ": write failed (is the disk full?)");
+}
+
+void OutputFiles::commit() {
+  // Every file finished before any destination is touched.
+  for (auto& f : files_) {
+    f->out.flush();
+    f->out.close();
+    if (f->out.fail())
+      throw Error(f->dest + ": write failed (is the disk full?)");
   }
+  for (auto& f : files_) {
+    std::error_code ec;
+    std::filesystem::rename(f->temp, f->dest, ec);
+    if (ec)
+      throw Error(f->dest + ": cannot move the finished file into place (" + ec.message() + ")");
+  }
+  committed_ = true;
+}
+
+void write_file_atomic(const std::string& path, const std::string& contents) {
+  OutputFiles out;
+  out.add(path, contents);
+  out.commit();
 }
 
 } // namespace curvenet

@@ -121,13 +121,8 @@ std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>
   return out.str();
 }
 
-std::string pc2_cache(int points, int frames, float start_frame, const std::vector<float>& data) {
-  for (size_t i = 0; i < data.size(); ++i)
-    if (!std::isfinite(data[i]))
-      throw Error("frame " + std::to_string(i / (3 * static_cast<size_t>(std::max(points, 1)))) +
-                  " of the cache has a position that is not finite in single precision (the pose scales or moves "
-                  "the mesh out of range); nothing was written");
-  std::string out(32 + data.size() * sizeof(float), '\0');
+std::string pc2_header(int points, int frames, float start_frame) {
+  std::string out(32, '\0');
   char* p = out.data();
   std::memcpy(p, "POINTCACHE2\0", 12);
   const int32_t version = 1, n = points, samples = frames;
@@ -137,7 +132,18 @@ std::string pc2_cache(int points, int frames, float start_frame, const std::vect
   std::memcpy(p + 20, &start_frame, 4);
   std::memcpy(p + 24, &rate, 4);
   std::memcpy(p + 28, &samples, 4);
-  std::memcpy(p + 32, data.data(), data.size() * sizeof(float));
+  return out;
+}
+
+std::string pc2_cache(int points, int frames, float start_frame, const std::vector<float>& data) {
+  for (size_t i = 0; i < data.size(); ++i)
+    if (!std::isfinite(data[i]))
+      throw Error("frame " + std::to_string(i / (3 * static_cast<size_t>(std::max(points, 1)))) +
+                  " of the cache has a position that is not finite in single precision (the pose scales or moves "
+                  "the mesh out of range); nothing was written");
+  std::string out = pc2_header(points, frames, start_frame);
+  out.resize(32 + data.size() * sizeof(float));
+  std::memcpy(out.data() + 32, data.data(), data.size() * sizeof(float));
   return out;
 }
 
