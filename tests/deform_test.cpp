@@ -10,6 +10,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
+#include <sstream>
+
+#include <fstream>
+
+#include <cstring>
+
 #include <Eigen/SparseCholesky>
 
 #include <cmath>
@@ -217,6 +225,63 @@ TEST(Deform, BindingCacheRoundTrips) {
   horn.rigid = RigidMode::Horn;
   bind_cached(m, make_tube_net(other), horn, path, &reused);
   EXPECT_FALSE(reused);
+}
+
+TEST(Deform, ADamagedBindingCacheIsRebuilt) {
+  // The right fingerprint, but a byte changed in the tables, or the file cut
+  // short, or a joint index made out of range with the checksum fixed up to
+  // match: each is found and the binding rebuilt, deforming as a fresh one.
+  const SurfaceMesh m = test::tube(20, 12, 4, true);
+  const auto dir = test::temp_dir("cache_damage");
+  const std::string path = (dir / "tube.cnbind").string();
+  Pose pose;
+  pose["mid"] = rotation(50, {0, 0, 1});
+  const Binding fresh = bind_cached(m, make_tube_net(), {}, path);
+  std::string good;
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    good = s.str();
+  }
+  auto rewrite = [&](std::string bytes) { std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes; };
+  auto refix_checksum = [](std::string& bytes) {
+    std::uint64_t h = 1469598103934665603ULL;
+    for (size_t i = 0; i + 8 < bytes.size(); ++i)
+      h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ULL;
+    std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
+  };
+  std::string flipped = good;
+  flipped[good.size() / 2] ^= 0x5a;
+  std::string joint_out_of_range = good;
+  {
+    // Every int in the joint table set to a huge joint index: find the table
+    // by its length (the fourth vector after the header), and patch it.
+    size_t at = 8 + 8 + 4 + 8;
+    for (int v = 0; v < 3; ++v) { // binds, input_to_welded, offset
+      std::uint64_t n = 0;
+      std::memcpy(&n, good.data() + at, 8);
+      at += 8 + n * (v == 0 ? 8 : 4);
+    }
+    std::uint64_t n = 0;
+    std::memcpy(&n, good.data() + at, 8);
+    ASSERT_GT(n, 0u);
+    const int huge = 1 << 30;
+    std::memcpy(joint_out_of_range.data() + at + 8, &huge, 4);
+    refix_checksum(joint_out_of_range);
+  }
+  for (const std::string& damaged : {flipped, good.substr(0, good.size() / 3), joint_out_of_range}) {
+    rewrite(damaged);
+    bool reused = true;
+    const Binding again = bind_cached(m, make_tube_net(), {}, path, &reused);
+    EXPECT_FALSE(reused);
+    EXPECT_NE(std::find_if(again.report().notes.begin(), again.report().notes.end(),
+                           [](const std::string& n) { return n.find("damaged") != std::string::npos; }),
+              again.report().notes.end());
+    const auto a = deform(fresh, pose), b = deform(again, pose);
+    for (size_t i = 0; i < a.size(); ++i)
+      ASSERT_EQ(a[i], b[i]);
+  }
 }
 
 TEST(Deform, HandClipsFollowTheSkeleton) {

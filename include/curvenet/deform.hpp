@@ -80,6 +80,7 @@ public:
   void save(const std::string& path) const;
 
 private:
+  friend Binding bind_cached(const SurfaceMesh&, const Rig&, const struct BindOptions&, const std::string&, bool*);
   std::shared_ptr<const Impl> impl_;
 };
 

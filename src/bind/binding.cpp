@@ -21,6 +21,8 @@
 #include <fstream>
 #include <numeric>
 #include <sstream>
+#include <type_traits>
+#include <string_view>
 
 namespace curvenet {
 
@@ -113,7 +115,14 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   return h;
 }
 
-constexpr char kMagic[8] = {'C', 'N', 'B', 'I', 'N', 'D', '0', '1'};
+constexpr char kMagic[8] = {'C', 'N', 'B', 'I', 'N', 'D', '0', '2'};
+
+std::uint64_t checksum(const char* data, size_t n) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (size_t i = 0; i < n; ++i)
+    h = (h ^ static_cast<unsigned char>(data[i])) * 1099511628211ULL;
+  return h;
+}
 
 template <class T>
 void put(std::string& out, const std::vector<T>& v) {
@@ -122,13 +131,62 @@ void put(std::string& out, const std::vector<T>& v) {
   out.append(reinterpret_cast<const char*>(v.data()), n * sizeof(T));
 }
 
-template <class T>
-bool get(std::istream& in, std::vector<T>& v) {
-  std::uint64_t n = 0;
-  if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n > (1ULL << 34) / sizeof(T))
-    return false;
-  v.resize(n);
-  return static_cast<bool>(in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(n * sizeof(T))));
+/// Reads a cache file from memory: every read is bounded by what is left.
+class CacheReader {
+public:
+  explicit CacheReader(std::string_view data) : data_(data) {}
+  template <class T> bool value(T& v) {
+    if (data_.size() - at_ < sizeof(T))
+      return false;
+    std::memcpy(&v, data_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    return true;
+  }
+  template <class T> bool vector(std::vector<T>& v) {
+    std::uint64_t n = 0;
+    if (!value(n) || n > (data_.size() - at_) / sizeof(T))
+      return false;
+    v.resize(n);
+    std::memcpy(v.data(), data_.data() + at_, n * sizeof(T));
+    at_ += n * sizeof(T);
+    return true;
+  }
+
+private:
+  std::string_view data_;
+  size_t at_ = 0;
+};
+
+/// The tables of a binding read from a cache are consistent with the mesh
+/// and the rig: sizes, offsets, joint indices, finite numbers. A cache that
+/// fails any of these is rebuilt.
+bool consistent(const Binding::Impl& b, const SurfaceMesh& mesh, size_t joints) {
+  const size_t nv = static_cast<size_t>(mesh.num_vertices());
+  auto offsets_ok = [](const std::vector<int>& off, size_t rows, size_t items) {
+    if (off.size() != rows + 1 || off.front() != 0 || static_cast<size_t>(off.back()) != items)
+      return false;
+    for (size_t i = 0; i + 1 < off.size(); ++i)
+      if (off[i] > off[i + 1])
+        return false;
+    return true;
+  };
+  auto joints_ok = [joints](const std::vector<int>& js) {
+    return std::all_of(js.begin(), js.end(), [joints](int j) { return j >= 0 && static_cast<size_t>(j) < joints; });
+  };
+  auto finite = [](const auto& v) {
+    return std::all_of(v.begin(), v.end(), [](const auto& x) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(x)>, double>)
+        return std::isfinite(x);
+      else
+        return x.allFinite();
+    });
+  };
+  const size_t nc = b.c_rest.size();
+  return b.input_to_welded == mesh.input_to_welded && offsets_ok(b.offset, nv, b.joint.size()) &&
+         b.s.size() == b.joint.size() && b.Y.size() == b.joint.size() && b.delta.size() == nv && joints_ok(b.joint) &&
+         finite(b.s) && finite(b.Y) && finite(b.delta) && std::isfinite(b.horn_tolerance) &&
+         (nc == 0 ? b.c_offset.size() <= 1 : offsets_ok(b.c_offset, nc, b.c_joint.size())) &&
+         b.c_weight.size() == b.c_joint.size() && joints_ok(b.c_joint) && finite(b.c_rest) && finite(b.c_weight);
 }
 
 } // namespace
@@ -155,27 +213,42 @@ void Binding::save(const std::string& path) const {
   put(out, b.c_offset);
   put(out, b.c_joint);
   put(out, b.c_weight);
+  // A checksum of everything before it, last.
+  const std::uint64_t sum = checksum(out.data(), out.size());
+  out.append(reinterpret_cast<const char*>(&sum), sizeof(sum));
   write_file_atomic(path, out);
 }
 
 Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt, const std::string& path, bool* reused) {
   const std::uint64_t fp = fingerprint(mesh, rig, opt);
-  std::ifstream in(path, std::ios::binary);
-  if (in) {
-    char magic[sizeof(kMagic)];
-    std::uint64_t file_fp = 0;
+  std::string note;
+  if (std::ifstream in{path, std::ios::binary}) {
+    std::ostringstream text;
+    text << in.rdbuf();
+    const std::string data = text.str();
     auto impl = std::make_shared<Binding::Impl>();
+    char magic[sizeof(kMagic)];
+    std::uint64_t file_fp = 0, sum = 0;
     int mode = 0;
     std::vector<double> binds;
-    bool ok = in.read(magic, sizeof(magic)) && std::memcmp(magic, kMagic, sizeof(kMagic)) == 0 &&
-              in.read(reinterpret_cast<char*>(&file_fp), sizeof(file_fp)) && file_fp == fp &&
-              in.read(reinterpret_cast<char*>(&mode), sizeof(mode)) &&
-              in.read(reinterpret_cast<char*>(&impl->horn_tolerance), sizeof(double)) && get(in, binds) &&
-              get(in, impl->input_to_welded) && get(in, impl->offset) && get(in, impl->joint) && get(in, impl->s) &&
-              get(in, impl->Y) && get(in, impl->delta) && get(in, impl->c_rest) && get(in, impl->c_offset) &&
-              get(in, impl->c_joint) && get(in, impl->c_weight);
-    ok = ok && binds.size() == 16 * rig.joints.size() && impl->input_to_welded == mesh.input_to_welded &&
-         impl->offset.size() == static_cast<size_t>(mesh.num_vertices()) + 1;
+    // The fingerprint as written, to tell a damaged cache from another one.
+    if (data.size() >= sizeof(kMagic) + sizeof(file_fp))
+      std::memcpy(&file_fp, data.data() + sizeof(kMagic), sizeof(file_fp));
+    const std::uint64_t written_fp = file_fp;
+    bool ok = data.size() > sizeof(sum);
+    if (ok) {
+      std::memcpy(&sum, data.data() + data.size() - sizeof(sum), sizeof(sum));
+      ok = sum == checksum(data.data(), data.size() - sizeof(sum));
+    }
+    CacheReader r(std::string_view(data).substr(0, ok ? data.size() - sizeof(sum) : 0));
+    ok = ok && r.value(magic) && std::memcmp(magic, kMagic, sizeof(kMagic)) == 0 && r.value(file_fp) &&
+         file_fp == fp && r.value(mode) && (mode == 0 || mode == 1) && r.value(impl->horn_tolerance) &&
+         r.vector(binds) && r.vector(impl->input_to_welded) && r.vector(impl->offset) && r.vector(impl->joint) &&
+         r.vector(impl->s) && r.vector(impl->Y) && r.vector(impl->delta) && r.vector(impl->c_rest) &&
+         r.vector(impl->c_offset) && r.vector(impl->c_joint) && r.vector(impl->c_weight);
+    ok = ok && binds.size() == 16 * rig.joints.size() &&
+         std::all_of(binds.begin(), binds.end(), [](double x) { return std::isfinite(x); }) &&
+         consistent(*impl, mesh, rig.joints.size());
     if (ok) {
       impl->fingerprint = fp;
       impl->mode = static_cast<RigidMode>(mode);
@@ -194,9 +267,14 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
         *reused = true;
       return Binding(impl);
     }
+    // Another mesh, rig or options, or a damaged file: bind afresh.
+    note = written_fp == fp ? "the binding cache " + path + " was damaged (its checksum or tables are wrong); rebuilt it"
+                         : "the binding cache " + path + " was made for another mesh, rig or options; rebuilt it";
   }
   Binding b = bind(mesh, rig, opt);
   b.save(path);
+  if (!note.empty())
+    std::const_pointer_cast<Binding::Impl>(b.impl_)->report.notes.push_back(note);
   if (reused)
     *reused = false;
   return b;
