@@ -396,3 +396,51 @@ TEST(Embed, LocalNetOnAnOpenSurfaceCountsCycles) {
   expect_counts(e.report(), 4, 5, 2); // E - V + C = 5 - 4 + 1
   EXPECT_GT(e.report().outside_faces, 0);
 }
+
+TEST(Embed, TheSameEmbeddingAtEveryScale) {
+  // Tolerances are relative: the tube net on a tube scaled by 1e-30 to 1e30
+  // gives the same counts, the same regions and the same cut.
+  const Rig rig = make_tube_net();
+  auto scaled = [](const Rig& r, double s) {
+    Rig out = r;
+    for (auto& n : out.nodes)
+      n.position *= s;
+    for (auto& p : out.profiles)
+      for (auto& q : p.curve.points)
+        q *= s;
+    for (auto& j : out.joints)
+      j.bind.block<3, 1>(0, 3) *= s;
+    return out;
+  };
+  const Embedding unit = embed(test::tube(16, 12, 4, true), rig);
+  for (const double s : {1e-30, 1e-12, 1e12, 1e30}) {
+    SCOPED_TRACE("scale " + std::to_string(s));
+    Mat4 m = Mat4::Identity();
+    m.topLeftCorner<3, 3>() *= s;
+    const Embedding e = embed(test::tube(16, 12, 4, true, m), scaled(rig, s));
+    expect_counts(e.report(), 14, 28, 16);
+    EXPECT_EQ(e.report().cut_vertices, unit.report().cut_vertices);
+    EXPECT_EQ(e.report().crossings, unit.report().crossings);
+    EXPECT_EQ(e.face_regions(), unit.face_regions());
+    EXPECT_LE(e.report().fidelity_max, e.report().fidelity_tolerance);
+  }
+}
+
+TEST(Embed, ARigFarOffTheMeshSaysByHowMuch) {
+  // A rig a million times bigger than its mesh (another unit): refused,
+  // with the distance, not as crossing profiles or nodes on one vertex.
+  Rig rig = make_tube_net();
+  for (auto& n : rig.nodes)
+    n.position *= 1e6;
+  for (auto& p : rig.profiles)
+    for (auto& q : p.curve.points)
+      q *= 1e6;
+  try {
+    embed(test::tube(16, 12, 4, true), rig);
+    FAIL() << "a rig 1e6 times too big was embedded";
+  } catch (const EmbedError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("% of the diagonal off the surface"), std::string::npos) << what;
+    EXPECT_EQ(what.find("cross"), std::string::npos) << what;
+  }
+}

@@ -12,7 +12,8 @@ namespace curvenet {
 /// The cage refined `levels` times (all quads after the first level).
 /// Boundaries keep their edges (OpenSubdiv's "edge only" rule). The result's
 /// `source` names the cage and the level.
-/// \throw InputError when levels is not between 1 and 6.
+/// \throw InputError when levels is not between 1 and 6, or when the result
+///   would have more than 20 million faces (checked before it is made).
 SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels);
 
 } // namespace curvenet

@@ -42,6 +42,12 @@ struct Tolerances {
   /// A rig's frame is a similarity when M^T M = s^2 I to this relative error.
   static constexpr double similarity_rel = 1e-6;
 
+  /// A node placed farther than this (relative to the diagonal) from where
+  /// the rig puts it is refused: the rig is for another mesh, or scale.
+  static constexpr double max_node_offset_rel = 0.25;
+  /// Embeddings estimated to need more samples than this are refused up front.
+  static constexpr long long max_samples = 20'000'000;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
   [[nodiscard]] double fidelity() const { return fidelity_rel * diagonal; }

@@ -142,7 +142,34 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     in.node_ids.push_back(n.id);
     in.node_points.push_back(place_node(tm, apply(rig.frame, n.position), tol));
   }
+  // A rig for another mesh, or in other units, says by how much it is off.
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    const double off = (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).norm();
+    if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
+      std::ostringstream msg;
+      msg << "embed: node '" << rig.nodes[i].id << "' lies " << std::setprecision(3) << 100 * off / tol.diagonal
+          << "% of the diagonal off the surface (is the rig made for this mesh, in its units and space?)";
+      throw EmbedError(msg.str());
+    }
+  }
   const int np = static_cast<int>(rig.profiles.size());
+  if (!(options.density > 0 && options.density <= 1000))
+    throw InputError("density", std::to_string(options.density), "must be a finite number in (0, 1000]");
+  {
+    // The work up front: about length * density / mean edge samples.
+    double estimate = 0;
+    for (const Profile& pr : rig.profiles) {
+      const std::vector<Vec3> dense = evaluate_dense(pr.curve);
+      double length = 0;
+      for (size_t k = 1; k < dense.size(); ++k)
+        length += (apply(rig.frame, dense[k]) - apply(rig.frame, dense[k - 1])).norm();
+      estimate += length * options.density / h + static_cast<double>(dense.size());
+    }
+    if (estimate > static_cast<double>(Tolerances::max_samples))
+      throw InputError("density", std::to_string(options.density),
+                       "the profiles would take about " + std::to_string(static_cast<long long>(estimate)) +
+                           " samples, more than the limit of " + std::to_string(Tolerances::max_samples));
+  }
   std::vector<TraceInput> tin(np);
   std::vector<ProfileCurve> curves(np);
   impl->sample_t.resize(np);

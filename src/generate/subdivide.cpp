@@ -9,6 +9,7 @@
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 
+#include <cmath>
 #include <memory>
 
 namespace curvenet {
@@ -16,6 +17,9 @@ namespace curvenet {
 namespace {
 
 using namespace OpenSubdiv;
+
+/// Refinements past this many faces are refused before they are made.
+constexpr long long kMaxRefinedFaces = 20'000'000;
 
 /// A position in the shape PrimvarRefiner interpolates.
 struct Point {
@@ -29,6 +33,13 @@ SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, 
                    std::vector<int>* base_face = nullptr) {
   if (levels < 1 || levels > 6)
     throw InputError(cage.source, "subdivision levels", "must be between 1 and 6, not " + std::to_string(levels));
+  // The size up front: an n-gon gives n quads, and each level 4 times as many.
+  const double faces = static_cast<double>(cage.face_vertices.size()) * std::pow(4.0, levels - 1);
+  if (faces > static_cast<double>(kMaxRefinedFaces))
+    throw InputError(cage.source, "subdivision levels",
+                     std::to_string(levels) + " levels would make " + std::to_string(static_cast<long long>(faces)) +
+                         " faces (about " + std::to_string(static_cast<long long>(faces * 200 / (1 << 20))) +
+                         " MB), more than the limit of " + std::to_string(kMaxRefinedFaces) + "; use fewer levels");
   std::vector<int> counts;
   for (int f = 0; f < cage.num_faces(); ++f)
     counts.push_back(static_cast<int>(cage.face(f).size()));

@@ -18,6 +18,12 @@ struct TraceMesh::Bvh {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   double slack = 0;
+  // Embree works in single precision: its vertices are the mesh's moved to
+  // the origin and divided by its size, so a mesh at 1e30 or 1e-30 builds
+  // the same tree (squares of 1e30 overflow a float).
+  Vec3 centre = Vec3::Zero();
+  double scale = 1;
+  [[nodiscard]] Vec3 to_unit(const Vec3& p) const { return (p - centre) / scale; }
   ~Bvh() {
     if (scene)
       rtcReleaseScene(scene);
@@ -33,7 +39,8 @@ struct QueryData {
   double best = std::numeric_limits<double>::infinity();
   int tri = -1;
   TriClosest hit{Vec3::Zero(), {0, 0, 0}};
-  double slack = 0;
+  double slack = 0; ///< in Embree's units
+  double scale = 1; ///< mesh units per Embree unit
 };
 
 bool point_query(RTCPointQueryFunctionArguments* args) {
@@ -48,7 +55,7 @@ bool point_query(RTCPointQueryFunctionArguments* args) {
     d->tri = t;
     d->hit = r;
     // Embree's boxes are in float: keep a little slack so no closer triangle is culled.
-    args->query->radius = static_cast<float>(dist + d->slack);
+    args->query->radius = static_cast<float>(dist / d->scale + d->slack);
     return true;
   }
   return false;
@@ -136,13 +143,22 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
   RTCGeometry geom = rtcNewGeometry(bvh_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                          3 * sizeof(float), mesh.positions.size()));
-  double scale = 0;
-  for (size_t v = 0; v < mesh.positions.size(); ++v)
-    for (int k = 0; k < 3; ++k) {
-      vb[3 * v + k] = static_cast<float>(mesh.positions[v][k]);
-      scale = std::max(scale, std::abs(mesh.positions[v][k]));
+  {
+    Vec3 lo = mesh.positions.empty() ? Vec3::Zero() : mesh.positions[0], hi = lo;
+    for (const auto& p : mesh.positions) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
     }
-  bvh_->slack = 1e-6 * (scale + 1e-300);
+    bvh_->centre = (lo + hi) / 2;
+    const double size = (hi - lo).norm();
+    bvh_->scale = size > 0 && std::isfinite(size) ? size : 1.0;
+  }
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Vec3 u = bvh_->to_unit(mesh.positions[v]);
+    for (int k = 0; k < 3; ++k)
+      vb[3 * v + k] = static_cast<float>(u[k]);
+  }
+  bvh_->slack = 1e-6; // the unit box: coordinates within 1 of the origin
   auto* ib = static_cast<unsigned*>(
       rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tri_.size()));
   for (size_t t = 0; t < tri_.size(); ++t)
@@ -228,10 +244,12 @@ std::vector<int> TraceMesh::faces_of(const SurfacePoint& p) const {
 TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
   QueryData data{this, q};
   data.slack = bvh_->slack;
+  data.scale = bvh_->scale;
   RTCPointQuery query;
-  query.x = static_cast<float>(q.x());
-  query.y = static_cast<float>(q.y());
-  query.z = static_cast<float>(q.z());
+  const Vec3 u = bvh_->to_unit(q);
+  query.x = static_cast<float>(u.x());
+  query.y = static_cast<float>(u.y());
+  query.z = static_cast<float>(u.z());
   query.time = 0.f;
   query.radius = std::numeric_limits<float>::infinity();
   RTCPointQueryContext context;
@@ -244,17 +262,18 @@ TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
 
 std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const Vec3& dir, double t_max,
                                                      const Vec3& facing) const {
-  double t_near = 0;
+  double t_near = 0; // in Embree's units
+  const Vec3 o = bvh_->to_unit(origin);
   for (int pass = 0; pass < 64; ++pass) { // each pass steps past one triangle facing away
     RTCRayHit rh{};
-    rh.ray.org_x = static_cast<float>(origin.x());
-    rh.ray.org_y = static_cast<float>(origin.y());
-    rh.ray.org_z = static_cast<float>(origin.z());
+    rh.ray.org_x = static_cast<float>(o.x());
+    rh.ray.org_y = static_cast<float>(o.y());
+    rh.ray.org_z = static_cast<float>(o.z());
     rh.ray.dir_x = static_cast<float>(dir.x());
     rh.ray.dir_y = static_cast<float>(dir.y());
     rh.ray.dir_z = static_cast<float>(dir.z());
     rh.ray.tnear = static_cast<float>(t_near);
-    rh.ray.tfar = static_cast<float>(t_max);
+    rh.ray.tfar = static_cast<float>(t_max / bvh_->scale);
     rh.ray.mask = 0xFFFFFFFFu;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -270,7 +289,7 @@ std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const V
       // plane, then the nearest point of the triangle to that.
       const auto& c = tri_[t];
       const double along = n.dot(dir);
-      double s = rh.ray.tfar;
+      double s = rh.ray.tfar * bvh_->scale;
       if (std::abs(along) > 1e-12)
         s = n.dot(position(c[0]) - origin) / along;
       const TriClosest cl = closest_on_triangle(origin + s * dir, position(c[0]), position(c[1]), position(c[2]));
