@@ -444,3 +444,27 @@ TEST(Embed, ARigFarOffTheMeshSaysByHowMuch) {
     EXPECT_EQ(what.find("cross"), std::string::npos) << what;
   }
 }
+
+TEST(Embed, MessagesSayWhatIsWrongInTheRiggersTerms) {
+  const SurfaceMesh quad = make_surface_mesh(test::grid(1, 1), "quad");
+  // A full-coverage net on a mesh with a hole: the mesh is open.
+  Rig full;
+  full.coverage = Coverage::Full;
+  full.nodes = {{"a", {0, 0.5, 0}}, {"b", {1, 0.5, 0}}};
+  full.profiles = {polyline("p", "a", "b", segment({0, 0.5, 0}, {1, 0.5, 0}))};
+  const EmbedReport r = embed(quad, full).report();
+  EXPECT_FALSE(r.ok);
+  ASSERT_FALSE(r.problems.empty());
+  EXPECT_EQ(r.problems[0], "the mesh is open (4 boundary edges): a full-coverage net needs a closed surface; use "
+                           "coverage local or auto");
+  // A loop at one node with no length: said so, not an internal fault.
+  Rig loop;
+  loop.nodes = {{"a", {0.5, 0.5, 0}}};
+  loop.profiles = {polyline("p", "a", "a", {{0.5, 0.5, 0}, {0.5, 0.5, 0}})};
+  try {
+    embed(quad, loop);
+    FAIL() << "a loop with no length was embedded";
+  } catch (const EmbedError& e) {
+    EXPECT_EQ(std::string(e.what()), "trace: profile 'p' is a loop at node 'a' that has no length on the surface");
+  }
+}

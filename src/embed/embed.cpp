@@ -16,6 +16,7 @@
 #include <exception>
 #include <iomanip>
 #include <numeric>
+#include <set>
 #include <sstream>
 
 namespace curvenet {
@@ -225,6 +226,10 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     if (e)
       std::rethrow_exception(e);
   for (int p = 0; p < np; ++p) {
+    const auto& pts = in.traces[p].points;
+    if (in.profile_from[p] == in.profile_to[p] && pts.size() <= 2)
+      throw EmbedError("trace: profile '" + in.profile_ids[p] + "' is a loop at node '" +
+                       in.node_ids[in.profile_from[p]] + "' that has no length on the surface");
     rep.samples += static_cast<int>(tin[p].samples.size());
     rep.refinements += in.traces[p].refinements;
   }
@@ -350,6 +355,14 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   for (int i = 0; i < V; ++i)
     if (!impl->result.node_vertex[i].is_valid())
       rep.notes.push_back("node '" + rig.nodes[i].id + "' has no profile and is not cut into the mesh");
+  if (cov == Coverage::Full && !all_closed) {
+    std::set<int> boundary; // input edges on the boundary
+    for (int hh = 0; hh < impl->cut.num_halfedges(); ++hh)
+      if (impl->cut.is_boundary(Halfedge(hh)))
+        boundary.insert(impl->cut.edge_origin(Halfedge(hh)));
+    rep.problems.push_back("the mesh is open (" + std::to_string(boundary.size()) +
+                           " boundary edges): a full-coverage net needs a closed surface; use coverage local or auto");
+  }
   if (rep.expected_regions && rep.regions != *rep.expected_regions)
     rep.problems.push_back("found " + std::to_string(rep.regions) + " regions, expected " +
                            std::to_string(*rep.expected_regions));
