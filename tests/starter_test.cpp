@@ -202,3 +202,18 @@ TEST(Starter, ACageWithFoldedQuadsAndPentagonsGetsANet) {
   EXPECT_GE(r.rings, 1);
   expect_embeds(cage, r.rig);
 }
+
+TEST(Starter, AFlatHierarchyIsNamedAndPointsToSkeleton) {
+  // Every joint a root, as some XR hand assets are: not "outside the mesh".
+  std::vector<Joint> flat = make_tube_skeleton({0.5, 1.5, 2.5});
+  for (auto& j : flat)
+    j.parent.reset();
+  try {
+    make_starter(tube(), flat);
+    FAIL() << "a flat hierarchy was accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("are all roots (a flat hierarchy"), std::string::npos) << what;
+    EXPECT_NE(what.find("--skeleton"), std::string::npos) << what;
+  }
+}

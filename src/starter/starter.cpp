@@ -197,6 +197,12 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     throw InputError(mesh.source, "skeleton", "has no joints");
   if (opt.nodes_per_ring < 2)
     throw Error("starter: at least 2 nodes per ring are needed");
+  if (joints.size() > 1 &&
+      std::all_of(joints.begin(), joints.end(), [](const Joint& j) { return !j.parent.has_value(); }))
+    throw InputError(mesh.source, "skeleton",
+                     "its " + std::to_string(joints.size()) +
+                         " joints are all roots (a flat hierarchy, as some XR hand assets have): the starter needs "
+                         "bones from parent to child; give a skeleton with --skeleton");
   StarterResult result;
   auto say = [&](const std::string& m) {
     result.messages.push_back(m);
