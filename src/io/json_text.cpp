@@ -28,9 +28,10 @@ struct Duplicate {
   std::string key, path;
 };
 
-/// Scans a text that parsed as JSON for a key that appears twice in one
-/// object, keeping the JSON path on the way.
-std::optional<Duplicate> find_duplicate_key(const std::string& t) {
+/// Walks a text that parsed as JSON, calling `visit(path, byte)` at the
+/// start of every value (and at every key, with the member's path), and
+/// reporting the first key that appears twice in one object.
+template <class Visit> std::optional<Duplicate> walk_json(const std::string& t, Visit&& visit) {
   struct Frame {
     bool object = false;
     std::set<std::string> keys;
@@ -46,9 +47,10 @@ std::optional<Duplicate> find_duplicate_key(const std::string& t) {
     const Frame& f = stack.back();
     return f.path + "/" + (f.object ? f.key : std::to_string(f.index));
   };
-  auto element_starts = [&]() { // a value begins in the current container
+  auto element_starts = [&](size_t at) { // a value begins in the current container
     if (!stack.empty() && !stack.back().object)
       ++stack.back().index;
+    visit(child_path(), at);
   };
   for (size_t i = 0; i < t.size(); ++i) {
     const char c = t[i];
@@ -67,11 +69,12 @@ std::optional<Duplicate> find_duplicate_key(const std::string& t) {
           return Duplicate{start, s, f.path + "/" + s};
         f.key = s;
         f.expect_key = false;
+        visit(f.path + "/" + s, start);
       } else {
-        element_starts();
+        element_starts(start);
       }
     } else if (c == '{' || c == '[') {
-      element_starts();
+      element_starts(i);
       Frame f;
       f.object = c == '{';
       f.path = child_path();
@@ -84,7 +87,7 @@ std::optional<Duplicate> find_duplicate_key(const std::string& t) {
         stack.back().expect_key = true;
     } else if (c != ':' && c != ' ' && c != '\n' && c != '\r' && c != '\t') {
       // A number, true, false or null: one element.
-      element_starts();
+      element_starts(i);
       while (i + 1 < t.size() && t[i + 1] != ',' && t[i + 1] != '}' && t[i + 1] != ']' && t[i + 1] != ' ' &&
              t[i + 1] != '\n' && t[i + 1] != '\r' && t[i + 1] != '\t')
         ++i;
@@ -114,10 +117,19 @@ nlohmann::ordered_json parse_json(const std::string& text, const std::string& so
                      "the number " + (token.empty() ? std::string("") : "'" + token + "' ") +
                          "is out of range (not a finite number)");
   }
-  if (const auto d = find_duplicate_key(text))
+  if (const auto d = walk_json(text, [](const std::string&, size_t) {}))
     throw InputError(source, d->path + " (" + line_column(text, d->byte) + ")",
                      "the key '" + d->key + "' appears twice in one object");
   return root;
+}
+
+std::string json_place(const std::string& text, const std::string& path) {
+  size_t found = std::string::npos;
+  walk_json(text, [&](const std::string& p, size_t at) {
+    if (found == std::string::npos && p == path)
+      found = at;
+  });
+  return found == std::string::npos ? std::string() : line_column(text, found);
 }
 
 long long json_integer(const nlohmann::ordered_json& j, const std::string& source, const std::string& path,

@@ -17,6 +17,10 @@ nlohmann::ordered_json parse_json(const std::string& text, const std::string& so
 /// The 1-based line and column of a byte offset in a text.
 std::string line_column(const std::string& text, size_t byte);
 
+/// "line L, column C" of the value at a JSON path ("/nodes/1/id") in a text
+/// that parses, or "" when there is none.
+std::string json_place(const std::string& text, const std::string& path);
+
 /// A JSON integer in [lo, hi], exactly (4294967297 is not 1).
 /// \throw InputError naming `source` and `path` otherwise.
 long long json_integer(const nlohmann::ordered_json& j, const std::string& source, const std::string& path,

@@ -40,10 +40,12 @@ namespace {
 
 class RigReader {
 public:
-  explicit RigReader(std::string source) : source_(std::move(source)) {}
+  RigReader(std::string source, const std::string& text) : source_(std::move(source)), text_(text) {}
 
+  /// The JSON path, and the line and column where that element starts.
   [[noreturn]] void fail(const std::string& path, const std::string& msg) const {
-    throw InputError(source_, path.empty() ? "/" : path, msg);
+    const std::string place = detail::json_place(text_, path);
+    throw InputError(source_, (path.empty() ? "/" : path) + (place.empty() ? "" : " (" + place + ")"), msg);
   }
 
   const Json& require(const Json& obj, const std::string& path, const char* key) const {
@@ -284,6 +286,7 @@ public:
 
 private:
   std::string source_;
+  const std::string& text_;
 };
 
 Json vec_json(const Eigen::Vector3d& p) {
@@ -306,7 +309,7 @@ Json matrix_json(const Mat4& m) {
 } // namespace
 
 Rig parse_rig(const std::string& text, const std::string& source) {
-  return RigReader(source).read(detail::parse_json(text, source));
+  return RigReader(source, text).read(detail::parse_json(text, source));
 }
 
 Rig read_rig(const std::string& path) {
