@@ -13,7 +13,9 @@ ctest --test-dir build --output-on-failure -j "$jobs"
 if [ "${CURVENET_SKIP_SANITIZERS:-0}" != "1" ]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCURVENET_SANITIZE=ON
   cmake --build build-asan -j "$jobs"
+  # The fuzzer (tests/fuzz_test.cpp) runs longer under the sanitizers.
   ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    CURVENET_FUZZ_ITERATIONS=15000 CURVENET_FUZZ_SECONDS=120 \
     ctest --test-dir build-asan --output-on-failure -j "$jobs"
 fi
 
