@@ -468,3 +468,15 @@ TEST(Embed, MessagesSayWhatIsWrongInTheRiggersTerms) {
     EXPECT_EQ(std::string(e.what()), "trace: profile 'p' is a loop at node 'a' that has no length on the surface");
   }
 }
+
+TEST(Embed, AnEmbeddingPastItsSampleLimitIsRefusedBeforeItStarts) {
+  EmbedOptions opt;
+  opt.max_samples = 1000;
+  try {
+    embed(test::tube(16, 12, 4, true), make_tube_net(), opt);
+    FAIL() << "the limit was not kept";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "density");
+    EXPECT_NE(std::string(e.what()).find("more than the limit of 1000 (--max-samples)"), std::string::npos) << e.what();
+  }
+}

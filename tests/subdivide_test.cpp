@@ -69,3 +69,15 @@ TEST(Subdivide, ACageRefinedMeetsItsRemesh) {
     EXPECT_LT(refined.max, bare.max / 2) << cage;
   }
 }
+
+TEST(Subdivide, ARefinementPastItsFaceLimitIsRefusedBeforeItIsMade) {
+  // A cube's 6 quads at 6 levels make 6 * 4^6 = 24,576 faces.
+  EXPECT_EQ(catmull_clark(cube(), 6).num_faces(), 24576);
+  try {
+    catmull_clark(cube(), 6, 10000);
+    FAIL() << "the limit was not kept";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("6 levels would make 24576 faces"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--max-faces"), std::string::npos) << e.what();
+  }
+}

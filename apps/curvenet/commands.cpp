@@ -107,6 +107,7 @@ int run_embed(const EmbedArgs& a) {
   const double load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   EmbedOptions opt;
   opt.density = a.density;
+  opt.max_samples = a.max_samples;
   if (!a.coverage.empty())
     opt.coverage = parse_coverage(a.coverage);
   opt.progress = [&](std::string_view s, double f) { progress(s, f); };
@@ -385,6 +386,7 @@ int run_transfer(const TransferArgs& a) {
     opt.target_frame = parse_matrix(a.target_frame, "--target-frame");
   opt.source_cage_levels = a.from_cage;
   opt.target_cage_levels = a.to_cage;
+  opt.max_faces = a.max_faces;
   const TransferResult r = transfer(rig, source, target, opt);
   const TransferReport& rep = r.report;
   OutputFiles files; // the report and the rig, all or nothing
@@ -421,7 +423,7 @@ int run_transfer(const TransferArgs& a) {
 
 int run_subdivide(const SubdivideArgs& a) {
   const SurfaceMesh cage = load_mesh(a.cage);
-  const SurfaceMesh s = catmull_clark(cage, a.levels);
+  const SurfaceMesh s = catmull_clark(cage, a.levels, a.max_faces);
   write_file_atomic(a.out, mesh_to_obj(s.positions, s.face_offsets, s.face_vertices));
   std::cout << "Catmull-Clark, " << a.levels << (a.levels == 1 ? " level: " : " levels: ") << cage.num_faces()
             << " faces -> " << s.num_faces() << " quads, " << s.num_vertices() << " vertices\n"

@@ -55,6 +55,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"full", "local", "auto"}));
   embed->add_option("--density", embed_args.density, "Profile samples per local edge length (rho), at most 1000")
       ->check(finite_in(0, 1000, true));
+  embed->add_option("--max-samples", embed_args.max_samples, "Refuse an embedding estimated to need more samples")
+      ->capture_default_str()
+      ->check(CLI::Range(1ll, 1'000'000'000ll));
   embed->add_flag("--progress,!--no-progress", embed_args.progress,
                   "Show progress on stderr (default: when stderr is a terminal)");
 
@@ -132,6 +135,9 @@ int main(int argc, char** argv) {
                        "The target is a Catmull-Clark cage: place the rig on its limit surface (refinement levels) and "
                        "carry it down to the cage")
       ->check(CLI::Range(1, 6));
+  transfer->add_option("--max-faces", transfer_args.max_faces, "Refuse refining a cage into more faces")
+      ->capture_default_str()
+      ->check(CLI::Range(1ll, 1'000'000'000ll));
   transfer->add_option("--target-frame", transfer_args.target_frame,
                        "4x4 matrix (16 numbers, row by row) from the target mesh's space to the world");
 
@@ -148,6 +154,9 @@ int main(int argc, char** argv) {
   subdivide->add_option("-o,--output", subdivide_args.out, "OBJ file to write")->required();
   subdivide->add_option("--levels", subdivide_args.levels, "Refinement levels")->capture_default_str()->check(
       CLI::Range(1, 6));
+  subdivide->add_option("--max-faces", subdivide_args.max_faces, "Refuse a refinement into more faces")
+      ->capture_default_str()
+      ->check(CLI::Range(1ll, 1'000'000'000ll));
 
   curvenet::cli::DemoArgs demo_args;
   auto* demo =

@@ -27,6 +27,9 @@ struct EmbedOptions {
   /// placed on, so the chains run straight inside them, and their fidelity
   /// is measured and reported but not enforced.
   bool cage = false;
+  /// Embeddings estimated to need more profile samples than this (length
+  /// times density over the mean edge length) are refused before they start.
+  long long max_samples = 20'000'000;
   /// Overrides the rig's coverage when set.
   std::optional<Coverage> coverage;
   /// Called with a stage name and the fraction done, for progress display.

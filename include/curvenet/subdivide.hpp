@@ -14,6 +14,6 @@ namespace curvenet {
 /// `source` names the cage and the level.
 /// \throw InputError when levels is not between 1 and 6, or when the result
 ///   would have more than 20 million faces (checked before it is made).
-SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels);
+SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces = 20'000'000);
 
 } // namespace curvenet

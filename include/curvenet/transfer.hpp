@@ -31,6 +31,8 @@ struct TransferOptions {
   /// The same for a source that is a cage: its rig is carried up to the
   /// limit surface before it is placed on the target.
   int source_cage_levels = 0;
+  /// A cage refined past this many faces is refused before it is made.
+  long long max_faces = 20'000'000;
   EmbedOptions embed;
 };
 

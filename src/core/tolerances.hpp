@@ -45,8 +45,6 @@ struct Tolerances {
   /// A node placed farther than this (relative to the diagonal) from where
   /// the rig puts it is refused: the rig is for another mesh, or scale.
   static constexpr double max_node_offset_rel = 0.25;
-  /// Embeddings estimated to need more samples than this are refused up front.
-  static constexpr long long max_samples = 20'000'000;
 
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }

@@ -166,10 +166,11 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
         length += (apply(rig.frame, dense[k]) - apply(rig.frame, dense[k - 1])).norm();
       estimate += length * options.density / h + static_cast<double>(dense.size());
     }
-    if (estimate > static_cast<double>(Tolerances::max_samples))
+    if (estimate > static_cast<double>(options.max_samples))
       throw InputError("density", std::to_string(options.density),
                        "the profiles would take about " + std::to_string(static_cast<long long>(estimate)) +
-                           " samples, more than the limit of " + std::to_string(Tolerances::max_samples));
+                           " samples, more than the limit of " + std::to_string(options.max_samples) +
+                           " (--max-samples)");
   }
   std::vector<TraceInput> tin(np);
   std::vector<ProfileCurve> curves(np);

@@ -16,6 +16,6 @@ struct CageRefinement {
 };
 
 /// \throw InputError when levels is not between 1 and 6, or the cage cannot be refined.
-CageRefinement refine_cage(const SurfaceMesh& cage, int levels);
+CageRefinement refine_cage(const SurfaceMesh& cage, int levels, long long max_faces);
 
 } // namespace curvenet::detail

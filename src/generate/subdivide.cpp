@@ -18,9 +18,6 @@ namespace {
 
 using namespace OpenSubdiv;
 
-/// Refinements past this many faces are refused before they are made.
-constexpr long long kMaxRefinedFaces = 20'000'000;
-
 /// A position in the shape PrimvarRefiner interpolates.
 struct Point {
   Vec3 p = Vec3::Zero();
@@ -29,17 +26,17 @@ struct Point {
 };
 
 /// The cage refined by `scheme`; `base_face` receives each refined face's cage face.
-SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, const char* name,
+SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, const char* name, long long max_faces,
                    std::vector<int>* base_face = nullptr) {
   if (levels < 1 || levels > 6)
     throw InputError(cage.source, "subdivision levels", "must be between 1 and 6, not " + std::to_string(levels));
   // The size up front: an n-gon gives n quads, and each level 4 times as many.
   const double faces = static_cast<double>(cage.face_vertices.size()) * std::pow(4.0, levels - 1);
-  if (faces > static_cast<double>(kMaxRefinedFaces))
+  if (faces > static_cast<double>(max_faces))
     throw InputError(cage.source, "subdivision levels",
                      std::to_string(levels) + " levels would make " + std::to_string(static_cast<long long>(faces)) +
                          " faces (about " + std::to_string(static_cast<long long>(faces * 200 / (1 << 20))) +
-                         " MB), more than the limit of " + std::to_string(kMaxRefinedFaces) + "; use fewer levels");
+                         " MB), more than the limit of " + std::to_string(max_faces) + " (--max-faces); use fewer levels");
   std::vector<int> counts;
   for (int f = 0; f < cage.num_faces(); ++f)
     counts.push_back(static_cast<int>(cage.face(f).size()));
@@ -90,16 +87,16 @@ SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, 
 
 } // namespace
 
-SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels) {
-  return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark");
+SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces) {
+  return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces);
 }
 
 namespace detail {
 
-CageRefinement refine_cage(const SurfaceMesh& cage, int levels) {
+CageRefinement refine_cage(const SurfaceMesh& cage, int levels, long long max_faces) {
   CageRefinement r;
-  r.limit = refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", &r.base_face);
-  r.flat = refine(cage, levels, Sdc::SCHEME_BILINEAR, "bilinear");
+  r.limit = refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces, &r.base_face);
+  r.flat = refine(cage, levels, Sdc::SCHEME_BILINEAR, "bilinear", max_faces);
   if (r.limit.positions.size() != r.flat.positions.size() || r.limit.face_vertices != r.flat.face_vertices)
     throw InputError(cage.source, "subdivision", "the two refinements of the cage do not share their vertices and faces");
   return r;

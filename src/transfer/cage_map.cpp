@@ -7,8 +7,8 @@
 
 namespace curvenet::detail {
 
-CageMap::CageMap(const SurfaceMesh& cage, int levels)
-    : r_(refine_cage(cage, levels)),
+CageMap::CageMap(const SurfaceMesh& cage, int levels, long long max_faces)
+    : r_(refine_cage(cage, levels, max_faces)),
       cage_tm_(std::make_unique<TraceMesh>(cage, CutMesh::from_surface(cage))),
       limit_tm_(std::make_unique<TraceMesh>(r_.limit, CutMesh::from_surface(r_.limit))),
       flat_tm_(std::make_unique<TraceMesh>(r_.flat, CutMesh::from_surface(r_.flat))) {

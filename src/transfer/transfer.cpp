@@ -266,9 +266,9 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   // Cages are placed from and onto through their limit surfaces.
   std::optional<CageMap> source_cage, target_cage;
   if (opt.source_cage_levels > 0)
-    source_cage.emplace(source, opt.source_cage_levels);
+    source_cage.emplace(source, opt.source_cage_levels, opt.max_faces);
   if (opt.target_cage_levels > 0)
-    target_cage.emplace(target, opt.target_cage_levels);
+    target_cage.emplace(target, opt.target_cage_levels, opt.max_faces);
   const SurfaceMesh& source_surface = source_cage ? source_cage->limit() : source;
   const SurfaceMesh& target_surface = target_cage ? target_cage->limit() : target;
   // The trace meshes: a cage map holds its own; a plain mesh gets one here.
