@@ -461,6 +461,7 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
   reference(in.from, 0, 0);
   Walker walker(mesh, in, mean_edge, tol, out);
   int pieces = 0;
+  const int refine_budget = 10'000 + 64 * n;
   auto tolerance_near = [&](const Vec3& a, const Vec3& b) {
     double t = in.tolerance > 0 ? in.tolerance : tol.fidelity();
     for (const Tightening& g : in.tighter)
@@ -487,7 +488,10 @@ TracedProfile trace_profile(const TraceMesh& mesh, const TraceInput& in, double 
         } catch (const EmbedError&) {
           failure = std::current_exception();
         }
-        const bool last_level = depth >= Tolerances::refine_depth || (b.pos - a.pos).norm() <= tol.floor();
+        // Bounded work: past a budget of midpoints per profile (a curve off
+        // the surface along a fold), walks stand and the fidelity check judges.
+        const bool last_level = depth >= Tolerances::refine_depth || (b.pos - a.pos).norm() <= tol.floor() ||
+                                out.refinements >= refine_budget;
         if (!failure) {
           std::vector<Vec3> piece{a.pos};
           for (size_t k = mark; k < out.points.size(); ++k)

@@ -182,6 +182,7 @@ Rig place_on_target(const Rig& rig, const TraceMesh& source, const TraceMesh& ta
   const Projector project(source, target, source_to_target, opt.max_offset * diag);
   Rig out = rig;
   out.frame = Mat4::Identity();
+  out.extensions.erase("x_cage"); // set again below when the target is a cage
   for (auto& j : out.joints)
     j.bind = to_target * j.bind;
   std::map<std::string, Vec3> node_at;
