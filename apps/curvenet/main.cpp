@@ -198,11 +198,13 @@ int main(int argc, char** argv) {
       return curvenet::cli::run_subdivide(subdivide_args);
     if (*demo)
       return curvenet::cli::run_demo(demo_args);
-  } catch (const curvenet::Error& e) {
-    std::cerr << "curvenet: error: " << e.what() << "\n";
-    return 2;
   } catch (const std::exception& e) {
-    std::cerr << "curvenet: error: " << e.what() << "\n";
+    // One line, whatever the message holds.
+    std::string what = e.what();
+    for (char& c : what)
+      if (c == '\n' || c == '\r')
+        c = ' ';
+    std::cerr << "curvenet: error: " << what << "\n";
     return 2;
   }
   return 2;

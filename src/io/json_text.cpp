@@ -58,10 +58,37 @@ template <class Visit> std::optional<Duplicate> walk_json(const std::string& t, 
       const size_t start = i;
       std::string s;
       for (++i; i < t.size() && t[i] != '"'; ++i) {
-        if (t[i] == '\\' && i + 1 < t.size())
-          s += t[++i]; // the escaped character, near enough for telling keys apart
-        else
+        if (t[i] != '\\' || i + 1 >= t.size()) {
           s += t[i];
+          continue;
+        }
+        // An escape, decoded as nlohmann decodes it (so paths match).
+        const char e = t[++i];
+        if (e == 'n')
+          s += '\n';
+        else if (e == 't')
+          s += '\t';
+        else if (e == 'r')
+          s += '\r';
+        else if (e == 'b')
+          s += '\b';
+        else if (e == 'f')
+          s += '\f';
+        else if (e == 'u' && i + 4 < t.size()) {
+          const unsigned cp = static_cast<unsigned>(std::stoul(t.substr(i + 1, 4), nullptr, 16));
+          i += 4;
+          if (cp < 0x80) {
+            s += static_cast<char>(cp);
+          } else if (cp < 0x800) {
+            s += static_cast<char>(0xC0 | (cp >> 6));
+            s += static_cast<char>(0x80 | (cp & 0x3F));
+          } else {
+            s += static_cast<char>(0xE0 | (cp >> 12));
+            s += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+            s += static_cast<char>(0x80 | (cp & 0x3F));
+          }
+        } else
+          s += e; // \" \\ \/
       }
       if (!stack.empty() && stack.back().object && stack.back().expect_key) {
         Frame& f = stack.back();

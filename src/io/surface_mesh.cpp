@@ -14,8 +14,34 @@
 
 namespace curvenet {
 
+namespace {
+/// One line: control characters from the input (a JSON key with a newline
+/// in it) are shown escaped.
+std::string one_line(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '\n')
+      out += "\\n";
+    else if (c == '\r')
+      out += "\\r";
+    else if (c == '\t')
+      out += "\\t";
+    else if (u < 0x20 || u == 0x7f) {
+      static const char* hex = "0123456789abcdef";
+      out += "\\x";
+      out += hex[u >> 4];
+      out += hex[u & 15];
+    } else
+      out += c;
+  }
+  return out;
+}
+} // namespace
+
 InputError::InputError(std::string file, std::string element, const std::string& message)
-    : Error(file + ": " + (element.empty() ? "" : element + ": ") + message), file_(std::move(file)),
+    : Error(one_line(file + ": " + (element.empty() ? "" : element + ": ") + message)), file_(std::move(file)),
       element_(std::move(element)) {}
 
 void RawMesh::add_face(std::span<const int> corners) {
