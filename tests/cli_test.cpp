@@ -196,7 +196,9 @@ TEST(Cli, StarterRefusesAMeshWithoutASkeleton) {
   write(dir / "far.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
     {"name":"a","parent":null,"bind":[1,0,0,100, 0,1,0,100, 0,0,1,0, 0,0,0,1]},
     {"name":"b","parent":"a","bind":[1,0,0,101, 0,1,0,100, 0,0,1,0, 0,0,0,1]}]}})");
-  r = run("starter " + (dir / "quad.obj").string() + " --skeleton " + (dir / "far.cnrig.json").string() + " -o " + out.string(), dir);
+  r = run("starter " + (dir / "quad.obj").string() + " --skeleton " + (dir / "far.cnrig.json").string() + " -o " +
+              out.string(),
+          dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("outside the mesh"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
@@ -231,13 +233,17 @@ TEST(Cli, PoseAndAnimateOnTheInputTopology) {
   EXPECT_NE(text.find("\nvt "), std::string::npos);
   EXPECT_NE(text.find("\nvn "), std::string::npos);
   // Bad input: a pose naming a joint the skeleton lacks.
-  write(dir / "bad.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{"NoSuchJoint":{"rotation":[1,0,0,0]}}})");
-  r = run("pose " + hand + " " + rig + " " + (dir / "bad.pose.json").string() + " -o " + (dir / "bad.obj").string(), dir);
+  write(dir / "bad.pose.json",
+        R"({"format":"curvenet-pose","version":1,"joints":{"NoSuchJoint":{"rotation":[1,0,0,0]}}})");
+  r = run("pose " + hand + " " + rig + " " + (dir / "bad.pose.json").string() + " -o " + (dir / "bad.obj").string(),
+          dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("NoSuchJoint"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "bad.obj"));
-  write(dir / "norm.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{"Wrist_L":{"rotation":[1,0.1,0,0]}}})");
-  r = run("pose " + hand + " " + rig + " " + (dir / "norm.pose.json").string() + " -o " + (dir / "bad.obj").string(), dir);
+  write(dir / "norm.pose.json",
+        R"({"format":"curvenet-pose","version":1,"joints":{"Wrist_L":{"rotation":[1,0.1,0,0]}}})");
+  r = run("pose " + hand + " " + rig + " " + (dir / "norm.pose.json").string() + " -o " + (dir / "bad.obj").string(),
+          dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("/joints/Wrist_L/rotation"), std::string::npos) << r.err;
 }
@@ -248,10 +254,12 @@ TEST(Cli, AnimationDoesNotDependOnTheThreadCount) {
   const auto dir = test::temp_dir("threads");
   const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
   ASSERT_EQ(run("starter " + gltf + " --rings-per-bone 2 -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
-  const std::string args = "animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " --frames 0:40 -o ";
+  const std::string args =
+      "animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " --frames 0:40 -o ";
   ASSERT_EQ(run(args + (dir / "many.pc2").string(), dir).code, 0);
   // oneTBB follows the process's CPU affinity: one CPU, one worker.
-  const std::string one = "taskset -c 0 " + std::string(CURVENET_CLI) + " " + args + (dir / "one.pc2").string() + " >/dev/null";
+  const std::string one =
+      "taskset -c 0 " + std::string(CURVENET_CLI) + " " + args + (dir / "one.pc2").string() + " >/dev/null";
   ASSERT_EQ(std::system(one.c_str()), 0);
   std::ifstream a(dir / "many.pc2", std::ios::binary), b(dir / "one.pc2", std::ios::binary);
   const std::string sa((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
@@ -263,18 +271,19 @@ TEST(Cli, AnimationDoesNotDependOnTheThreadCount) {
 TEST(Cli, BlenderReadsThePointCache) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  ASSERT_EQ(std::system("command -v blender >/dev/null"), 0) << "blender is missing: scripts/install-deps.sh installs it";
+  ASSERT_EQ(std::system("command -v blender >/dev/null"), 0)
+      << "blender is missing: scripts/install-deps.sh installs it";
   const auto dir = test::temp_dir("blender");
   const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
   ASSERT_EQ(run("starter " + gltf + " --rings-per-bone 2 -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
   write(dir / "rest.pose.json", R"({"format":"curvenet-pose","version":1})");
-  ASSERT_EQ(run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + (dir / "rest.pose.json").string() + " -o " +
-                    (dir / "rest.obj").string(),
+  ASSERT_EQ(run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + (dir / "rest.pose.json").string() +
+                    " -o " + (dir / "rest.obj").string(),
                 dir)
                 .code,
             0);
-  const std::string common = "animate " + (dir / "rest.obj").string() + " " + (dir / "rs.cnrig.json").string() + " " + gltf +
-                             " --fps 24 --frames 10:14 ";
+  const std::string common = "animate " + (dir / "rest.obj").string() + " " + (dir / "rs.cnrig.json").string() + " " +
+                             gltf + " --fps 24 --frames 10:14 ";
   ASSERT_EQ(run(common + "-o " + (dir / "anim.pc2").string(), dir).code, 0);
   ASSERT_EQ(run(common + "--obj-sequence " + (dir / "seq").string(), dir).code, 0);
   // The frames really differ, so the frame mapping is tested too.
@@ -300,7 +309,8 @@ TEST(Cli, BlenderReadsThePointCache) {
   double err = 1, scale = 0;
   int frames = 0;
   fields >> tag >> k1 >> err >> k2 >> scale >> k3 >> frames;
-  std::printf("Blender Mesh Cache: largest difference %.3g (coordinates up to %.3g) over %d frames\n", err, scale, frames);
+  std::printf("Blender Mesh Cache: largest difference %.3g (coordinates up to %.3g) over %d frames\n", err, scale,
+              frames);
   EXPECT_EQ(frames, 5);
   EXPECT_LT(err, 1e-6 * scale);
 }
@@ -325,8 +335,8 @@ TEST(Cli, TransferAndCompare) {
   // The transferred rig embeds on the target as it is.
   EXPECT_EQ(run("embed " + tris.string() + " " + out.string(), dir).code, 0);
   // A frame that is not a matrix.
-  r = run("transfer " + (dir / "demo" / "tube.cnrig.json").string() + " --from " + quads.string() + " --to " + tris.string() +
-              " -o " + (dir / "bad.json").string() + " --target-frame 1,2,3",
+  r = run("transfer " + (dir / "demo" / "tube.cnrig.json").string() + " --from " + quads.string() + " --to " +
+              tris.string() + " -o " + (dir / "bad.json").string() + " --target-frame 1,2,3",
           dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--target-frame"), std::string::npos) << r.err;
@@ -360,7 +370,8 @@ TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
 
   // A two-joint spine along the fish (z), a starter net on the refined cage,
   // and its transfer to the triangle remesh.
-  write(dir / "spine.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
+  write(dir / "spine.cnrig.json",
+        R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
     {"name":"root","parent":null,"bind":[1,0,0,0, 0,1,0,0.2, 0,0,1,-1.05, 0,0,0,1]},
     {"name":"bend","parent":"root","bind":[1,0,0,0, 0,1,0,0.2, 0,0,1,-0.07, 0,0,0,1]}]}})");
   const fs::path rig = dir / "fish.cnrig.json";
@@ -369,8 +380,8 @@ TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
           dir);
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   const fs::path out = dir / "low.cnrig.json", report = dir / "low.json";
-  r = run("transfer " + rig.string() + " --from " + cage2.string() + " --to " + test::data("blub/fish_low_resolution.obj") +
-              " -o " + out.string() + " --report " + report.string(),
+  r = run("transfer " + rig.string() + " --from " + cage2.string() + " --to " +
+              test::data("blub/fish_low_resolution.obj") + " -o " + out.string() + " --report " + report.string(),
           dir);
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("surfaces apart before the transfer: "), std::string::npos) << r.out;
@@ -395,7 +406,8 @@ TEST(Cli, TransferToACageThroughItsLimitSurface) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const auto dir = test::temp_dir("to_cage");
-  write(dir / "spine.cnrig.json", R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
+  write(dir / "spine.cnrig.json",
+        R"({"format":"curvenet-rig","version":1,"nodes":[],"profiles":[],"skeleton":{"joints":[
     {"name":"root","parent":null,"bind":[1,0,0,0.03, 0,1,0,-0.86, 0,0,1,-0.09, 0,0,0,1]},
     {"name":"bend","parent":"root","bind":[1,0,0,0.03, 0,1,0,0.16, 0,0,1,-0.09, 0,0,0,1]}]}})");
   const fs::path rig = dir / "penguin.cnrig.json";
@@ -486,9 +498,11 @@ TEST(Cli, NumbersInOptionsAreWholeFiniteAndInRange) {
       {"embed " + mesh + " " + rig + " --density 1e6", "--density: '1e6' is outside (0, 1000]"},
       {"starter " + mesh + " -o x.json --first-angle inf", "--first-angle: 'inf' is not a finite number"},
       {"animate " + mesh + " " + rig + " c.glb --fps nan -o x.pc2", "--fps: 'nan' is not a finite number"},
-      {"transfer " + rig + " --from " + mesh + " --to " + mesh + " -o x.json --source-frame 1,0,0,0,0,0,0,0,0,0,1,0,0,0,0,1",
+      {"transfer " + rig + " --from " + mesh + " --to " + mesh +
+           " -o x.json --source-frame 1,0,0,0,0,0,0,0,0,0,1,0,0,0,0,1",
        "--source-frame: 1,0,0,0,0,0,0,0,0,0,1,0,0,0,0,1: the matrix is singular"},
-      {"transfer " + rig + " --from " + mesh + " --to " + mesh + " -o x.json --target-frame 1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,nan",
+      {"transfer " + rig + " --from " + mesh + " --to " + mesh +
+           " -o x.json --target-frame 1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,nan",
        "'nan' is not a finite number"},
       {"embed " + mesh, "RIG is required"},
   };
@@ -510,8 +524,8 @@ TEST(Cli, FramesAreTwoWholeNumbersAroundOneColon) {
   ASSERT_EQ(run("starter " + gltf + " -o " + (dir / "rs.cnrig.json").string(), dir).code, 0);
   for (const std::string frames : {"1.5:3y", "1:2:3", "0:1e3", "3:", ":4", "a:b", "5:2"}) {
     SCOPED_TRACE(frames);
-    const CliRun r = run("animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " --frames " + frames +
-                             " -o " + (dir / "x.pc2").string(),
+    const CliRun r = run("animate " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + gltf + " --frames " +
+                             frames + " -o " + (dir / "x.pc2").string(),
                          dir);
     EXPECT_EQ(r.code, 2);
     EXPECT_EQ(r.err.rfind("curvenet: error: --frames: " + frames + ": ", 0), 0u) << r.err;
@@ -531,8 +545,8 @@ TEST(Cli, APoseThatWouldWriteNonFiniteNumbersIsRefused) {
   for (const auto& j : rig.joints)
     joints += (joints.empty() ? "\"" : ",\"") + j.name + R"(":{"scale":[1e200,1e200,1e200]})";
   write(dir / "huge.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{)" + joints + "}}");
-  const CliRun r = run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " + (dir / "huge.pose.json").string() +
-                           " -o " + (dir / "out.obj").string(),
+  const CliRun r = run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " +
+                           (dir / "huge.pose.json").string() + " -o " + (dir / "out.obj").string(),
                        dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err.rfind("curvenet: error: " + (dir / "huge.pose.json").string() + ": vertex ", 0), 0u) << r.err;
@@ -553,7 +567,8 @@ TEST(Cli, MultipleOutputsAreAllOrNothingAndStaleTemporariesAreCleaned) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(report));
   // transfer: neither is the report when the rig cannot be written.
-  r = run("transfer " + rig + " --from " + mesh + " --to " + mesh + " --report " + report.string() + " -o " + bad.string(),
+  r = run("transfer " + rig + " --from " + mesh + " --to " + mesh + " --report " + report.string() + " -o " +
+              bad.string(),
           dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(report));

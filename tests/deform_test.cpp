@@ -29,7 +29,6 @@ using namespace curvenet;
 
 namespace {
 
-
 std::vector<Vec3> input_positions(const SurfaceMesh& m) {
   std::vector<Vec3> p;
   for (int w : m.input_to_welded)
@@ -311,7 +310,8 @@ TEST(Deform, HandClipsFollowTheSkeleton) {
       mean += (out[i] - lbs[i]).norm();
     }
     mean /= static_cast<double>(out.size());
-    std::printf("clip %-8s: mean distance from the file's own skinning %.3f%% of the diagonal\n", name, 100 * mean / diag);
+    std::printf("clip %-8s: mean distance from the file's own skinning %.3f%% of the diagonal\n", name,
+                100 * mean / diag);
     worst_mean = std::max(worst_mean, mean / diag);
   }
   EXPECT_LT(worst_mean, 0.05); // a sanity bound, not a target

@@ -48,8 +48,10 @@ long env_or(const char* name, long fallback) {
 
 /// One mutation of `s`, chosen by `rng`.
 void mutate(std::string& s, std::mt19937_64& rng) {
-  static const char* hostile[] = {"nan", "-nan", "inf", "1e999", "-1", "0", "-0", "2147483648", "4294967297",
-                                  "18446744073709551617", "1e-320", "999999999", "-2147483649", "3.5", "", "abc"};
+  static const char* hostile[] = {"nan",    "-nan",      "inf",         "1e999",      "-1",
+                                  "0",      "-0",        "2147483648",  "4294967297", "18446744073709551617",
+                                  "1e-320", "999999999", "-2147483649", "3.5",        "",
+                                  "abc"};
   auto pick = [&](size_t n) { return n == 0 ? size_t{0} : static_cast<size_t>(rng() % n); };
   switch (rng() % 7) {
   case 0: // flip a bit
@@ -124,12 +126,14 @@ TEST(Fuzz, ReadersReadOrRefuseEveryMutatedFile) {
     ts.along = 2;
     ts.cap_rings = 2;
     const RawMesh tube = make_capped_tube(ts);
-    write_file_atomic((dir / "seed_tube.obj").string(), mesh_to_obj(tube.positions, tube.face_offsets, tube.face_vertices));
+    write_file_atomic((dir / "seed_tube.obj").string(),
+                      mesh_to_obj(tube.positions, tube.face_offsets, tube.face_vertices));
     TubeNetSpec ns;
     ns.points_per_profile = 3;
     write_rig(make_tube_net(ns), (dir / "seed_net.cnrig.json").string());
-    write_file_atomic((dir / "seed.pose.json").string(),
-                      R"({"format":"curvenet-pose","version":1,"joints":{"j1":{"rotation":[0,0,0.38,0.92],"translation":[0,1,0],"scale":[1,1,1]}}})");
+    write_file_atomic(
+        (dir / "seed.pose.json").string(),
+        R"({"format":"curvenet-pose","version":1,"joints":{"j1":{"rotation":[0,0,0.38,0.92],"translation":[0,1,0],"scale":[1,1,1]}}})");
   }
   auto seeds_of = [&](const std::string& suffix, std::vector<fs::path> extra) {
     for (const char* sub : {"good", "bad"})
@@ -166,7 +170,8 @@ TEST(Fuzz, ReadersReadOrRefuseEveryMutatedFile) {
        }},
       {"rig", seeds_of(".cnrig.json", {dir / "seed_net.cnrig.json"}), ".cnrig.json",
        [](const std::string& p) { read_rig(p); }},
-      {"pose", seeds_of(".pose.json", {dir / "seed.pose.json"}), ".pose.json", [](const std::string& p) { read_pose(p); }},
+      {"pose", seeds_of(".pose.json", {dir / "seed.pose.json"}), ".pose.json",
+       [](const std::string& p) { read_pose(p); }},
   };
   const long iterations = env_or("CURVENET_FUZZ_ITERATIONS", 3000);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(env_or("CURVENET_FUZZ_SECONDS", 60));

@@ -68,7 +68,8 @@ double off_surface(const SurfaceMesh& mesh, const Rig& rig) {
     for (int f = 0; f < mesh.num_faces(); ++f) {
       const auto c = mesh.face(f);
       for (size_t k = 1; k + 1 < c.size(); ++k)
-        best = std::min(best, triangle_distance(q, mesh.positions[c[0]], mesh.positions[c[k]], mesh.positions[c[k + 1]]));
+        best =
+            std::min(best, triangle_distance(q, mesh.positions[c[0]], mesh.positions[c[k]], mesh.positions[c[k + 1]]));
     }
     worst = std::max(worst, best);
   }
@@ -168,7 +169,8 @@ TEST(Starter, HandGetsAConnectedNetWithRingsOnEveryFingerSegment) {
 TEST(Starter, CharactersGetNets) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  for (const char* f : {"cesium_man/CesiumMan.glb", "rigged_simple/RiggedSimple.glb", "rigged_simple/RiggedSimple.gltf"}) {
+  for (const char* f :
+       {"cesium_man/CesiumMan.glb", "rigged_simple/RiggedSimple.glb", "rigged_simple/RiggedSimple.gltf"}) {
     SCOPED_TRACE(f);
     const std::string path = test::data(f);
     const SurfaceMesh mesh = load_mesh(path);

@@ -12,7 +12,9 @@
 using namespace curvenet;
 
 namespace {
-SurfaceMesh cube() { return make_surface_mesh(test::box(), "cube"); }
+SurfaceMesh cube() {
+  return make_surface_mesh(test::box(), "cube");
+}
 } // namespace
 
 TEST(Subdivide, ACubeRefinesIntoQuadsThatStayClosedAndSymmetric) {

@@ -44,7 +44,7 @@ TEST(Weights, SegmentRuleSplitsAlongTheBone) {
 TEST(Weights, BlendZoneKeepsMidBoneRigidAndMeetsHalfWayAtJoints) {
   const auto joints = chain();
   EXPECT_NEAR(weight_of(auto_weights(joints, {1.5, 0.2, 0}), 1), 1.0, 1e-12); // mid-bone: its parent joint only
-  const auto at_joint = auto_weights(joints, {2.0, 0.3, 0});                      // at joint b
+  const auto at_joint = auto_weights(joints, {2.0, 0.3, 0});                  // at joint b
   EXPECT_NEAR(weight_of(at_joint, 1), 0.5, 1e-12);
   EXPECT_NEAR(weight_of(at_joint, 2), 0.5, 1e-12);
   // Continuous across the joint, and monotone inside the zone.
@@ -90,8 +90,8 @@ TEST(Weights, TheDefaultRuleFollowsTheHandsOwnSkinBetter) {
   segment.rule = WeightRule::Segment;
   const SkinComparison s = compare_with_skin(skin, raw.positions, poses, segment);
   const SkinComparison b = compare_with_skin(skin, raw.positions, poses, AutoWeightOptions{});
-  std::printf("hand, %d clips: mean distance from the skin: segment %.3g m, blend-zone %.3g m\n", skin.num_clips(), s.mean,
-              b.mean);
+  std::printf("hand, %d clips: mean distance from the skin: segment %.3g m, blend-zone %.3g m\n", skin.num_clips(),
+              s.mean, b.mean);
   EXPECT_EQ(AutoWeightOptions{}.rule, WeightRule::BlendZone);
   EXPECT_LT(b.mean, 0.5 * s.mean);
 }

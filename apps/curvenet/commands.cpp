@@ -1,5 +1,7 @@
 #include "commands.hpp"
 
+#include "core/matrix_checks.hpp"
+#include "core/numbers.hpp"
 #include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/embed.hpp"
@@ -11,12 +13,11 @@
 #include "curvenet/starter.hpp"
 #include "curvenet/subdivide.hpp"
 #include "curvenet/transfer.hpp"
-#include "core/matrix_checks.hpp"
 #include "generate/tube.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <cctype>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -256,10 +257,7 @@ int run_animate(const AnimateArgs& a) {
     // Exactly two whole numbers around one colon: "1.5:3y", "1:2:3" and
     // "0:1e3" are refused.
     const auto colon = a.frames.find(':');
-    auto whole = [&](std::string_view t, int& out) {
-      const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), out);
-      return !t.empty() && ec == std::errc() && end == t.data() + t.size();
-    };
+    auto whole = [](std::string_view t, int& out) { return detail::parse_whole(t, out); };
     const std::string_view text = a.frames;
     if (colon == std::string::npos || !whole(text.substr(0, colon), first) || !whole(text.substr(colon + 1), last))
       throw InputError("--frames", a.frames, "expected A:B, two whole frame numbers");
@@ -330,8 +328,9 @@ int run_animate(const AnimateArgs& a) {
           for (int c = 0; c < 3; ++c) {
             dst[3 * i + c] = static_cast<float>(out[i][c]);
             if (!std::isfinite(dst[3 * i + c]))
-              throw InputError(a.clip_file, "frame " + std::to_string(first + f) + " vertex " + std::to_string(i),
-                               "the pose moves it out of the range of a PC2 cache (single precision); nothing was written");
+              throw InputError(
+                  a.clip_file, "frame " + std::to_string(first + f) + " vertex " + std::to_string(i),
+                  "the pose moves it out of the range of a PC2 cache (single precision); nothing was written");
           }
       });
       pc2.write(reinterpret_cast<const char*>(data.data()),
@@ -357,9 +356,7 @@ Mat4 parse_matrix(const std::string& text, const char* option) {
   std::string token;
   while (in >> token) {
     double x = 0;
-    const char* b = token.data() + (token[0] == '+');
-    const auto [end, ec] = std::from_chars(b, token.data() + token.size(), x);
-    if (ec != std::errc() || end != token.data() + token.size() || !std::isfinite(x))
+    if (!detail::parse_finite(token, x))
       throw InputError(option, text, "'" + token + "' is not a finite number");
     v.push_back(x);
   }

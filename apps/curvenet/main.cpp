@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 
+#include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 
 #include <CLI/CLI.hpp>
@@ -26,9 +27,7 @@ CLI::Validator finite_in(double lo, double hi, bool lo_open = false) {
   return CLI::Validator(
       [lo, hi, lo_open, r = range.str()](std::string& text) -> std::string {
         double v = 0;
-        const char* b = text.data() + (!text.empty() && text[0] == '+');
-        const auto [end, ec] = std::from_chars(b, text.data() + text.size(), v);
-        if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
+        if (!curvenet::detail::parse_finite(text, v))
           return "'" + text + "' is not a finite number";
         if (v < lo || v > hi || (lo_open && v == lo))
           return "'" + text + "' is outside " + r;
@@ -63,7 +62,8 @@ int main(int argc, char** argv) {
 
   curvenet::cli::StarterArgs starter_args;
   auto* starter = app.add_subcommand("starter", "Generate a starter Curvenet from a mesh and its skeleton");
-  starter->add_option("MESH", starter_args.mesh, "Mesh file; its own skin gives the skeleton when it has one")->required();
+  starter->add_option("MESH", starter_args.mesh, "Mesh file; its own skin gives the skeleton when it has one")
+      ->required();
   starter->add_option("--skeleton", starter_args.skeleton, "Skeleton: a rig file, or a glTF/GLB file with a skin");
   starter->add_option("-o,--output", starter_args.out, "Rig file to write (.cnrig.json)")->required();
   starter->add_option("--nodes-per-ring", starter_args.nodes_per_ring, "Nodes on each ring")
@@ -72,8 +72,9 @@ int main(int argc, char** argv) {
   starter->add_option("--rings-per-bone", starter_args.rings_per_bone, "Rings per bone (one at its end joint)")
       ->capture_default_str()
       ->check(CLI::Range(1, 16));
-  starter->add_option("--first-angle", starter_args.first_angle,
-                      "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")
+  starter
+      ->add_option("--first-angle", starter_args.first_angle,
+                   "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")
       ->capture_default_str()
       ->check(finite_in(-360, 360));
   starter->add_option("--coverage", starter_args.coverage, "Coverage of the net")
@@ -83,7 +84,8 @@ int main(int argc, char** argv) {
   auto deform_options = [](CLI::App* cmd, curvenet::cli::DeformArgs& a) {
     cmd->add_option("MESH", a.mesh, "Mesh file")->required();
     cmd->add_option("RIG", a.rig, "Rig file (.cnrig.json)")->required();
-    cmd->add_option("--skeleton", a.skeleton, "Take the skeleton from this rig file or skinned glTF, joints matched by name");
+    cmd->add_option("--skeleton", a.skeleton,
+                    "Take the skeleton from this rig file or skinned glTF, joints matched by name");
     cmd->add_option("--laplacian", a.laplacian, "Laplacian of the cut mesh")
         ->capture_default_str()
         ->check(CLI::IsMember({"intrinsic", "uniform"}));
@@ -100,7 +102,8 @@ int main(int argc, char** argv) {
   bind->add_option("-o,--output", bind_args.out, "Rig file to write")->required();
 
   curvenet::cli::PoseArgs pose_args;
-  auto* pose = app.add_subcommand("pose", "Deform a mesh through its rig into one pose, written as OBJ on the input's topology");
+  auto* pose =
+      app.add_subcommand("pose", "Deform a mesh through its rig into one pose, written as OBJ on the input's topology");
   deform_options(pose, pose_args);
   pose->add_option("POSE", pose_args.pose, "Pose file (.pose.json)")->required();
   pose->add_option("-o,--output", pose_args.out, "OBJ file to write")->required();
@@ -110,17 +113,21 @@ int main(int argc, char** argv) {
   deform_options(animate, anim_args);
   animate->add_option("CLIP", anim_args.clip_file, "glTF or GLB file with skins and animations")->required();
   animate->add_option("--clip", anim_args.clip, "Clip name or index (default: the first)");
-  animate->add_option("--fps", anim_args.fps, "Frames per second")->capture_default_str()->check(finite_in(0, 10000, true));
+  animate->add_option("--fps", anim_args.fps, "Frames per second")
+      ->capture_default_str()
+      ->check(finite_in(0, 10000, true));
   animate->add_option("--frames", anim_args.frames, "Frames A:B, inclusive (default: the clip's range)");
   animate->add_option("--max-frames", anim_args.max_frames, "Refuse more frames than this")
       ->capture_default_str()
       ->check(CLI::Range(1ll, 100000000ll));
   auto* out_opt = animate->add_option("-o,--output", anim_args.out, "PC2 file to write");
-  auto* seq_opt = animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
+  auto* seq_opt =
+      animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
   out_opt->excludes(seq_opt);
 
   curvenet::cli::TransferArgs transfer_args;
-  auto* transfer = app.add_subcommand("transfer", "Transfer a rig to another mesh of the same character, by logical ids only");
+  auto* transfer =
+      app.add_subcommand("transfer", "Transfer a rig to another mesh of the same character, by logical ids only");
   transfer->add_option("RIG", transfer_args.rig, "Rig authored on the source mesh")->required();
   transfer->add_option("--from", transfer_args.from, "Source mesh")->required();
   transfer->add_option("--to", transfer_args.to, "Target mesh")->required();
@@ -128,12 +135,14 @@ int main(int argc, char** argv) {
   transfer->add_option("--report", transfer_args.report, "Write the transfer report as JSON");
   transfer->add_option("--source-frame", transfer_args.source_frame,
                        "4x4 matrix (16 numbers, row by row) from the source mesh's space to the world");
-  transfer->add_option("--from-cage", transfer_args.from_cage,
-                       "The source is a Catmull-Clark cage: carry the rig through its limit surface (refinement levels)")
+  transfer
+      ->add_option("--from-cage", transfer_args.from_cage,
+                   "The source is a Catmull-Clark cage: carry the rig through its limit surface (refinement levels)")
       ->check(CLI::Range(1, 6));
-  transfer->add_option("--to-cage", transfer_args.to_cage,
-                       "The target is a Catmull-Clark cage: place the rig on its limit surface (refinement levels) and "
-                       "carry it down to the cage")
+  transfer
+      ->add_option("--to-cage", transfer_args.to_cage,
+                   "The target is a Catmull-Clark cage: place the rig on its limit surface (refinement levels) and "
+                   "carry it down to the cage")
       ->check(CLI::Range(1, 6));
   transfer->add_option("--max-faces", transfer_args.max_faces, "Refuse refining a cage into more faces")
       ->capture_default_str()
@@ -142,18 +151,20 @@ int main(int argc, char** argv) {
                        "4x4 matrix (16 numbers, row by row) from the target mesh's space to the world");
 
   curvenet::cli::CompareArgs compare_args;
-  auto* compare = app.add_subcommand("compare", "Symmetric surface distance between two meshes (mean, RMS, max), point to surface");
+  auto* compare =
+      app.add_subcommand("compare", "Symmetric surface distance between two meshes (mean, RMS, max), point to surface");
   compare->add_option("A", compare_args.a, "First mesh (percentages are of its bounding-box diagonal)")->required();
   compare->add_option("B", compare_args.b, "Second mesh")->required();
   compare->add_flag("--json", compare_args.json, "Print JSON instead of text");
 
   curvenet::cli::SubdivideArgs subdivide_args;
-  auto* subdivide =
-      app.add_subcommand("subdivide", "Refine a control cage by Catmull-Clark into a mesh of its limit surface, as OBJ");
+  auto* subdivide = app.add_subcommand(
+      "subdivide", "Refine a control cage by Catmull-Clark into a mesh of its limit surface, as OBJ");
   subdivide->add_option("CAGE", subdivide_args.cage, "Cage mesh file")->required();
   subdivide->add_option("-o,--output", subdivide_args.out, "OBJ file to write")->required();
-  subdivide->add_option("--levels", subdivide_args.levels, "Refinement levels")->capture_default_str()->check(
-      CLI::Range(1, 6));
+  subdivide->add_option("--levels", subdivide_args.levels, "Refinement levels")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 6));
   subdivide->add_option("--max-faces", subdivide_args.max_faces, "Refuse a refinement into more faces")
       ->capture_default_str()
       ->check(CLI::Range(1ll, 1'000'000'000ll));

@@ -44,12 +44,12 @@ struct BindOptions {
 };
 
 struct BindReport {
-  int vertices = 0;            ///< input (welded) vertices
-  int constrained = 0;         ///< cut-mesh vertices on CutChains
-  int free = 0;                ///< cut-mesh vertices solved for
-  int rigid = 0;               ///< vertices of parts no profile touches
-  int influences = 0;          ///< joint influences over all input vertices
-  double mean_influences = 0;  ///< per input vertex
+  int vertices = 0;           ///< input (welded) vertices
+  int constrained = 0;        ///< cut-mesh vertices on CutChains
+  int free = 0;               ///< cut-mesh vertices solved for
+  int rigid = 0;              ///< vertices of parts no profile touches
+  int influences = 0;         ///< joint influences over all input vertices
+  double mean_influences = 0; ///< per input vertex
   int negative_weights_before = 0, negative_weights_after = 0, flips = 0;
   std::vector<std::pair<std::string, double>> timings_ms;
   std::vector<std::string> notes;

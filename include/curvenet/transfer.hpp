@@ -37,22 +37,22 @@ struct TransferOptions {
 };
 
 struct RegionAgreement {
-  std::string key; ///< the region's identity: its (profile, side) pairs
-  double area = 0; ///< on the target
+  std::string key;  ///< the region's identity: its (profile, side) pairs
+  double area = 0;  ///< on the target
   double agree = 0; ///< fraction of that area whose source region has the same identity
 };
 
 struct TransferReport {
   EmbedReport source, target;
   std::vector<RegionAgreement> regions;
-  double agreement = 0;   ///< over the whole target area
+  double agreement = 0;       ///< over the whole target area
   double max_node_offset = 0; ///< largest distance a node moved onto the target, as % of its diagonal
   /// How far apart the two surfaces are before anything is placed: the
   /// source mapped into the target's space against the target (percentages
   /// of the mapped source's diagonal); a cage counts by its limit surface. A transfer needs the same shape in
   /// the same pose; a large distance says why one fails.
   SurfaceDistance shape;
-  bool ok = false;        ///< the target embedding is ok with the same logical counts
+  bool ok = false; ///< the target embedding is ok with the same logical counts
   std::vector<std::string> problems;
 };
 

@@ -6,8 +6,8 @@
 
 #include "bind/laplacian.hpp"
 #include "curvenet/errors.hpp"
-#include "curvenet/pose.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
 #include "embed/embedding_impl.hpp"
 
 #include <Eigen/SVD>
@@ -16,13 +16,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <map>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <numeric>
 #include <sstream>
-#include <type_traits>
 #include <string_view>
+#include <type_traits>
 
 namespace curvenet {
 
@@ -30,7 +30,7 @@ using namespace detail;
 
 struct Binding::Impl {
   std::uint64_t fingerprint = 0; ///< of the mesh, rig and options it was made from
-  std::vector<Joint> joints; ///< mesh space
+  std::vector<Joint> joints;     ///< mesh space
   BindReport report;
   Embedding embedding{nullptr};
   std::map<std::string, std::map<std::string, double>> node_weights;
@@ -50,16 +50,26 @@ struct Binding::Impl {
 };
 
 Binding::Binding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
-const std::vector<Joint>& Binding::joints() const { return impl_->joints; }
-const BindReport& Binding::report() const { return impl_->report; }
-bool Binding::has_embedding() const { return impl_->embedding.has_impl(); }
+const std::vector<Joint>& Binding::joints() const {
+  return impl_->joints;
+}
+const BindReport& Binding::report() const {
+  return impl_->report;
+}
+bool Binding::has_embedding() const {
+  return impl_->embedding.has_impl();
+}
 const Embedding& Binding::embedding() const {
   if (!has_embedding())
     throw Error("this binding was read from a cache file and has no embedding");
   return impl_->embedding;
 }
-const std::map<std::string, std::map<std::string, double>>& Binding::node_weights() const { return impl_->node_weights; }
-int Binding::num_input_vertices() const { return static_cast<int>(impl_->input_to_welded.size()); }
+const std::map<std::string, std::map<std::string, double>>& Binding::node_weights() const {
+  return impl_->node_weights;
+}
+int Binding::num_input_vertices() const {
+  return static_cast<int>(impl_->input_to_welded.size());
+}
 
 Rig complete_weights(const Rig& rig, const AutoWeightOptions& options) {
   if (!rig.has_skeleton || rig.joints.empty())
@@ -108,7 +118,8 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   eat(mesh.input_to_welded.data(), mesh.input_to_welded.size() * sizeof(int));
   const std::string text = rig_to_json(rig);
   eat(text.data(), text.size());
-  const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid), static_cast<int>(opt.weights.rule)};
+  const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid),
+                         static_cast<int>(opt.weights.rule)};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -124,8 +135,7 @@ std::uint64_t checksum(const char* data, size_t n) {
   return h;
 }
 
-template <class T>
-void put(std::string& out, const std::vector<T>& v) {
+template <class T> void put(std::string& out, const std::vector<T>& v) {
   const std::uint64_t n = v.size();
   out.append(reinterpret_cast<const char*>(&n), sizeof(n));
   out.append(reinterpret_cast<const char*>(v.data()), n * sizeof(T));
@@ -219,7 +229,8 @@ void Binding::save(const std::string& path) const {
   write_file_atomic(path, out);
 }
 
-Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt, const std::string& path, bool* reused) {
+Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt, const std::string& path,
+                    bool* reused) {
   const std::uint64_t fp = fingerprint(mesh, rig, opt);
   std::string note;
   if (std::ifstream in{path, std::ios::binary}) {
@@ -241,11 +252,11 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
       ok = sum == checksum(data.data(), data.size() - sizeof(sum));
     }
     CacheReader r(std::string_view(data).substr(0, ok ? data.size() - sizeof(sum) : 0));
-    ok = ok && r.value(magic) && std::memcmp(magic, kMagic, sizeof(kMagic)) == 0 && r.value(file_fp) &&
-         file_fp == fp && r.value(mode) && (mode == 0 || mode == 1) && r.value(impl->horn_tolerance) &&
-         r.vector(binds) && r.vector(impl->input_to_welded) && r.vector(impl->offset) && r.vector(impl->joint) &&
-         r.vector(impl->s) && r.vector(impl->Y) && r.vector(impl->delta) && r.vector(impl->c_rest) &&
-         r.vector(impl->c_offset) && r.vector(impl->c_joint) && r.vector(impl->c_weight);
+    ok = ok && r.value(magic) && std::memcmp(magic, kMagic, sizeof(kMagic)) == 0 && r.value(file_fp) && file_fp == fp &&
+         r.value(mode) && (mode == 0 || mode == 1) && r.value(impl->horn_tolerance) && r.vector(binds) &&
+         r.vector(impl->input_to_welded) && r.vector(impl->offset) && r.vector(impl->joint) && r.vector(impl->s) &&
+         r.vector(impl->Y) && r.vector(impl->delta) && r.vector(impl->c_rest) && r.vector(impl->c_offset) &&
+         r.vector(impl->c_joint) && r.vector(impl->c_weight);
     ok = ok && binds.size() == 16 * rig.joints.size() &&
          std::all_of(binds.begin(), binds.end(), [](double x) { return std::isfinite(x); }) &&
          consistent(*impl, mesh, rig.joints.size());
@@ -260,7 +271,8 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
       }
       impl->report.vertices = mesh.num_vertices();
       impl->report.influences = static_cast<int>(impl->joint.size());
-      impl->report.mean_influences = mesh.num_vertices() > 0 ? static_cast<double>(impl->joint.size()) / mesh.num_vertices() : 0;
+      impl->report.mean_influences =
+          mesh.num_vertices() > 0 ? static_cast<double>(impl->joint.size()) / mesh.num_vertices() : 0;
       impl->report.notes.push_back("read from the binding cache " + path);
       impl->node_weights = complete_weights(rig, opt.weights).weights;
       if (reused)
@@ -268,8 +280,9 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
       return Binding(impl);
     }
     // Another mesh, rig or options, or a damaged file: bind afresh.
-    note = written_fp == fp ? "the binding cache " + path + " was damaged (its checksum or tables are wrong); rebuilt it"
-                         : "the binding cache " + path + " was made for another mesh, rig or options; rebuilt it";
+    note = written_fp == fp
+               ? "the binding cache " + path + " was damaged (its checksum or tables are wrong); rebuilt it"
+               : "the binding cache " + path + " was made for another mesh, rig or options; rebuilt it";
   }
   Binding b = bind(mesh, rig, opt);
   b.save(path);
@@ -418,7 +431,8 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
         }
       }
       rigid_joint_of_comp[comp[v]] = best;
-      rep.notes.push_back("a part of the mesh that no profile touches follows joint '" + impl->joints[best].name + "' rigidly");
+      rep.notes.push_back("a part of the mesh that no profile touches follows joint '" + impl->joints[best].name +
+                          "' rigidly");
     }
   }
   const int nf = static_cast<int>(free_vertices.size());
@@ -443,7 +457,8 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   if (nf > 0) {
     solver.compute(Lff);
     if (solver.info() != Eigen::Success)
-      throw EmbedError("bind: the harmonic system could not be factored (the Laplacian is singular on " + mesh.source + ")");
+      throw EmbedError("bind: the harmonic system could not be factored (the Laplacian is singular on " + mesh.source +
+                       ")");
   }
   lap("factor");
 

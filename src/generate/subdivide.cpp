@@ -36,7 +36,8 @@ SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, 
     throw InputError(cage.source, "subdivision levels",
                      std::to_string(levels) + " levels would make " + std::to_string(static_cast<long long>(faces)) +
                          " faces (about " + std::to_string(static_cast<long long>(faces * 200 / (1 << 20))) +
-                         " MB), more than the limit of " + std::to_string(max_faces) + " (--max-faces); use fewer levels");
+                         " MB), more than the limit of " + std::to_string(max_faces) +
+                         " (--max-faces); use fewer levels");
   std::vector<int> counts;
   for (int f = 0; f < cage.num_faces(); ++f)
     counts.push_back(static_cast<int>(cage.face(f).size()));
@@ -98,7 +99,8 @@ CageRefinement refine_cage(const SurfaceMesh& cage, int levels, long long max_fa
   r.limit = refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces, &r.base_face);
   r.flat = refine(cage, levels, Sdc::SCHEME_BILINEAR, "bilinear", max_faces);
   if (r.limit.positions.size() != r.flat.positions.size() || r.limit.face_vertices != r.flat.face_vertices)
-    throw InputError(cage.source, "subdivision", "the two refinements of the cage do not share their vertices and faces");
+    throw InputError(cage.source, "subdivision",
+                     "the two refinements of the cage do not share their vertices and faces");
   return r;
 }
 

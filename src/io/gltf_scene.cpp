@@ -9,8 +9,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <filesystem>
+#include <limits>
 
 namespace curvenet::detail {
 namespace {
@@ -49,14 +49,15 @@ struct AccessorReader {
     // within its view, every element within the accessor's part of it.
     const size_t buffer_size = buf.data.size();
     if (view.byteOffset > buffer_size || view.byteLength > buffer_size - view.byteOffset)
-      throw InputError(path, what, "buffer view " + std::to_string(acc.bufferView) + " reaches past the end of buffer " +
-                                       std::to_string(view.buffer));
+      throw InputError(path, what,
+                       "buffer view " + std::to_string(acc.bufferView) + " reaches past the end of buffer " +
+                           std::to_string(view.buffer));
     if (acc.byteOffset > view.byteLength)
       throw InputError(path, what, "accessor starts past the end of its buffer view");
     const size_t room = view.byteLength - acc.byteOffset;
     if (acc.count > 0 && (element > room || (acc.count - 1) > (room - element) / stride))
-      throw InputError(path, what, "accessor of " + std::to_string(acc.count) +
-                                       " elements reads past the end of its buffer view");
+      throw InputError(path, what,
+                       "accessor of " + std::to_string(acc.count) + " elements reads past the end of its buffer view");
     base = buf.data.data() + view.byteOffset + acc.byteOffset;
   }
 
@@ -176,7 +177,8 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
       const double v = ind.get(i, 0);
       if (v >= static_cast<double>(pos.count()))
         throw InputError(path, what + " index " + std::to_string(i),
-                         "refers to vertex " + std::to_string(static_cast<long>(v)) + " of " + std::to_string(pos.count()));
+                         "refers to vertex " + std::to_string(static_cast<long>(v)) + " of " +
+                             std::to_string(pos.count()));
       idx.push_back(static_cast<int>(v));
     }
   } else {
@@ -213,13 +215,14 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
     return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
   };
   if (m.defaultScene >= 0 && !in_range(m.defaultScene, m.scenes.size()))
-    throw InputError(path, "scene", "the default scene " + std::to_string(m.defaultScene) + " does not exist (the file has " +
-                                        std::to_string(m.scenes.size()) + ")");
+    throw InputError(path, "scene",
+                     "the default scene " + std::to_string(m.defaultScene) + " does not exist (the file has " +
+                         std::to_string(m.scenes.size()) + ")");
   for (size_t s = 0; s < m.scenes.size(); ++s)
     for (int n : m.scenes[s].nodes)
       if (!in_range(n, nodes))
-        throw InputError(path, "scene " + std::to_string(s), "refers to node " + std::to_string(n) + ", and there are " +
-                                                                 std::to_string(nodes));
+        throw InputError(path, "scene " + std::to_string(s),
+                         "refers to node " + std::to_string(n) + ", and there are " + std::to_string(nodes));
   // The hierarchy: children that exist, one parent each, and no cycle.
   std::vector<int> parent(nodes, -1);
   for (size_t i = 0; i < nodes; ++i) {
@@ -227,21 +230,25 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
     const std::string what = "node " + std::to_string(i);
     for (int c : node.children) {
       if (!in_range(c, nodes))
-        throw InputError(path, what, "has child " + std::to_string(c) + ", and there are " + std::to_string(nodes) + " nodes");
+        throw InputError(path, what,
+                         "has child " + std::to_string(c) + ", and there are " + std::to_string(nodes) + " nodes");
       if (c == static_cast<int>(i))
         throw InputError(path, what, "is its own child");
       if (parent[c] >= 0)
-        throw InputError(path, "node " + std::to_string(c), "has two parents (" + std::to_string(parent[c]) + " and " +
-                                                                std::to_string(i) + ")");
+        throw InputError(path, "node " + std::to_string(c),
+                         "has two parents (" + std::to_string(parent[c]) + " and " + std::to_string(i) + ")");
       parent[c] = static_cast<int>(i);
     }
     if (node.mesh >= 0 && !in_range(node.mesh, m.meshes.size()))
-      throw InputError(path, what, "refers to mesh " + std::to_string(node.mesh) + ", and there are " +
-                                       std::to_string(m.meshes.size()));
+      throw InputError(path, what,
+                       "refers to mesh " + std::to_string(node.mesh) + ", and there are " +
+                           std::to_string(m.meshes.size()));
     if (node.skin >= 0 && !in_range(node.skin, m.skins.size()))
-      throw InputError(path, what, "refers to skin " + std::to_string(node.skin) + ", and there are " +
-                                       std::to_string(m.skins.size()));
-    if (!(node.matrix.empty() || node.matrix.size() == 16) || !(node.translation.empty() || node.translation.size() == 3) ||
+      throw InputError(path, what,
+                       "refers to skin " + std::to_string(node.skin) + ", and there are " +
+                           std::to_string(m.skins.size()));
+    if (!(node.matrix.empty() || node.matrix.size() == 16) ||
+        !(node.translation.empty() || node.translation.size() == 3) ||
         !(node.rotation.empty() || node.rotation.size() == 4) || !(node.scale.empty() || node.scale.size() == 3))
       throw InputError(path, what, "matrix, translation, rotation or scale has the wrong number of values");
     if (!finite(node.matrix) || !finite(node.translation) || !finite(node.rotation) || !finite(node.scale))
@@ -256,20 +263,21 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
   auto accessor = [&](int a, const std::string& what, std::initializer_list<int> types,
                       std::initializer_list<int> components) {
     if (!in_range(a, m.accessors.size()))
-      throw InputError(path, what, "refers to accessor " + std::to_string(a) + ", and there are " +
-                                       std::to_string(m.accessors.size()));
+      throw InputError(path, what,
+                       "refers to accessor " + std::to_string(a) + ", and there are " +
+                           std::to_string(m.accessors.size()));
     const auto& acc = m.accessors[a];
     if (types.size() > 0 && std::find(types.begin(), types.end(), acc.type) == types.end())
       throw InputError(path, what, "accessor " + std::to_string(a) + " has the wrong type for it");
-    if (components.size() > 0 &&
-        std::find(components.begin(), components.end(), acc.componentType) == components.end())
+    if (components.size() > 0 && std::find(components.begin(), components.end(), acc.componentType) == components.end())
       throw InputError(path, what, "accessor " + std::to_string(a) + " has the wrong component type for it");
     AccessorReader check(m, a, path, what); // bounds
     return check.count();
   };
   using T = std::initializer_list<int>;
   const T floats{TINYGLTF_COMPONENT_TYPE_FLOAT};
-  const T uv_types{TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT};
+  const T uv_types{TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                   TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT};
   const T index_types{TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT};
   for (size_t mi = 0; mi < m.meshes.size(); ++mi)
@@ -283,7 +291,8 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
         else if (name == "TEXCOORD_0")
           accessor(a, w, {TINYGLTF_TYPE_VEC2}, uv_types);
         else if (name == "JOINTS_0")
-          accessor(a, w, {TINYGLTF_TYPE_VEC4}, {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+          accessor(a, w, {TINYGLTF_TYPE_VEC4},
+                   {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
         else if (name == "WEIGHTS_0")
           accessor(a, w, {TINYGLTF_TYPE_VEC4}, uv_types);
         else
@@ -298,14 +307,14 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
     std::vector<char> seen(nodes, 0);
     for (int j : skin.joints) {
       if (!in_range(j, nodes))
-        throw InputError(path, what, "joint node " + std::to_string(j) + " does not exist (there are " +
-                                         std::to_string(nodes) + " nodes)");
+        throw InputError(path, what,
+                         "joint node " + std::to_string(j) + " does not exist (there are " + std::to_string(nodes) +
+                             " nodes)");
       if (seen[j]++)
         throw InputError(path, what, "lists node " + std::to_string(j) + " twice");
     }
-    if (skin.inverseBindMatrices >= 0 &&
-        accessor(skin.inverseBindMatrices, what + " inverseBindMatrices", {TINYGLTF_TYPE_MAT4}, floats) <
-            skin.joints.size())
+    if (skin.inverseBindMatrices >= 0 && accessor(skin.inverseBindMatrices, what + " inverseBindMatrices",
+                                                  {TINYGLTF_TYPE_MAT4}, floats) < skin.joints.size())
       throw InputError(path, what, "inverseBindMatrices must hold one MAT4 per joint");
   }
   for (size_t ai = 0; ai < m.animations.size(); ++ai) {
@@ -314,7 +323,8 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
     for (size_t si = 0; si < anim.samplers.size(); ++si) {
       const auto& sampler = anim.samplers[si];
       const std::string w = what + " sampler " + std::to_string(si);
-      if (sampler.interpolation != "LINEAR" && sampler.interpolation != "STEP" && sampler.interpolation != "CUBICSPLINE")
+      if (sampler.interpolation != "LINEAR" && sampler.interpolation != "STEP" &&
+          sampler.interpolation != "CUBICSPLINE")
         throw InputError(path, w, "unknown interpolation '" + sampler.interpolation + "'");
       const size_t keys = accessor(sampler.input, w + " input", {TINYGLTF_TYPE_SCALAR}, floats);
       accessor(sampler.output, w + " output", {}, {});
@@ -332,7 +342,9 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
       const auto& acc = m.accessors[sampler.input];
       if (keys > 0 && acc.minValues.size() == 1 && acc.maxValues.size() == 1) {
         const double first = times.get(0, 0), end = times.get(keys - 1, 0);
-        auto near = [](double a, double b) { return std::abs(a - b) <= 1e-6 * std::max({1.0, std::abs(a), std::abs(b)}); };
+        auto near = [](double a, double b) {
+          return std::abs(a - b) <= 1e-6 * std::max({1.0, std::abs(a), std::abs(b)});
+        };
         if (!near(acc.minValues[0], first) || !near(acc.maxValues[0], end))
           throw InputError(path, w + " input",
                            "declares its times to run from " + std::to_string(acc.minValues[0]) + " to " +
@@ -344,11 +356,12 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
       const auto& ch = anim.channels[ci];
       const std::string w = what + " channel " + std::to_string(ci);
       if (!in_range(ch.sampler, anim.samplers.size()))
-        throw InputError(path, w, "refers to sampler " + std::to_string(ch.sampler) + ", and there are " +
-                                      std::to_string(anim.samplers.size()));
+        throw InputError(path, w,
+                         "refers to sampler " + std::to_string(ch.sampler) + ", and there are " +
+                             std::to_string(anim.samplers.size()));
       if (ch.target_node >= 0 && !in_range(ch.target_node, nodes))
-        throw InputError(path, w, "targets node " + std::to_string(ch.target_node) + ", and there are " +
-                                      std::to_string(nodes));
+        throw InputError(path, w,
+                         "targets node " + std::to_string(ch.target_node) + ", and there are " + std::to_string(nodes));
       const std::string& target = ch.target_path;
       if (target != "translation" && target != "rotation" && target != "scale" && target != "weights")
         throw InputError(path, w, "unknown target path '" + target + "'");
@@ -451,7 +464,8 @@ std::vector<Eigen::Matrix4d> inverse_bind_matrices(const GltfScene& scene) {
   if (skin.inverseBindMatrices >= 0) {
     AccessorReader acc(model, skin.inverseBindMatrices, scene.path, "skin inverseBindMatrices");
     if (acc.ncomp != 16 || acc.count() < skin.joints.size())
-      throw InputError(scene.path, "skin " + std::to_string(scene.skin), "inverseBindMatrices must hold one MAT4 per joint");
+      throw InputError(scene.path, "skin " + std::to_string(scene.skin),
+                       "inverseBindMatrices must hold one MAT4 per joint");
     for (size_t j = 0; j < out.size(); ++j)
       for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 4; ++r)
@@ -485,7 +499,7 @@ std::vector<Eigen::Matrix4d> node_world_matrices(const GltfScene& scene, int cli
         throw InputError(scene.path, what, "output has fewer values than the input has times");
       const int dim = ch.target_path == "rotation" ? 4 : 3;
       if (ch.target_path != "translation" && ch.target_path != "rotation" && ch.target_path != "scale")
-        continue; // morph weights do not move joints
+        continue;                            // morph weights do not move joints
       auto value = [&](size_t k, int slot) { // slot: 0 in-tangent, 1 value, 2 out-tangent (cubic only)
         Eigen::Vector4d v = Eigen::Vector4d::Zero();
         const size_t e = cubic ? 3 * k + slot : k;

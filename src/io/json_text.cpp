@@ -35,9 +35,9 @@ template <class Visit> std::optional<Duplicate> walk_json(const std::string& t, 
   struct Frame {
     bool object = false;
     std::set<std::string> keys;
-    std::string path;      // of this container
-    std::string key;       // the current member's key (objects)
-    long long index = -1;  // the current element (arrays)
+    std::string path;     // of this container
+    std::string key;      // the current member's key (objects)
+    long long index = -1; // the current element (arrays)
     bool expect_key = true;
   };
   std::vector<Frame> stack;

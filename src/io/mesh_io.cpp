@@ -14,10 +14,10 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cstdlib>
-#include <csignal>
-#include <cerrno>
 #include <cctype>
+#include <cerrno>
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -67,11 +67,15 @@ RawMesh read_obj(const std::string& path) {
   return raw;
 }
 
-RawMesh read_gltf(const std::string& path) { return detail::read_gltf_scene(path).mesh; }
+RawMesh read_gltf(const std::string& path) {
+  return detail::read_gltf_scene(path).mesh;
+}
 
 // ---- assimp --------------------------------------------------------------
 
-RawMesh read_assimp(const std::string& path) { return detail::read_assimp_scene(path).mesh; }
+RawMesh read_assimp(const std::string& path) {
+  return detail::read_assimp_scene(path).mesh;
+}
 
 } // namespace
 
@@ -119,7 +123,9 @@ namespace {
 
 constexpr const char* kTempTag = ".tmp-curvenet-";
 
-std::string temp_name(const std::string& path) { return path + kTempTag + std::to_string(::getpid()); }
+std::string temp_name(const std::string& path) {
+  return path + kTempTag + std::to_string(::getpid());
+}
 
 /// Removes DEST.tmp-curvenet-PID files whose process is gone: what a killed
 /// run left behind.
@@ -133,7 +139,8 @@ void remove_stale_temporaries(const std::filesystem::path& dest) {
     if (name.rfind(prefix, 0) != 0)
       continue;
     const std::string pid_text = name.substr(prefix.size());
-    if (pid_text.empty() || !std::all_of(pid_text.begin(), pid_text.end(), [](unsigned char c) { return std::isdigit(c); }))
+    if (pid_text.empty() ||
+        !std::all_of(pid_text.begin(), pid_text.end(), [](unsigned char c) { return std::isdigit(c); }))
       continue;
     const long pid = std::strtol(pid_text.c_str(), nullptr, 10);
     if (pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH))

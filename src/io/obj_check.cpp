@@ -1,5 +1,6 @@
 #include "io/obj_check.hpp"
 
+#include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 
 #include <charconv>
@@ -11,7 +12,9 @@
 namespace curvenet::detail {
 namespace {
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
 
 std::vector<std::string_view> tokens(std::string_view line) {
   std::vector<std::string_view> out;
@@ -29,21 +32,6 @@ std::vector<std::string_view> tokens(std::string_view line) {
   return out;
 }
 
-/// The whole token as a finite number, or nothing.
-bool number(std::string_view t, double& out) {
-  if (!t.empty() && t.front() == '+')
-    t.remove_prefix(1);
-  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), out, std::chars_format::general);
-  return ec == std::errc() && end == t.data() + t.size() && std::isfinite(out);
-}
-
-bool integer(std::string_view t, long long& out) {
-  if (!t.empty() && t.front() == '+')
-    t.remove_prefix(1);
-  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), out);
-  return ec == std::errc() && end == t.data() + t.size();
-}
-
 } // namespace
 
 ObjCounts check_obj(const std::string& path) {
@@ -57,9 +45,7 @@ ObjCounts check_obj(const std::string& path) {
   std::string largest_corner[3];
   std::string line;
   long long first_line = 0;
-  auto fail = [&](const std::string& what) {
-    throw InputError(path, "line " + std::to_string(first_line), what);
-  };
+  auto fail = [&](const std::string& what) { throw InputError(path, "line " + std::to_string(first_line), what); };
   // (No line continuations: tinyobjloader does not join lines either.)
   while (std::getline(in, line)) {
     ++first_line;
@@ -74,7 +60,7 @@ ObjCounts check_obj(const std::string& path) {
                std::to_string(least));
         for (size_t k = 1; k < t.size() && k <= most; ++k) {
           double x = 0;
-          if (!number(t[k], x))
+          if (!parse_finite(t[k], x))
             fail(std::string(what) + " coordinate '" + std::string(t[k]) + "' is not a finite number");
         }
       };
@@ -113,7 +99,7 @@ ObjCounts check_obj(const std::string& path) {
               continue;
             }
             long long i = 0;
-            if (!integer(part[q], i))
+            if (!parse_whole(part[q], i))
               fail("face corner '" + std::string(t[k]) + "': '" + std::string(part[q]) + "' is not an index");
             if (i == 0)
               fail("face corner '" + std::string(t[k]) + "' has index 0 (indices count from 1)");

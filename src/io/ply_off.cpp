@@ -8,6 +8,7 @@
 
 #include "io/ply_off.hpp"
 
+#include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 
 #include <algorithm>
@@ -32,7 +33,9 @@ std::string slurp(const std::string& path) {
   return s.str();
 }
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f'; }
+bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
 
 /// Whitespace-separated tokens of a text, from a position on; '#' starts a
 /// comment to the end of its line (OFF).
@@ -72,17 +75,10 @@ private:
 };
 
 bool parse_number(std::string_view t, double& out) {
-  if (!t.empty() && t.front() == '+')
-    t.remove_prefix(1);
-  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), out, std::chars_format::general);
-  return ec == std::errc() && end == t.data() + t.size() && std::isfinite(out);
+  return parse_finite(t, out);
 }
-
 bool parse_integer(std::string_view t, long long& out) {
-  if (!t.empty() && t.front() == '+')
-    t.remove_prefix(1);
-  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), out);
-  return ec == std::errc() && end == t.data() + t.size();
+  return parse_whole(t, out);
 }
 
 // ---- PLY -------------------------------------------------------------------
@@ -109,9 +105,9 @@ int type_size(Type t) {
 
 bool type_of(std::string_view name, Type& t) {
   static const std::pair<std::string_view, Type> names[] = {
-      {"char", Type::Int8},     {"int8", Type::Int8},       {"uchar", Type::UInt8},     {"uint8", Type::UInt8},
-      {"short", Type::Int16},   {"int16", Type::Int16},     {"ushort", Type::UInt16},   {"uint16", Type::UInt16},
-      {"int", Type::Int32},     {"int32", Type::Int32},     {"uint", Type::UInt32},     {"uint32", Type::UInt32},
+      {"char", Type::Int8},     {"int8", Type::Int8},       {"uchar", Type::UInt8},    {"uint8", Type::UInt8},
+      {"short", Type::Int16},   {"int16", Type::Int16},     {"ushort", Type::UInt16},  {"uint16", Type::UInt16},
+      {"int", Type::Int32},     {"int32", Type::Int32},     {"uint", Type::UInt32},    {"uint32", Type::UInt32},
       {"float", Type::Float32}, {"float32", Type::Float32}, {"double", Type::Float64}, {"float64", Type::Float64}};
   for (const auto& [n, type] : names)
     if (n == name) {
@@ -121,7 +117,9 @@ bool type_of(std::string_view name, Type& t) {
   return false;
 }
 
-bool is_integral(Type t) { return t != Type::Float32 && t != Type::Float64; }
+bool is_integral(Type t) {
+  return t != Type::Float32 && t != Type::Float64;
+}
 
 struct Property {
   std::string name;
@@ -171,14 +169,48 @@ public:
       std::reverse(b, b + n);
     double v = 0;
     switch (t) {
-    case Type::Int8: v = static_cast<std::int8_t>(b[0]); break;
-    case Type::UInt8: v = b[0]; break;
-    case Type::Int16: { std::int16_t x; std::memcpy(&x, b, 2); v = x; break; }
-    case Type::UInt16: { std::uint16_t x; std::memcpy(&x, b, 2); v = x; break; }
-    case Type::Int32: { std::int32_t x; std::memcpy(&x, b, 4); v = x; break; }
-    case Type::UInt32: { std::uint32_t x; std::memcpy(&x, b, 4); v = x; break; }
-    case Type::Float32: { float x; std::memcpy(&x, b, 4); v = x; break; }
-    case Type::Float64: { double x; std::memcpy(&x, b, 8); v = x; break; }
+    case Type::Int8:
+      v = static_cast<std::int8_t>(b[0]);
+      break;
+    case Type::UInt8:
+      v = b[0];
+      break;
+    case Type::Int16: {
+      std::int16_t x;
+      std::memcpy(&x, b, 2);
+      v = x;
+      break;
+    }
+    case Type::UInt16: {
+      std::uint16_t x;
+      std::memcpy(&x, b, 2);
+      v = x;
+      break;
+    }
+    case Type::Int32: {
+      std::int32_t x;
+      std::memcpy(&x, b, 4);
+      v = x;
+      break;
+    }
+    case Type::UInt32: {
+      std::uint32_t x;
+      std::memcpy(&x, b, 4);
+      v = x;
+      break;
+    }
+    case Type::Float32: {
+      float x;
+      std::memcpy(&x, b, 4);
+      v = x;
+      break;
+    }
+    case Type::Float64: {
+      double x;
+      std::memcpy(&x, b, 8);
+      v = x;
+      break;
+    }
     }
     if (!std::isfinite(v))
       throw InputError(path_, element, "a value is not a finite number");
@@ -280,8 +312,8 @@ RawMesh read_ply(const std::string& path) {
   // separator per value.
   const size_t data_bytes = text.size() - std::min(at, text.size());
   for (const Element& e : elements) {
-    const long long least = format == PlyData::Format::Ascii ? 2 * static_cast<long long>(e.properties.size())
-                                                              : e.min_bytes();
+    const long long least =
+        format == PlyData::Format::Ascii ? 2 * static_cast<long long>(e.properties.size()) : e.min_bytes();
     if (least > 0 && e.count > static_cast<long long>(data_bytes) / least)
       throw InputError(path, "element " + e.name,
                        "declares " + std::to_string(e.count) + " records, but the file's " +
@@ -330,12 +362,13 @@ RawMesh read_ply(const std::string& path) {
         }
         const double n = data.read(prop.count, where);
         if (n < 0 || n > static_cast<double>(data.remaining()))
-          throw InputError(path, where, "a list of " + std::to_string(static_cast<long long>(n)) +
-                                            " entries does not fit in the rest of the file");
+          throw InputError(path, where,
+                           "a list of " + std::to_string(static_cast<long long>(n)) +
+                               " entries does not fit in the rest of the file");
         const bool faces = is_face && static_cast<int>(k) == ifaces;
         if (faces && n < 3)
-          throw InputError(path, where, "a face has " + std::to_string(static_cast<long long>(n)) +
-                                            " corners, needs at least 3");
+          throw InputError(path, where,
+                           "a face has " + std::to_string(static_cast<long long>(n)) + " corners, needs at least 3");
         corners.clear();
         for (long long q = 0; q < static_cast<long long>(n); ++q) {
           const double v = data.read(prop.value, where);
@@ -343,8 +376,9 @@ RawMesh read_ply(const std::string& path) {
             if (vertices < 0)
               throw InputError(path, where, "faces come before the vertices");
             if (v < 0 || v >= static_cast<double>(vertices))
-              throw InputError(path, where, "refers to vertex " + std::to_string(static_cast<long long>(v)) +
-                                                ", and there are " + std::to_string(vertices));
+              throw InputError(path, where,
+                               "refers to vertex " + std::to_string(static_cast<long long>(v)) + ", and there are " +
+                                   std::to_string(vertices));
             corners.push_back(static_cast<int>(v));
           }
         }

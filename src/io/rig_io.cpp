@@ -1,9 +1,9 @@
 // The rig file format, version 1 (docs/rig-format.md): reading with
 // validation that names the JSON path of every fault, and writing.
 
+#include "core/matrix_checks.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
-#include "core/matrix_checks.hpp"
 #include "io/json_text.hpp"
 
 #include <nlohmann/json.hpp>
@@ -348,7 +348,8 @@ void check_finite(const Rig& rig) {
   for (const auto& [node, w] : rig.weights)
     for (const auto& [joint, v] : w)
       if (!std::isfinite(v))
-        throw Error("rig: the weight of node '" + node + "' for joint '" + joint + "' is not finite; nothing was written");
+        throw Error("rig: the weight of node '" + node + "' for joint '" + joint +
+                    "' is not finite; nothing was written");
 }
 } // namespace
 

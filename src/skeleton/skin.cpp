@@ -10,6 +10,7 @@
 #include <charconv>
 
 #include "core/matrix_checks.hpp"
+#include "core/numbers.hpp"
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -110,7 +111,8 @@ SkinnedMesh load_skinned_mesh(const std::string& path) {
       if (s < 0)
         continue;
       if (s >= nslots)
-        throw InputError(path, "vertex " + std::to_string(v), "JOINTS_0 names joint slot " + std::to_string(s) + " of " + std::to_string(nslots));
+        throw InputError(path, "vertex " + std::to_string(v),
+                         "JOINTS_0 names joint slot " + std::to_string(s) + " of " + std::to_string(nslots));
       out.vertex_joint[v][k] = joint_of_slot[s];
       out.vertex_weight[v][k] = scene->vertex_weight[v][k];
       sum += scene->vertex_weight[v][k];
@@ -131,8 +133,7 @@ int SkinnedMesh::find_clip(const std::string& key) const {
       return c;
   if (!key.empty() && std::all_of(key.begin(), key.end(), [](unsigned char ch) { return std::isdigit(ch); })) {
     long long i = 0;
-    const auto [end, ec] = std::from_chars(key.data(), key.data() + key.size(), i);
-    if (ec == std::errc() && end == key.data() + key.size() && i < num_clips())
+    if (detail::parse_whole(key, i) && i < num_clips())
       return static_cast<int>(i);
   }
   return -1;

@@ -49,8 +49,8 @@ struct Skeleton {
 /// A ring: a closed section around a limb (or around several, a trunk).
 struct Ring {
   std::string id;
-  int joint = -1;   ///< the joint whose plane made it
-  double frac = 1;  ///< where on the bone into `joint` (1: at the joint)
+  int joint = -1;  ///< the joint whose plane made it
+  double frac = 1; ///< where on the bone into `joint` (1: at the joint)
   Vec3 centre = Vec3::Zero();
   Vec3 axis = Vec3::UnitZ(); ///< the plane's normal, along the bone
   std::vector<Vec3> loop;    ///< counter-clockwise about `axis`
@@ -250,7 +250,9 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
       if (!best)
         continue;
       Ring r;
-      r.id = joints[j].name + (opt.rings_per_bone > 1 ? "_" + std::to_string(static_cast<int>(std::lround(frac * opt.rings_per_bone))) : "");
+      r.id = joints[j].name + (opt.rings_per_bone > 1
+                                   ? "_" + std::to_string(static_cast<int>(std::lround(frac * opt.rings_per_bone)))
+                                   : "");
       r.joint = j;
       r.frac = frac;
       r.axis = axis;
@@ -278,8 +280,9 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     }
   }
   if (rings.empty())
-    throw InputError(mesh.source, "skeleton",
-                     "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
+    throw InputError(
+        mesh.source, "skeleton",
+        "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
 
   // 2. Keep rings greedily, smallest first; drop rings too small for their
   //    nodes, or too close to (or crossing) a ring already kept.
@@ -303,7 +306,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
       }
     if (conflict >= 0) {
       r.replaced_by = conflict;
-      say("ring '" + r.id + "' dropped: it comes within " + std::to_string(gap) + " of ring '" + rings[conflict].id + "'");
+      say("ring '" + r.id + "' dropped: it comes within " + std::to_string(gap) + " of ring '" + rings[conflict].id +
+          "'");
       continue;
     }
     r.active = true;
@@ -513,7 +517,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
             break;
         }
         const Vec3 tangent = loop_point(pr, s_hit + 1e-3 * pr.perimeter) - loop_point(pr, s_hit - 1e-3 * pr.perimeter);
-        const double sine = in.norm() > 0 && tangent.norm() > 0 ? in.normalized().cross(tangent.normalized()).norm() : 0;
+        const double sine =
+            in.norm() > 0 && tangent.norm() > 0 ? in.normalized().cross(tangent.normalized()).norm() : 0;
         if (sine > best_sin) {
           best_sin = sine;
           jn.path = path;
@@ -580,7 +585,9 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
       pr.to = jn.target;
       if (!jn.path && failure.empty())
         failure = "no plane section joins the ends of profile '" + pr.id + "' along the surface";
-      pr.curve.points = jn.path ? *jn.path : std::vector<Vec3>{loop_point(rings[jn.child], rings[jn.child].base_nodes[jn.child_node]), jn.to};
+      pr.curve.points =
+          jn.path ? *jn.path
+                  : std::vector<Vec3>{loop_point(rings[jn.child], rings[jn.child].base_nodes[jn.child_node]), jn.to};
       owner[pr.id] = {'j', jn.child};
       rig.profiles.push_back(std::move(pr));
     }
@@ -716,7 +723,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     }
     if (kind == 'j') {
       const int m = ++join_attempt[culprit_ring];
-      say("join of ring '" + rings[culprit_ring].id + "' " + (m >= 2 ? "abandoned" : "moved to an existing node") + ": " + failure);
+      say("join of ring '" + rings[culprit_ring].id + "' " + (m >= 2 ? "abandoned" : "moved to an existing node") +
+          ": " + failure);
     } else {
       dropped.insert(culprit_ring);
       say("ring '" + rings[culprit_ring].id + "' dropped: " + failure);

@@ -39,8 +39,8 @@ Vec3 CageMap::to_cage(const Vec3& on_limit) const {
   // cage's own (triangulated) face that holds it.
   const TraceMesh::Nearest n = limit_tm_->nearest(on_limit);
   const auto& c = limit_tm_->tri(n.tri);
-  const Vec3 flat = n.bary[0] * r_.flat.positions[c[0]] + n.bary[1] * r_.flat.positions[c[1]] +
-                    n.bary[2] * r_.flat.positions[c[2]];
+  const Vec3 flat =
+      n.bary[0] * r_.flat.positions[c[0]] + n.bary[1] * r_.flat.positions[c[1]] + n.bary[2] * r_.flat.positions[c[2]];
   const int face = r_.base_face[limit_tm_->tri_face(n.tri)];
   return closest_among(*cage_tm_, cage_tris_[face], flat).point;
 }
@@ -51,7 +51,8 @@ Vec3 CageMap::to_limit(const Vec3& on_cage) const {
   const int face = cage_tm_->tri_face(cage_tm_->nearest(on_cage).tri);
   const TraceMesh::Nearest n = closest_among(*flat_tm_, flat_tris_[face], on_cage);
   const auto& c = flat_tm_->tri(n.tri);
-  return n.bary[0] * r_.limit.positions[c[0]] + n.bary[1] * r_.limit.positions[c[1]] + n.bary[2] * r_.limit.positions[c[2]];
+  return n.bary[0] * r_.limit.positions[c[0]] + n.bary[1] * r_.limit.positions[c[1]] +
+         n.bary[2] * r_.limit.positions[c[2]];
 }
 
 } // namespace curvenet::detail
