@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 using namespace curvenet;
@@ -139,4 +140,19 @@ TEST(MeshIo, GltfAnimationsAreCheckedOnLoad) {
   expect_refused("bad/gltf_sampler_out_of_range.gltf", "animation 0 'spin' channel 0", "refers to sampler 3");
   expect_refused("bad/gltf_bad_path.gltf", "animation 0 'spin' channel 0", "unknown target path 'colour'");
   expect_refused("bad/gltf_nan_translation.gltf", "", "number overflow");
+}
+
+TEST(MeshIo, AFolderOrAnEmptyFileIsSaidToBeOne) {
+  const std::string folder = corpus("bad");
+  try {
+    load_mesh(folder);
+    ADD_FAILURE() << "a folder was read";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), folder + ": is a folder, not a mesh file");
+  }
+  const fs::path empty = fs::temp_directory_path() / "curvenet_mesh_io_empty.obj";
+  { std::ofstream out(empty); }
+  EXPECT_THROW(load_mesh(empty.string()), InputError);
+  EXPECT_THROW(read_rig(folder), InputError);
+  fs::remove(empty);
 }

@@ -81,6 +81,8 @@ RawMesh read_assimp(const std::string& path) {
 
 RawMesh read_raw_mesh(const std::string& path) {
   std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path, "", "is a folder, not a mesh file");
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(path, "", "no such file");
   std::ifstream probe(path, std::ios::binary);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -313,6 +314,8 @@ Rig parse_rig(const std::string& text, const std::string& source) {
 }
 
 Rig read_rig(const std::string& path) {
+  if (std::filesystem::is_directory(path))
+    throw InputError(path, "", "is a folder, not a rig file");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw InputError(path, "", "cannot open the rig file");

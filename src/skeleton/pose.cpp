@@ -7,6 +7,7 @@
 #include "io/json_text.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -79,6 +80,8 @@ Pose parse_pose(const std::string& text, const std::string& source) {
 }
 
 Pose read_pose(const std::string& path) {
+  if (std::filesystem::is_directory(path))
+    throw InputError(path, "", "is a folder, not a pose file");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw InputError(path, "", "cannot open the pose file");
