@@ -15,6 +15,7 @@
 #include <chrono>
 #include <exception>
 #include <iomanip>
+#include <map>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -240,6 +241,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   // Cut. Where two chains meet, their curves may only be closer together
   // than the tracer followed them: trace the two more closely near there
   // and cut again, down to the floor.
+  std::map<std::pair<int, int>, double> last_gap; // per pair of profiles that met
   for (int round = 0;; ++round) {
     if (round > 0)
       impl->cut = CutMesh::from_surface(mesh);
@@ -291,7 +293,13 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
             << Tolerances::floor_rel << " of the diagonal) in or near " << meet.place << ", away from any node";
         throw EmbedError(msg.str());
       }
-      if (round < Tolerances::cut_rounds && gap / 4 < tol.fidelity()) {
+      // Tracing more closely helps only while it brings the curves apart:
+      // not for two that truly cross, whose gap does not shrink.
+      const auto key = std::minmax(p, q);
+      const auto before = last_gap.find(key);
+      const bool shrinking = before == last_gap.end() || gap < 0.5 * before->second;
+      last_gap[key] = gap;
+      if (round < Tolerances::cut_rounds && shrinking && gap / 4 < tol.fidelity()) {
         // The curves come closer than the chains may stray: trace both more
         // closely near here, so their chains stay apart.
         for (int x : both) {
@@ -305,8 +313,9 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
       if (!unfolded) {
         std::ostringstream msg;
         msg << "cut: the chains of " << who << " cross in or near " << meet.place
-            << ", away from any node, though their curves stay " << std::setprecision(3) << gap << " ("
-            << gap / tol.diagonal << " of the diagonal) apart there: the curves placed on this surface fold";
+            << ", away from any node; their curves come within " << std::setprecision(3) << gap << " ("
+            << gap / tol.diagonal << " of the diagonal) of each other there: they cross, or the curves placed on "
+            << "this surface fold";
         throw EmbedError(msg.str());
       }
     }
