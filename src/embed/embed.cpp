@@ -17,6 +17,7 @@
 #include <iomanip>
 #include <map>
 #include <numeric>
+#include <tuple>
 #include <set>
 #include <sstream>
 
@@ -241,7 +242,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   // Cut. Where two chains meet, their curves may only be closer together
   // than the tracer followed them: trace the two more closely near there
   // and cut again, down to the floor.
-  std::map<std::pair<int, int>, double> last_gap; // per pair of profiles that met
+  std::map<std::tuple<int, int, std::string>, double> last_gap; // per pair of profiles and place they met
   for (int round = 0;; ++round) {
     if (round > 0)
       impl->cut = CutMesh::from_surface(mesh);
@@ -294,8 +295,9 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
         throw EmbedError(msg.str());
       }
       // Tracing more closely helps only while it brings the curves apart:
-      // not for two that truly cross, whose gap does not shrink.
-      const auto key = std::minmax(p, q);
+      // not for two that truly cross, whose gap where they meet does not
+      // shrink from one round to the next.
+      const auto key = std::make_tuple(std::min(p, q), std::max(p, q), meet.place);
       const auto before = last_gap.find(key);
       const bool shrinking = before == last_gap.end() || gap < 0.5 * before->second;
       last_gap[key] = gap;
