@@ -156,3 +156,8 @@ TEST(MeshIo, AFolderOrAnEmptyFileIsSaidToBeOne) {
   EXPECT_THROW(read_rig(folder), InputError);
   fs::remove(empty);
 }
+
+TEST(MeshIo, AsciiFbxArraysTheFileCannotHoldAreRefusedBeforeAssimpAllocatesThem) {
+  EXPECT_EQ(load_mesh(corpus("good/fbx_ascii.fbx")).num_faces(), 4);
+  expect_refused("bad/fbx_huge_array.fbx", "line 11", "an array declares 2147483648 values");
+}
