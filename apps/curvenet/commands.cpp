@@ -294,12 +294,13 @@ int run_animate(const AnimateArgs& a) {
     const InputTopology topo = read_input_topology(a.mesh);
     std::filesystem::create_directories(a.obj_sequence);
     std::vector<std::string> texts(static_cast<size_t>(frames));
+    tbb::enumerable_thread_specific<std::vector<Vec3>> buffers([nv] { return std::vector<Vec3>(nv); });
     // In blocks, so that no more than a block of frames is held at once.
     const int block = 64;
     for (int b0 = 0; b0 < frames; b0 += block) {
       const int b1 = std::min(frames, b0 + block);
       tbb::parallel_for(b0, b1, [&](int f) {
-        std::vector<Vec3> out(nv);
+        std::vector<Vec3>& out = buffers.local(); // one buffer per thread, not per frame
         frame_positions(f, out);
         texts[f] = posed_obj(topo, out);
       });

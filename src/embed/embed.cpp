@@ -17,9 +17,9 @@
 #include <iomanip>
 #include <map>
 #include <numeric>
-#include <tuple>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 namespace curvenet {
 
@@ -158,22 +158,6 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   const int np = static_cast<int>(rig.profiles.size());
   if (!(options.density > 0 && options.density <= 1000))
     throw InputError("density", std::to_string(options.density), "must be a finite number in (0, 1000]");
-  {
-    // The work up front: about length * density / mean edge samples.
-    double estimate = 0;
-    for (const Profile& pr : rig.profiles) {
-      const std::vector<Vec3> dense = evaluate_dense(pr.curve);
-      double length = 0;
-      for (size_t k = 1; k < dense.size(); ++k)
-        length += (apply(rig.frame, dense[k]) - apply(rig.frame, dense[k - 1])).norm();
-      estimate += length * options.density / h + static_cast<double>(dense.size());
-    }
-    if (estimate > static_cast<double>(options.max_samples))
-      throw InputError("density", std::to_string(options.density),
-                       "the profiles would take about " + std::to_string(static_cast<long long>(estimate)) +
-                           " samples, more than the limit of " + std::to_string(options.max_samples) +
-                           " (--max-samples)");
-  }
   std::vector<TraceInput> tin(np);
   std::vector<ProfileCurve> curves(np);
   impl->sample_t.resize(np);
@@ -183,6 +167,21 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
     in.profile_ids.push_back(pr.id);
     in.profile_from.push_back(rig.node_index(pr.from));
     in.profile_to.push_back(rig.node_index(pr.to));
+    Curve curve = pr.curve;
+    for (auto& q : curve.points)
+      q = apply(rig.frame, q);
+    curves[p] = ProfileCurve(curve, in.node_points[in.profile_from[p]].pos, in.node_points[in.profile_to[p]].pos);
+  }
+  {
+    // The work up front: about length * density / mean edge samples.
+    double estimate = 0;
+    for (const ProfileCurve& c : curves)
+      estimate += c.length() * options.density / h + static_cast<double>(c.size());
+    if (estimate > static_cast<double>(options.max_samples))
+      throw InputError("density", std::to_string(options.density),
+                       "the profiles would take about " + std::to_string(static_cast<long long>(estimate)) +
+                           " samples, more than the limit of " + std::to_string(options.max_samples) +
+                           " (--max-samples)");
   }
   // The sample spacing follows the edge length of the surface near each sample.
   const double density = options.density;
@@ -197,11 +196,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   tbb::parallel_for(0, np, [&](int p) {
     try {
       const Profile& pr = rig.profiles[p];
-      Curve curve = pr.curve;
-      for (auto& q : curve.points)
-        q = apply(rig.frame, q);
       const int a = in.profile_from[p], b = in.profile_to[p];
-      curves[p] = ProfileCurve(curve, in.node_points[a].pos, in.node_points[b].pos);
       SampledProfile s = sample_profile(curves[p], spacing, !cage);
       impl->samples[p] = s.points;
       impl->sample_t[p] = s.t;

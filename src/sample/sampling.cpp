@@ -124,14 +124,14 @@ Vec3 ProfileCurve::at(double t) const {
   const double total = length();
   if (!(total > 0))
     return points_.front();
+  if (t >= 1.0)
+    return points_.back();
   const double target = std::clamp(t, 0.0, 1.0) * total;
   const size_t seg = std::min<size_t>(points_.size() - 2,
                                       static_cast<size_t>(std::max<std::ptrdiff_t>(
                                           0, std::upper_bound(arc_.begin(), arc_.end(), target) - arc_.begin() - 1)));
   const double len = arc_[seg + 1] - arc_[seg];
   const double a = len > 0 ? std::clamp((target - arc_[seg]) / len, 0.0, 1.0) : 0.0;
-  if (t >= 1.0)
-    return points_.back();
   return (1 - a) * points_[seg] + a * points_[seg + 1];
 }
 

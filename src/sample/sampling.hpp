@@ -29,6 +29,8 @@ public:
   ProfileCurve(const Curve& curve, const Vec3& from, const Vec3& to);
 
   [[nodiscard]] double length() const { return arc_.empty() ? 0.0 : arc_.back(); }
+  /// How many points the dense polyline has.
+  [[nodiscard]] size_t size() const { return points_.size(); }
   /// The point at normalised arc length t in [0, 1].
   [[nodiscard]] Vec3 at(double t) const;
   /// Normalised arc lengths of the points the rigger placed (a polyline's
