@@ -9,7 +9,7 @@ packages=(
   libtinygltf-dev libtinyobjloader-dev libassimp-dev libembree-dev
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev libosd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  blender
+  blender pybind11-dev python3-dev python3-numpy python3-pytest zip
 )
 
 missing=()

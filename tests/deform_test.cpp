@@ -2,6 +2,7 @@
 
 #include "bind/laplacian.hpp"
 #include "curvenet/deform.hpp"
+#include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
@@ -315,4 +316,35 @@ TEST(Deform, HandClipsFollowTheSkeleton) {
     worst_mean = std::max(worst_mean, mean / diag);
   }
   EXPECT_LT(worst_mean, 0.05); // a sanity bound, not a target
+}
+
+TEST(Deform, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
+  const SurfaceMesh m = test::tube(20, 12, 4, true);
+  const Binding b = bind(m, make_tube_net());
+  const size_t nj = b.joints().size(), nv = static_cast<size_t>(b.num_input_vertices());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> angle(-120, 120), axis(-1, 1);
+  const int frames = 9;
+  std::vector<Mat4> all;
+  for (int f = 0; f < frames; ++f) {
+    Pose pose;
+    for (const char* j : {"root", "mid", "tip"})
+      pose[j] = rotation(angle(rng), {axis(rng), axis(rng), axis(rng) + 1e-3});
+    const auto M = skinning_matrices(b.joints(), pose);
+    all.insert(all.end(), M.begin(), M.end());
+  }
+  std::vector<Vec3> together(frames * nv);
+  b.deform_frames(all, together);
+  std::vector<Vec3> one(nv);
+  for (int f = 0; f < frames; ++f) {
+    b.deform(std::span<const Mat4>(all).subspan(f * nj, nj), one);
+    for (size_t i = 0; i < nv; ++i)
+      ASSERT_EQ(together[f * nv + i], one[i]) << "frame " << f << " vertex " << i; // bit for bit
+  }
+  // Sizes that do not make whole frames are refused, not read past.
+  std::vector<Vec3> short_out(nv - 1);
+  EXPECT_THROW(b.deform(std::span<const Mat4>(all).first(nj), short_out), Error);
+  EXPECT_THROW(b.deform(std::span<const Mat4>(all).first(nj - 1), one), Error);
+  EXPECT_THROW(b.deform_frames(std::span<const Mat4>(all).first(nj + 1), together), Error);
+  EXPECT_THROW(b.deform_frames(all, std::span<Vec3>(together).first(nv)), Error);
 }

@@ -12,7 +12,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
 #include <numbers>
 #include <random>
 #include <set>
@@ -479,4 +482,44 @@ TEST(Embed, AnEmbeddingPastItsSampleLimitIsRefusedBeforeItStarts) {
     EXPECT_EQ(e.file(), "density");
     EXPECT_NE(std::string(e.what()).find("more than the limit of 1000 (--max-samples)"), std::string::npos) << e.what();
   }
+}
+
+TEST(Embed, TheTracedPathsAreWhatTheCutFollowsAndTheCutMeshComesAsArrays) {
+  const SurfaceMesh m = test::tube(24, 16, 4, true);
+  const Rig rig = make_tube_net();
+  const auto paths = trace_profiles(m, rig);
+  const Embedding e = embed(m, rig);
+  ASSERT_TRUE(e.report().ok);
+  ASSERT_EQ(paths.size(), rig.profiles.size());
+  const auto chains = e.chains();
+  ASSERT_EQ(chains.size(), rig.profiles.size());
+  const double tol = e.report().fidelity_tolerance;
+  for (size_t p = 0; p < paths.size(); ++p) {
+    EXPECT_EQ(chains[p].first, rig.profiles[p].id);
+    ASSERT_GE(paths[p].size(), 2u);
+    // The chain and the traced path start and end at the same nodes, and
+    // every chain point lies on the traced path (within the fidelity tolerance).
+    EXPECT_LT((paths[p].front() - chains[p].second.front()).norm(), tol);
+    EXPECT_LT((paths[p].back() - chains[p].second.back()).norm(), tol);
+    for (const Vec3& q : chains[p].second) {
+      double best = std::numeric_limits<double>::infinity();
+      for (size_t i = 0; i + 1 < paths[p].size(); ++i) {
+        const Vec3 a = paths[p][i], d = paths[p][i + 1] - a;
+        const double s = d.squaredNorm() > 0 ? std::clamp((q - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
+        best = std::min(best, (a + s * d - q).norm());
+      }
+      ASSERT_LT(best, tol) << rig.profiles[p].id;
+    }
+  }
+  const RawMesh cut = e.cut_mesh();
+  EXPECT_EQ(static_cast<int>(cut.positions.size()), e.report().cut_vertices);
+  ASSERT_EQ(static_cast<int>(cut.face_offsets.size()) - 1, e.report().cut_faces);
+  ASSERT_EQ(e.face_regions().size(), cut.face_offsets.size() - 1);
+  // Faces of one region share a colour; the colours are the PLY's.
+  std::map<int, std::array<int, 3>> colour;
+  for (int f = 0; f < e.report().cut_faces; ++f) {
+    const auto [it, fresh] = colour.emplace(e.face_regions()[f], e.face_colour(f));
+    EXPECT_EQ(it->second, e.face_colour(f));
+  }
+  EXPECT_EQ(static_cast<int>(colour.size()), e.report().regions);
 }

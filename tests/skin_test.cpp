@@ -2,6 +2,7 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
 #include "helpers.hpp"
 #include "io/gltf_scene.hpp"
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
 
+#include <cmath>
 #include <cstring>
 
 using namespace curvenet;
@@ -184,4 +186,71 @@ TEST(Skin, FilesWithoutASkinAreRefused) {
   const auto dir = test::temp_dir("noskin");
   EXPECT_THROW(load_skinned_mesh(write_animated_gltf(dir)), InputError);
   EXPECT_THROW(load_skinned_mesh("/nonexistent.obj"), InputError);
+}
+
+TEST(Skin, ASkeletonFileReplacesARigsSkeletonByJointName) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string gltf = test::data("xr_tools_hand/hand_l.gltf");
+  const std::string rig_file = test::data("xr_tools_hand/example/hand_l.cnrig.json");
+  const auto from_gltf = load_skeleton(gltf);
+  const auto from_rig = load_skeleton(rig_file);
+  ASSERT_EQ(from_gltf.size(), from_rig.size());
+  Rig rig = read_rig(rig_file);
+  const Rig replaced = with_skeleton(rig, from_gltf, gltf);
+  EXPECT_TRUE(replaced.has_skeleton);
+  EXPECT_EQ(replaced.joints.size(), from_gltf.size());
+  // Weights naming a joint the new skeleton lacks are refused, naming it.
+  ASSERT_FALSE(rig.weights.empty());
+  const std::string dropped = rig.weights.begin()->second.begin()->first;
+  auto fewer = from_gltf;
+  std::erase_if(fewer, [&](const Joint& j) { return j.name == dropped; });
+  ASSERT_EQ(fewer.size() + 1, from_gltf.size());
+  try {
+    (void)with_skeleton(rig, fewer, "short.gltf");
+    FAIL() << "a weight names a joint the skeleton lacks";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "short.gltf");
+    EXPECT_EQ(e.element(), dropped);
+  }
+  // A rig file without a skeleton is not a skeleton file.
+  rig.has_skeleton = false;
+  rig.joints.clear();
+  const std::string bare = ::testing::TempDir() + "bare.cnrig.json";
+  rig.weights.clear();
+  write_rig(rig, bare);
+  EXPECT_THROW((void)load_skeleton(bare), InputError);
+}
+
+TEST(Skin, ClipMatricesMatchJointsByNameAndFramesCoverTheClip) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh clips = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  const Rig rig = read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
+  ASSERT_GT(clips.num_clips(), 0);
+  const int clip = 0;
+  const auto [t0, t1] = clips.clip_range(clip);
+  const auto [first, last] = clip_frames(clips, clip, 24);
+  EXPECT_LE(first / 24.0, t0 + 1e-9);
+  EXPECT_GE(last / 24.0, t1 - 1e-9);
+  EXPECT_LT(last - first, static_cast<int>(std::ceil((t1 - t0) * 24)) + 2);
+  const double t = 0.5 * (t0 + t1);
+  const auto M = clip_skinning_matrices(rig.joints, clips, clip, t);
+  const auto expected = skinning_matrices(rig.joints, pose_from_clip(clips, clip, t));
+  ASSERT_EQ(M.size(), expected.size());
+  for (size_t j = 0; j < M.size(); ++j)
+    EXPECT_EQ(M[j], expected[j]) << j;
+  // A skeleton the clip does not know at all is refused, naming the clip file.
+  auto strangers = rig.joints;
+  for (auto& j : strangers) {
+    j.name = "x_" + j.name;
+    if (j.parent)
+      j.parent = "x_" + *j.parent;
+  }
+  try {
+    (void)clip_skinning_matrices(strangers, clips, clip, t);
+    FAIL() << "no joint matches";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), clips.source);
+  }
 }

@@ -137,32 +137,11 @@ std::string lower_ext(const std::string& path) {
   return ext;
 }
 
-/// Joints from a rig file or a skinned glTF.
-std::vector<Joint> load_skeleton(const std::string& path) {
-  const std::string ext = lower_ext(path);
-  if (ext == ".gltf" || ext == ".glb" || ext == ".fbx")
-    return load_skinned_mesh(path).joints;
-  const Rig rig = read_rig(path);
-  if (!rig.has_skeleton)
-    throw InputError(path, "/skeleton", "the rig file has no skeleton");
-  return rig.joints;
-}
-
 /// The rig, with its skeleton replaced by --skeleton when given (joints matched by name).
 Rig rig_for(const DeformArgs& a) {
   Rig rig = read_rig(a.rig);
-  if (!a.skeleton.empty()) {
-    rig.joints = load_skeleton(a.skeleton);
-    rig.has_skeleton = true;
-    std::set<std::string> names;
-    for (const auto& j : rig.joints)
-      names.insert(j.name);
-    for (const auto& [node, w] : rig.weights)
-      for (const auto& [joint, v] : w)
-        if (!names.count(joint))
-          throw InputError(a.skeleton, joint,
-                           "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
-  }
+  if (!a.skeleton.empty())
+    rig = with_skeleton(std::move(rig), load_skeleton(a.skeleton), a.skeleton);
   if (!rig.has_skeleton)
     throw InputError(a.rig, "/skeleton", "the rig has no skeleton: give one in the rig or with --skeleton");
   return rig;
@@ -251,8 +230,7 @@ int run_animate(const AnimateArgs& a) {
   const int clip = a.clip.empty() ? 0 : clips.find_clip(a.clip);
   if (clip < 0)
     throw InputError(a.clip_file, "clip '" + a.clip + "'", "no clip has this name or index");
-  const auto [t0, t1] = clips.clip_range(clip);
-  int first = static_cast<int>(std::floor(t0 * a.fps + 1e-9)), last = static_cast<int>(std::ceil(t1 * a.fps - 1e-9));
+  auto [first, last] = clip_frames(clips, clip, a.fps);
   if (!a.frames.empty()) {
     // Exactly two whole numbers around one colon: "1.5:3y", "1:2:3" and
     // "0:1e3" are refused.
@@ -268,22 +246,11 @@ int run_animate(const AnimateArgs& a) {
     throw InputError("--frames", std::to_string(first) + ":" + std::to_string(last),
                      std::to_string(static_cast<long long>(last) - first + 1) + " frames is more than --max-frames (" +
                          std::to_string(a.max_frames) + ")");
-  std::set<std::string> rig_joints;
-  for (const auto& j : rig.joints)
-    rig_joints.insert(j.name);
-  int matched = 0;
-  for (const auto& j : clips.joints)
-    matched += rig_joints.count(j.name) > 0;
-  if (matched == 0)
-    throw InputError(a.clip_file, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
+  (void)clip_skinning_matrices(rig.joints, clips, clip, first / a.fps); // a clip for this skeleton, before binding
   const Binding b = bind_for(mesh, rig, a);
   const int frames = last - first + 1, nv = b.num_input_vertices();
   auto frame_positions = [&](int f, std::vector<Vec3>& out) {
-    Pose pose;
-    for (auto& [name, entry] : pose_from_clip(clips, clip, (first + f) / a.fps))
-      if (rig_joints.count(name))
-        pose[name] = entry;
-    b.deform(skinning_matrices(b.joints(), pose, a.clip_file), out);
+    b.deform(clip_skinning_matrices(b.joints(), clips, clip, (first + f) / a.fps), out);
     check_posed(out, a.clip_file, "frame " + std::to_string(first + f) + " ");
   };
   // Frames are independent: each is computed in parallel into its own slot,
@@ -459,19 +426,9 @@ int run_starter(const StarterArgs& a) {
   const SurfaceMesh mesh = load_mesh(a.mesh);
   std::vector<Joint> joints;
   if (!a.skeleton.empty()) {
-    std::string ext = std::filesystem::path(a.skeleton).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (ext == ".gltf" || ext == ".glb" || ext == ".fbx") {
-      joints = load_skinned_mesh(a.skeleton).joints;
-    } else {
-      const Rig rig = read_rig(a.skeleton);
-      if (!rig.has_skeleton)
-        throw InputError(a.skeleton, "/skeleton", "the rig file has no skeleton");
-      joints = rig.joints;
-    }
+    joints = load_skeleton(a.skeleton);
   } else {
-    std::string ext = std::filesystem::path(a.mesh).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    const std::string ext = lower_ext(a.mesh);
     if (ext != ".gltf" && ext != ".glb" && ext != ".fbx")
       throw InputError(
           a.mesh, "",

@@ -74,7 +74,14 @@ public:
   /// in the rig's coordinates), `out` receives one position per vertex of the
   /// input file, in its order. Thread-safe; allocates nothing.
   /// \pre skinning.size() == joints().size(), out.size() == num_input_vertices().
+  /// \throw Error when the sizes are not these.
   void deform(std::span<const Mat4> skinning, std::span<Eigen::Vector3d> out) const;
+
+  /// Deforms many poses at once, in parallel (TBB): `skinning` holds
+  /// frames x joints matrices, frame after frame, and `out` receives frames x
+  /// vertices positions. Each frame is exactly what deform() gives for it.
+  /// \throw Error when the sizes do not fit.
+  void deform_frames(std::span<const Mat4> skinning, std::span<Eigen::Vector3d> out) const;
 
   /// Writes the binding to a cache file (atomically).
   void save(const std::string& path) const;

@@ -6,6 +6,7 @@
 #include "curvenet/rig.hpp"
 #include "curvenet/surface_mesh.hpp"
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -103,6 +104,12 @@ public:
   [[nodiscard]] std::string regions_ply() const;
   /// Region index of each cut-mesh face: -1 outside a local net.
   [[nodiscard]] const std::vector<int>& face_regions() const;
+  /// The cut mesh's polygons, for drawing: its faces are face_regions()'s.
+  [[nodiscard]] RawMesh cut_mesh() const;
+  /// Each profile's CutChain as points, in rig order, by profile id.
+  [[nodiscard]] std::vector<std::pair<std::string, std::vector<Vec3>>> chains() const;
+  /// The preview colour (RGB, 0-255) of a cut-mesh face: its region's, grey outside.
+  [[nodiscard]] std::array<int, 3> face_colour(int face) const;
   [[nodiscard]] const Impl& impl() const { return *impl_; }
   [[nodiscard]] bool has_impl() const { return impl_ != nullptr; }
 
@@ -116,5 +123,11 @@ private:
 /// \note A completed embedding whose region count is wrong is not an error:
 ///   its report has ok == false and lists the problems.
 Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options = {});
+
+/// Places the nodes and traces every profile on the surface, without
+/// cutting: per profile in rig order, the path its cut will follow (for
+/// drawing a net while it is edited).
+/// \throw EmbedError as embed() does when a node or profile cannot be placed.
+std::vector<std::vector<Vec3>> trace_profiles(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options = {});
 
 } // namespace curvenet

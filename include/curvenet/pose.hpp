@@ -8,6 +8,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace curvenet {
@@ -39,5 +40,15 @@ std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose
 /// name). Applied to a rig's own bind matrices, it drives that rig the same
 /// way, even on another mesh.
 Pose pose_from_clip(const SkinnedMesh& file, int clip, double t);
+
+/// Skinning matrices for `joints` at time t of a clip, matched to the clip's
+/// joints by name (pose_from_clip); joints the clip lacks stay at rest.
+/// \throw InputError when no joint of the clip matches one of `joints`.
+std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
+                                         double t);
+
+/// The whole frames a clip spans at `fps`, first and last: its start
+/// rounded down and its end rounded up.
+std::pair<int, int> clip_frames(const SkinnedMesh& clips, int clip, double fps);
 
 } // namespace curvenet

@@ -31,6 +31,7 @@ public:
   std::vector<std::array<int, 4>> vertex_joint;
   std::vector<std::array<double, 4>> vertex_weight;
   std::vector<std::string> clip_names;
+  std::string source; ///< the file it was read from, for messages
 
   [[nodiscard]] int num_clips() const { return static_cast<int>(clip_names.size()); }
   /// A clip by name, or by index written as a number. -1 when there is none.
@@ -58,5 +59,14 @@ SkinnedMesh load_skinned_mesh_assimp(const std::string& path);
 /// Moves `positions` (one per file vertex) by linear blend skinning.
 std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::vector<Eigen::Vector3d>& positions,
                                             const std::vector<Mat4>& matrices);
+
+/// The joints of a skeleton file: a skinned glTF/GLB or FBX, or a rig file
+/// that has a skeleton.
+/// \throw InputError when the file has none.
+std::vector<Joint> load_skeleton(const std::string& path);
+
+/// The rig with its skeleton replaced by `joints`, which its weights name by joint name.
+/// \throw InputError naming `source` and the joint when a weight names a joint the skeleton lacks.
+Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source);
 
 } // namespace curvenet

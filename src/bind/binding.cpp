@@ -10,6 +10,8 @@
 #include "curvenet/pose.hpp"
 #include "embed/embedding_impl.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 
@@ -551,8 +553,23 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   return Binding(impl);
 }
 
+void Binding::deform_frames(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) const {
+  const size_t nj = impl_->joints.size(), nv = impl_->input_to_welded.size();
+  const size_t frames = nj ? M.size() / nj : 0;
+  if (nj == 0 || M.size() % nj != 0 || out.size() != frames * nv)
+    throw Error("deform_frames: " + std::to_string(M.size()) + " matrices and " + std::to_string(out.size()) +
+                " positions do not make whole frames of " + std::to_string(nj) + " joints and " +
+                std::to_string(nv) + " vertices");
+  tbb::parallel_for(size_t{0}, frames,
+                    [&](size_t f) { deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv)); });
+}
+
 void Binding::deform(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) const {
   const Impl& b = *impl_;
+  if (M.size() != b.joints.size() || out.size() != b.input_to_welded.size())
+    throw Error("deform: expected " + std::to_string(b.joints.size()) + " skinning matrices and room for " +
+                std::to_string(b.input_to_welded.size()) + " positions, got " + std::to_string(M.size()) + " and " +
+                std::to_string(out.size()));
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   if (b.mode == RigidMode::Horn && !b.c_rest.empty()) {
     // Fit one rotation to the whole net (Horn / Kabsch), rest -> posed.

@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <exception>
+#include <functional>
 #include <iomanip>
 #include <map>
 #include <numeric>
@@ -97,6 +98,114 @@ int net_components(const Rig& rig) {
 
 } // namespace
 
+/// The nodes placed on the surface and every profile sampled and traced
+/// (the paths the cut follows), in `in` and `traced`.
+struct Traced {
+  std::vector<TraceInput> tin;
+  std::vector<ProfileCurve> curves; ///< tin[p] points at curves[p]
+};
+
+void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options,
+                     const Tolerances& tol, bool cage, Embedding::Impl& impl, Traced& traced, EmbedReport& rep,
+                     const std::function<void(std::string_view, double)>& progress) {
+  const double h = mesh.mean_edge_length();
+  std::vector<TraceInput>& tin = traced.tin;
+  std::vector<ProfileCurve>& curves = traced.curves;
+  // Nodes, in the mesh's object space.
+  CutInput& in = impl.input;
+  for (const auto& n : rig.nodes) {
+    in.node_ids.push_back(n.id);
+    in.node_points.push_back(place_node(tm, apply(rig.frame, n.position), tol));
+  }
+  // A rig for another mesh, or in other units, says by how much it is off.
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    const double off = (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).norm();
+    if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
+      std::ostringstream msg;
+      msg << "embed: node '" << rig.nodes[i].id << "' lies " << std::setprecision(3) << 100 * off / tol.diagonal
+          << "% of the diagonal off the surface (is the rig made for this mesh, in its units and space?)";
+      throw EmbedError(msg.str());
+    }
+  }
+  const int np = static_cast<int>(rig.profiles.size());
+  if (!(options.density > 0 && options.density <= 1000))
+    throw InputError("density", std::to_string(options.density), "must be a finite number in (0, 1000]");
+  tin.resize(np);
+  curves.resize(np);
+  impl.sample_t.resize(np);
+  impl.samples.resize(np);
+  for (int p = 0; p < np; ++p) {
+    const Profile& pr = rig.profiles[p];
+    in.profile_ids.push_back(pr.id);
+    in.profile_from.push_back(rig.node_index(pr.from));
+    in.profile_to.push_back(rig.node_index(pr.to));
+    Curve curve = pr.curve;
+    for (auto& q : curve.points)
+      q = apply(rig.frame, q);
+    curves[p] = ProfileCurve(curve, in.node_points[in.profile_from[p]].pos, in.node_points[in.profile_to[p]].pos);
+  }
+  {
+    // The work up front: about length * density / mean edge samples.
+    double estimate = 0;
+    for (const ProfileCurve& c : curves)
+      estimate += c.length() * options.density / h + static_cast<double>(c.size());
+    if (estimate > static_cast<double>(options.max_samples))
+      throw InputError("density", std::to_string(options.density),
+                       "the profiles would take about " + std::to_string(static_cast<long long>(estimate)) +
+                           " samples, more than the limit of " + std::to_string(options.max_samples) +
+                           " (--max-samples)");
+  }
+  // The sample spacing follows the edge length of the surface near each sample.
+  const double density = options.density;
+  // (On a cage, whose faces are not the surface, the mean edge length.)
+  auto spacing = [&](const Vec3& q) { return cage ? h / density : tm.edge_length(tm.nearest(q).tri) / density; };
+  in.traces.resize(np);
+  std::vector<std::exception_ptr> errors(np);
+  std::atomic<int> done{0};
+  progress("trace", 0.0);
+  // Sample and trace every profile (independent, so in parallel); report
+  // the first failure in profile order.
+  tbb::parallel_for(0, np, [&](int p) {
+    try {
+      const Profile& pr = rig.profiles[p];
+      const int a = in.profile_from[p], b = in.profile_to[p];
+      SampledProfile s = sample_profile(curves[p], spacing, !cage);
+      impl.samples[p] = s.points;
+      impl.sample_t[p] = s.t;
+      tin[p] = {pr.id,
+                &curves[p],
+                std::move(s.points),
+                std::move(s.t),
+                in.node_points[a],
+                in.node_points[b],
+                a,
+                b,
+                tol.fidelity(),
+                {},
+                {},
+                !cage};
+      in.traces[p] = trace_profile(tm, tin[p], h, tol);
+    } catch (...) {
+      errors[p] = std::current_exception();
+    }
+    const int d = ++done;
+    if (options.progress && d % 16 == 0)
+      progress("trace", static_cast<double>(d) / np);
+  });
+  for (auto& e : errors)
+    if (e)
+      std::rethrow_exception(e);
+  for (int p = 0; p < np; ++p) {
+    const auto& pts = in.traces[p].points;
+    if (in.profile_from[p] == in.profile_to[p] && pts.size() <= 2)
+      throw EmbedError("trace: profile '" + in.profile_ids[p] + "' is a loop at node '" +
+                       in.node_ids[in.profile_from[p]] + "' that has no length on the surface");
+    rep.samples += static_cast<int>(tin[p].samples.size());
+    rep.refinements += in.traces[p].refinements;
+  }
+  progress("trace", 1.0);
+}
+
 Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options) {
   auto impl = std::make_shared<Embedding::Impl>();
   EmbedReport& rep = impl->report;
@@ -139,99 +248,11 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   TraceMesh tm(mesh, impl->cut);
   clock.lap("bvh");
 
-  // Nodes, in the mesh's object space.
+  Traced traced;
+  place_and_trace(mesh, tm, rig, options, tol, cage, *impl, traced, rep, progress);
   CutInput& in = impl->input;
-  for (const auto& n : rig.nodes) {
-    in.node_ids.push_back(n.id);
-    in.node_points.push_back(place_node(tm, apply(rig.frame, n.position), tol));
-  }
-  // A rig for another mesh, or in other units, says by how much it is off.
-  for (size_t i = 0; i < rig.nodes.size(); ++i) {
-    const double off = (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).norm();
-    if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
-      std::ostringstream msg;
-      msg << "embed: node '" << rig.nodes[i].id << "' lies " << std::setprecision(3) << 100 * off / tol.diagonal
-          << "% of the diagonal off the surface (is the rig made for this mesh, in its units and space?)";
-      throw EmbedError(msg.str());
-    }
-  }
+  std::vector<TraceInput>& tin = traced.tin;
   const int np = static_cast<int>(rig.profiles.size());
-  if (!(options.density > 0 && options.density <= 1000))
-    throw InputError("density", std::to_string(options.density), "must be a finite number in (0, 1000]");
-  std::vector<TraceInput> tin(np);
-  std::vector<ProfileCurve> curves(np);
-  impl->sample_t.resize(np);
-  impl->samples.resize(np);
-  for (int p = 0; p < np; ++p) {
-    const Profile& pr = rig.profiles[p];
-    in.profile_ids.push_back(pr.id);
-    in.profile_from.push_back(rig.node_index(pr.from));
-    in.profile_to.push_back(rig.node_index(pr.to));
-    Curve curve = pr.curve;
-    for (auto& q : curve.points)
-      q = apply(rig.frame, q);
-    curves[p] = ProfileCurve(curve, in.node_points[in.profile_from[p]].pos, in.node_points[in.profile_to[p]].pos);
-  }
-  {
-    // The work up front: about length * density / mean edge samples.
-    double estimate = 0;
-    for (const ProfileCurve& c : curves)
-      estimate += c.length() * options.density / h + static_cast<double>(c.size());
-    if (estimate > static_cast<double>(options.max_samples))
-      throw InputError("density", std::to_string(options.density),
-                       "the profiles would take about " + std::to_string(static_cast<long long>(estimate)) +
-                           " samples, more than the limit of " + std::to_string(options.max_samples) +
-                           " (--max-samples)");
-  }
-  // The sample spacing follows the edge length of the surface near each sample.
-  const double density = options.density;
-  // (On a cage, whose faces are not the surface, the mean edge length.)
-  auto spacing = [&](const Vec3& q) { return cage ? h / density : tm.edge_length(tm.nearest(q).tri) / density; };
-  in.traces.resize(np);
-  std::vector<std::exception_ptr> errors(np);
-  std::atomic<int> done{0};
-  progress("trace", 0.0);
-  // Sample and trace every profile (independent, so in parallel); report
-  // the first failure in profile order.
-  tbb::parallel_for(0, np, [&](int p) {
-    try {
-      const Profile& pr = rig.profiles[p];
-      const int a = in.profile_from[p], b = in.profile_to[p];
-      SampledProfile s = sample_profile(curves[p], spacing, !cage);
-      impl->samples[p] = s.points;
-      impl->sample_t[p] = s.t;
-      tin[p] = {pr.id,
-                &curves[p],
-                std::move(s.points),
-                std::move(s.t),
-                in.node_points[a],
-                in.node_points[b],
-                a,
-                b,
-                tol.fidelity(),
-                {},
-                {},
-                !cage};
-      in.traces[p] = trace_profile(tm, tin[p], h, tol);
-    } catch (...) {
-      errors[p] = std::current_exception();
-    }
-    const int d = ++done;
-    if (options.progress && d % 16 == 0)
-      progress("trace", static_cast<double>(d) / np);
-  });
-  for (auto& e : errors)
-    if (e)
-      std::rethrow_exception(e);
-  for (int p = 0; p < np; ++p) {
-    const auto& pts = in.traces[p].points;
-    if (in.profile_from[p] == in.profile_to[p] && pts.size() <= 2)
-      throw EmbedError("trace: profile '" + in.profile_ids[p] + "' is a loop at node '" +
-                       in.node_ids[in.profile_from[p]] + "' that has no length on the surface");
-    rep.samples += static_cast<int>(tin[p].samples.size());
-    rep.refinements += in.traces[p].refinements;
-  }
-  progress("trace", 1.0);
   clock.lap("trace");
 
   // Cut. Where two chains meet, their curves may only be closer together
@@ -459,6 +480,61 @@ std::string Embedding::cut_mesh_obj() const {
   return out.str();
 }
 
+std::vector<std::vector<Vec3>> trace_profiles(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options) {
+  Embedding::Impl impl;
+  const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
+  const bool cage = options.cage || rig.extensions.count("x_cage") > 0;
+  impl.cut = CutMesh::from_surface(mesh);
+  const TraceMesh tm(mesh, impl.cut);
+  Traced traced;
+  place_and_trace(mesh, tm, rig, options, tol, cage, impl, traced, impl.report, [&](std::string_view s, double f) {
+    if (options.progress)
+      options.progress(s, f);
+  });
+  std::vector<std::vector<Vec3>> paths;
+  paths.reserve(impl.input.traces.size());
+  for (const auto& t : impl.input.traces) {
+    std::vector<Vec3>& path = paths.emplace_back();
+    path.reserve(t.points.size());
+    for (const PathPoint& q : t.points)
+      path.push_back(q.at.pos);
+  }
+  return paths;
+}
+
+RawMesh Embedding::cut_mesh() const {
+  const CutMesh& m = impl_->cut;
+  RawMesh out;
+  out.positions.reserve(m.num_vertices());
+  for (int v = 0; v < m.num_vertices(); ++v)
+    out.positions.push_back(m.position(Vertex(v)));
+  std::vector<int> corners;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    corners.clear();
+    for (Halfedge h : m.face_loop(Face(f)))
+      corners.push_back(m.from(h).idx);
+    out.add_face(corners);
+  }
+  return out;
+}
+
+std::vector<std::pair<std::string, std::vector<Vec3>>> Embedding::chains() const {
+  const CutMesh& m = impl_->cut;
+  const auto& chains = impl_->result.chains;
+  std::vector<std::pair<std::string, std::vector<Vec3>>> out(chains.size());
+  for (size_t p = 0; p < chains.size(); ++p) {
+    out[p].first = impl_->input.profile_ids[p];
+    for (Vertex v : chains[p].vertices)
+      out[p].second.push_back(m.position(v));
+  }
+  return out;
+}
+
+std::array<int, 3> Embedding::face_colour(int f) const {
+  const int r = impl_->regions.face_region.at(static_cast<size_t>(f));
+  return r >= 0 ? palette_colour(impl_->regions.regions[r].colour) : std::array<int, 3>{128, 128, 128};
+}
+
 std::string Embedding::regions_ply() const {
   const CutMesh& m = impl_->cut;
   const auto& fr = impl_->regions.face_region;
@@ -477,10 +553,8 @@ std::string Embedding::regions_ply() const {
     out << loop.size();
     for (Halfedge h : loop)
       out << ' ' << m.from(h).idx;
-    const int r = fr[f];
-    const std::array<int, 3> c =
-        r >= 0 ? palette_colour(impl_->regions.regions[r].colour) : std::array<int, 3>{128, 128, 128};
-    out << ' ' << c[0] << ' ' << c[1] << ' ' << c[2] << ' ' << r << '\n';
+    const std::array<int, 3> c = face_colour(f);
+    out << ' ' << c[0] << ' ' << c[1] << ' ' << c[2] << ' ' << fr[f] << '\n';
   }
   return out.str();
 }

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <set>
 #include <fstream>
 #include <sstream>
 
@@ -144,6 +145,25 @@ Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
     pose[jt.name] = e;
   }
   return pose;
+}
+
+std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
+                                         double t) {
+  std::set<std::string> names;
+  for (const auto& j : joints)
+    names.insert(j.name);
+  Pose pose;
+  for (auto& [name, entry] : pose_from_clip(clips, clip, t))
+    if (names.count(name))
+      pose[name] = entry;
+  if (pose.empty() && !clips.joints.empty())
+    throw InputError(clips.source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
+  return skinning_matrices(joints, pose, clips.source);
+}
+
+std::pair<int, int> clip_frames(const SkinnedMesh& clips, int clip, double fps) {
+  const auto [t0, t1] = clips.clip_range(clip);
+  return {static_cast<int>(std::floor(t0 * fps + 1e-9)), static_cast<int>(std::ceil(t1 * fps - 1e-9))};
 }
 
 } // namespace curvenet

@@ -1,13 +1,16 @@
 #include "curvenet/skin.hpp"
 
 #include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
 #include "io/assimp_scene.hpp"
 #include "io/gltf_scene.hpp"
 
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
+#include <set>
 
 #include "core/matrix_checks.hpp"
 #include "core/numbers.hpp"
@@ -22,6 +25,7 @@ SkinnedMesh load_skinned_mesh_assimp(const std::string& path) {
   if (a.joints.empty())
     throw InputError(path, "", "the file has no skinned mesh (no bones to take a skeleton from)");
   SkinnedMesh out;
+  out.source = path;
   out.joints = std::move(a.joints);
   for (const auto& j : out.joints)
     out.inverse_bind.push_back(j.bind.inverse());
@@ -82,6 +86,7 @@ SkinnedMesh load_skinned_mesh(const std::string& path) {
       throw InputError(path, "skin " + std::to_string(scene->skin), "joint hierarchy has a cycle");
   }
   SkinnedMesh out;
+  out.source = path;
   auto name_of = [&](int slot) {
     const auto& node = model.nodes[skin.joints[slot]];
     return node.name.empty() ? "joint" + std::to_string(skin.joints[slot]) : node.name;
@@ -193,6 +198,30 @@ std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::
     out[v] = total > 0 ? Eigen::Vector3d(acc.head<3>()) : positions[v];
   }
   return out;
+}
+
+std::vector<Joint> load_skeleton(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".gltf" || ext == ".glb" || ext == ".fbx")
+    return load_skinned_mesh(path).joints;
+  const Rig rig = read_rig(path);
+  if (!rig.has_skeleton)
+    throw InputError(path, "/skeleton", "the rig file has no skeleton");
+  return rig.joints;
+}
+
+Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source) {
+  std::set<std::string> names;
+  for (const auto& j : joints)
+    names.insert(j.name);
+  for (const auto& [node, w] : rig.weights)
+    for (const auto& [joint, v] : w)
+      if (!names.count(joint))
+        throw InputError(source, joint, "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
+  rig.joints = std::move(joints);
+  rig.has_skeleton = true;
+  return rig;
 }
 
 } // namespace curvenet
