@@ -111,6 +111,12 @@ void matrices_into(const py::array_t<double, py::array::c_style | py::array::for
   }
 }
 
+/// A rig from Python is checked by the rules of the file reader before use.
+const Rig& checked(const Rig& rig) {
+  validate_rig(rig, "rig");
+  return rig;
+}
+
 py::object json_module() { return py::module_::import("json"); }
 py::object from_json(const std::string& text) { return json_module().attr("loads")(text); }
 
@@ -516,6 +522,35 @@ PYBIND11_MODULE(_curvenet, m) {
             throw py::key_error("no profile '" + id + "'");
           },
           py::return_value_policy::reference_internal, py::arg("id"))
+      .def(
+          "add_node",
+          [](Rig& r, const std::string& id, const Vec3& position) -> Node& {
+            if (r.node_index(id) >= 0)
+              throw py::value_error("a node '" + id + "' exists already");
+            r.nodes.push_back({id, position});
+            return r.nodes.back();
+          },
+          py::return_value_policy::reference_internal, py::arg("id"), py::arg("position"))
+      .def(
+          "add_profile",
+          [](Rig& r, const std::string& id, const std::string& from, const std::string& to,
+             const py::object& points) -> Profile& {
+            for (const auto& p : r.profiles)
+              if (p.id == id)
+                throw py::value_error("a profile '" + id + "' exists already");
+            const int a = r.node_index(from), b = r.node_index(to);
+            if (a < 0 || b < 0)
+              throw py::key_error("no node '" + (a < 0 ? from : to) + "'");
+            Profile p{id, from, to, {}};
+            if (points.is_none())
+              p.curve.points = {r.nodes[a].position, r.nodes[b].position}; // straight, node to node
+            else
+              p.curve.points = points_from(points, "points");
+            r.profiles.push_back(std::move(p));
+            return r.profiles.back();
+          },
+          py::return_value_policy::reference_internal, py::arg("id"), py::arg("from_"), py::arg("to"),
+          py::arg("points") = py::none())
       .def("to_json", [](const Rig& r) { return rig_to_json(r); })
       .def_static("from_json", &parse_rig, py::arg("text"), py::arg("source") = "<string>")
       .def("copy", [](const Rig& r) { return Rig(r); })
@@ -529,6 +564,7 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def("write_rig", &write_rig, py::arg("rig"), py::arg("path"));
   m.def("parse_rig", &parse_rig, py::arg("text"), py::arg("source") = "<string>");
   m.def("rig_to_json", &rig_to_json, py::arg("rig"));
+  m.def("validate_rig", &validate_rig, py::arg("rig"), py::arg("source") = "rig");
 
   // Embedding.
   py::class_<Embedding>(m, "Embedding", "One rig embedded in one mesh")
@@ -570,6 +606,7 @@ PYBIND11_MODULE(_curvenet, m) {
       [](const SurfaceMesh& mesh, const Rig& rig, double density, bool cage, long long max_samples,
          std::optional<std::string> coverage, std::optional<py::function> progress) {
         EmbedKwargs kw{density, cage, max_samples, std::move(coverage), std::move(progress)};
+        checked(rig);
         return call_released(kw, [&](const EmbedOptions& o) { return embed(mesh, rig, o); });
       },
       py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("density") = 5.0, py::arg("cage") = false,
@@ -580,6 +617,7 @@ PYBIND11_MODULE(_curvenet, m) {
         EmbedKwargs kw;
         kw.density = density;
         kw.cage = cage;
+        checked(rig);
         const auto paths = call_released(kw, [&](const EmbedOptions& o) { return trace_profiles(mesh, rig, o); });
         py::list out;
         for (const auto& p : paths)
@@ -681,6 +719,7 @@ PYBIND11_MODULE(_curvenet, m) {
         o.rigid = rigid == "horn" ? RigidMode::Horn : RigidMode::PerVertex;
         o.weights = weight_options(weight_rule, blend);
         o.embed.density = density;
+        checked(rig);
         py::gil_scoped_release release;
         return PyBinding{cache ? bind_cached(mesh, rig, o, *cache) : bind(mesh, rig, o), {}, {}};
       },
@@ -690,7 +729,7 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def(
       "complete_weights",
       [](const Rig& rig, const std::string& weight_rule, double blend) {
-        return complete_weights(rig, weight_options(weight_rule, blend));
+        return complete_weights(checked(rig), weight_options(weight_rule, blend));
       },
       py::arg("rig"), py::kw_only(), py::arg("weight_rule") = "blend-zone", py::arg("blend") = 0.3);
 
@@ -749,6 +788,7 @@ PYBIND11_MODULE(_curvenet, m) {
         o.target_cage_levels = target_cage_levels;
         o.max_faces = max_faces;
         o.embed.density = density;
+        checked(rig);
         py::gil_scoped_release release;
         return transfer(rig, source, target, o);
       },
@@ -832,7 +872,7 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def(
       "with_skeleton",
       [](const Rig& rig, const py::object& skeleton, const std::string& source) {
-        return with_skeleton(rig, joints_from(skeleton), source);
+        return with_skeleton(checked(rig), joints_from(skeleton), source);
       },
       py::arg("rig"), py::arg("skeleton"), py::arg("source") = "skeleton");
   m.def("read_pose", &read_pose, py::arg("path"));

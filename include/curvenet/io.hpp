@@ -30,7 +30,13 @@ Rig read_rig(const std::string& path);
 Rig parse_rig(const std::string& text, const std::string& source);
 /// Serialises a rig as JSON text, in the format that read_rig reads.
 std::string rig_to_json(const Rig& rig);
-/// Writes a rig file atomically.
+/// Checks a rig built in memory (from Python, say) by the rules read_rig
+/// applies to a file: ids unique, profiles naming existing nodes, curves
+/// well formed, joints listed after their parents, weights naming joints
+/// the skeleton has. embed(), bind() and transfer() expect a valid rig.
+/// \throw InputError naming `source` and the JSON path of the fault.
+void validate_rig(const Rig& rig, const std::string& source);
+/// Writes a rig file atomically, after checking it as validate_rig() does.
 void write_rig(const Rig& rig, const std::string& path);
 
 /// Writes `contents` to `path` through a temporary file and a rename.

@@ -41,6 +41,7 @@ from ._curvenet import (  # noqa: F401
     starter,
     subdivide,
     trace_profiles,
+    validate_rig,
     transfer,
     with_skeleton,
     write_pc2,

@@ -1,1 +1,382 @@
+"""Type stub of the curvenet module: every signature, with what it takes and gives.
 
+Arrays are numpy arrays. Points are (n, 3) float64, matrices (4, 4) float64
+acting on column vectors (row-major in numpy, as written on paper), and
+skinning matrices are M_j = G_j B_j^-1, one per joint, in the rig's
+coordinates. See docs/python.md.
+"""
+
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int32]
+
+class Error(RuntimeError):
+    """Base of every curvenet error. `file` and `element` are empty unless an InputError."""
+
+    file: str
+    element: str
+
+class InputError(Error):
+    """A file or value breaks a rule: `file` names it, `element` the vertex, face, or JSON path at fault."""
+
+    file: str
+    element: str
+
+class EmbedError(Error):
+    """The net could not be placed on the surface; the message names the stage, profile and place."""
+
+class TopologyError(Error):
+    """A broken invariant of the cut mesh: a bug in curvenet, never a property of the input."""
+
+class Mesh:
+    """A validated polygon mesh, welded by exact position, with the map back to the input vertices."""
+
+    def __init__(
+        self,
+        V: npt.ArrayLike,
+        F: Union[npt.ArrayLike, Iterable[Sequence[int]]],
+        source: str = "<arrays>",
+    ) -> None:
+        """V: (n, 3) positions. F: an (m, 3) or (m, 4) int array, or a list of polygons.
+
+        Raises InputError (file = source) for a bad index, a degenerate face, a
+        non-manifold edge or vertex, or a non-finite coordinate.
+        """
+    source: str
+    @property
+    def vertices(self) -> FloatArray:
+        """(welded vertices, 3)."""
+    @property
+    def face_offsets(self) -> IntArray:
+        """(faces + 1,): face f's corners are face_vertices[face_offsets[f]:face_offsets[f + 1]]."""
+    @property
+    def face_vertices(self) -> IntArray: ...
+    @property
+    def input_to_welded(self) -> IntArray:
+        """Per input vertex, its welded vertex."""
+    @property
+    def num_vertices(self) -> int: ...
+    @property
+    def num_faces(self) -> int: ...
+    @property
+    def num_input_vertices(self) -> int:
+        """Vertices of the input, in its order: what deform() returns one position for."""
+    notes: list[str]
+    def bbox_diagonal(self) -> float: ...
+    def mean_edge_length(self) -> float: ...
+
+def load_mesh(path: str) -> Mesh:
+    """Reads OBJ, glTF/GLB, PLY, OFF or FBX, validates and welds it. Raises InputError."""
+
+class Curve:
+    """A profile's shape: kind 'polyline' (points), 'bezier' (control points) or 'nurbs'."""
+
+    def __init__(
+        self,
+        points: Optional[npt.ArrayLike] = None,
+        kind: str = "polyline",
+        degree: int = 3,
+        knots: Sequence[float] = (),
+        weights: Sequence[float] = (),
+    ) -> None: ...
+    kind: str
+    points: FloatArray
+    degree: int
+    knots: list[float]
+    weights: list[float]
+
+class Node:
+    def __init__(self, id: str, position: npt.ArrayLike) -> None: ...
+    id: str
+    position: FloatArray
+    """(3,), a writable view into the rig."""
+
+class Profile:
+    def __init__(self, id: str, from_: str, to: str, curve: Curve = ...) -> None: ...
+    id: str
+    from_: str
+    """The node it starts at (`from` in the rig file)."""
+    to: str
+    curve: Curve
+
+class Joint:
+    def __init__(self, name: str, parent: Optional[str] = None, bind: npt.ArrayLike = ...) -> None: ...
+    name: str
+    parent: Optional[str]
+    bind: FloatArray
+    """(4, 4): the joint's rest world transform, a writable view."""
+
+class NodeList:
+    """A list of Node, edited in place (append, del, index)."""
+    def __getitem__(self, i: int) -> Node: ...
+    def __len__(self) -> int: ...
+    def append(self, node: Node) -> None: ...
+
+class ProfileList:
+    def __getitem__(self, i: int) -> Profile: ...
+    def __len__(self) -> int: ...
+    def append(self, profile: Profile) -> None: ...
+
+class JointList:
+    def __getitem__(self, i: int) -> Joint: ...
+    def __len__(self) -> int: ...
+    def append(self, joint: Joint) -> None: ...
+
+class JointWeights:
+    """joint name -> weight, edited in place."""
+    def __init__(self, weights: Mapping[str, float]) -> None: ...
+    def __getitem__(self, joint: str) -> float: ...
+    def __setitem__(self, joint: str, weight: float) -> None: ...
+
+class NodeWeights:
+    """node id -> JointWeights, edited in place; assign a dict to set a node's weights."""
+    def __init__(self, weights: Mapping[str, Mapping[str, float]]) -> None: ...
+    def __getitem__(self, node: str) -> JointWeights: ...
+    def __setitem__(self, node: str, weights: Union[JointWeights, Mapping[str, float]]) -> None: ...
+    def __delitem__(self, node: str) -> None: ...
+    def __contains__(self, node: str) -> bool: ...
+
+class Rig:
+    """The logical Curvenet, as in the rig file format (docs/rig-format.md). It holds no mesh index."""
+
+    def __init__(self) -> None: ...
+    coverage: str
+    """'auto', 'full' or 'local'."""
+    frame: FloatArray
+    """(4, 4): maps the rig's coordinates to the mesh's object space."""
+    nodes: NodeList
+    profiles: ProfileList
+    joints: JointList
+    has_skeleton: bool
+    weights: NodeWeights
+    extensions: dict[str, str]
+    """Top-level `x_` keys, as JSON text."""
+    def node_index(self, id: str) -> int:
+        """-1 when absent."""
+    def node(self, id: str) -> Node:
+        """The node, editable in place. Raises KeyError."""
+    def profile(self, id: str) -> Profile:
+        """The profile, editable in place. Raises KeyError."""
+    def add_node(self, id: str, position: npt.ArrayLike) -> Node:
+        """Appends a node. Raises ValueError when the id is taken."""
+    def add_profile(self, id: str, from_: str, to: str, points: Optional[npt.ArrayLike] = None) -> Profile:
+        """Appends a polyline profile; by default straight from node to node (points include both ends)."""
+    def to_json(self) -> str: ...
+    @staticmethod
+    def from_json(text: str, source: str = "<string>") -> Rig: ...
+    def copy(self) -> Rig: ...
+
+def read_rig(path: str) -> Rig:
+    """Reads and validates a `.cnrig.json`. Raises InputError with the JSON path, line and column."""
+
+def write_rig(rig: Rig, path: str) -> None:
+    """Writes a rig file atomically (all or nothing)."""
+
+def parse_rig(text: str, source: str = "<string>") -> Rig: ...
+def rig_to_json(rig: Rig) -> str: ...
+
+class Embedding:
+    """One rig embedded in one mesh: the cut mesh, its chains and regions."""
+
+    @property
+    def report(self) -> dict[str, Any]:
+        """The same keys as `curvenet embed --report` (docs/cli.md)."""
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def face_regions(self) -> IntArray:
+        """Region of each cut-mesh face, -1 outside a local net."""
+    @property
+    def face_colours(self) -> npt.NDArray[np.uint8]:
+        """(cut faces, 3) RGB preview colours; adjacent regions differ."""
+    def cut_mesh(self) -> tuple[FloatArray, IntArray, IntArray]:
+        """(vertices (n, 3), face_offsets (m + 1,), face_vertices): the cut mesh's polygons."""
+    @property
+    def chains(self) -> dict[str, FloatArray]:
+        """Profile id -> its CutChain's points (k, 3), in rig order."""
+    def cut_mesh_obj(self) -> str: ...
+    def regions_ply(self) -> str: ...
+
+def embed(
+    mesh: Mesh,
+    rig: Rig,
+    *,
+    density: float = 5.0,
+    cage: bool = False,
+    max_samples: int = 20_000_000,
+    coverage: Optional[str] = None,
+    progress: Optional[Callable[[str, float], None]] = None,
+) -> Embedding:
+    """Embeds the rig. Raises EmbedError when a profile cannot be placed, or two cross.
+
+    A completed embedding with the wrong region count is not an error: its report's `ok` is False.
+    """
+
+def trace_profiles(mesh: Mesh, rig: Rig, *, density: float = 5.0, cage: bool = False) -> list[FloatArray]:
+    """Per profile (rig order), the path on the surface its cut will follow, without cutting."""
+
+class Binding:
+    """A rig bound to a mesh. A frame is a sum over each vertex's joints: no solve, no allocation."""
+
+    @property
+    def joints(self) -> list[Joint]:
+        """In mesh space, in the order skinning matrices are given."""
+    @property
+    def joint_names(self) -> list[str]: ...
+    @property
+    def report(self) -> dict[str, Any]: ...
+    @property
+    def node_weights(self) -> dict[str, dict[str, float]]:
+        """After completion: given, or automatic."""
+    @property
+    def num_input_vertices(self) -> int: ...
+    @property
+    def has_embedding(self) -> bool: ...
+    @property
+    def embedding(self) -> Embedding: ...
+    def save(self, path: str) -> None:
+        """Writes a binding cache file (atomically)."""
+    def deform(self, skinning: npt.ArrayLike, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """(J, 4, 4) skinning matrices -> (n, 3) positions, one per input vertex, in its order.
+
+        With `out` (a C-contiguous (n, 3) float64 or float32 array) nothing is allocated.
+        Exactly the positions `curvenet pose` writes.
+        """
+    def deform_frames(self, skinning: npt.ArrayLike) -> FloatArray:
+        """(F, J, 4, 4) -> (F, n, 3), frames in parallel with the GIL released; each frame is deform()'s."""
+
+def bind(
+    mesh: Mesh,
+    rig: Rig,
+    *,
+    laplacian: str = "intrinsic",
+    rigid: str = "per-vertex",
+    weight_rule: str = "blend-zone",
+    blend: float = 0.3,
+    density: float = 5.0,
+    cache: Optional[str] = None,
+) -> Binding:
+    """Binds the rig (which needs a skeleton). laplacian: 'intrinsic' or 'uniform'; rigid: 'per-vertex' or 'horn';
+    weight_rule for nodes without weights: 'blend-zone' or 'segment'. With `cache`, a binding file is reused when it
+    was made for this mesh, rig and options, and written otherwise. Raises EmbedError, InputError."""
+
+def complete_weights(rig: Rig, *, weight_rule: str = "blend-zone", blend: float = 0.3) -> Rig:
+    """The rig with every node's weights filled in (automatic where none are given), normalised."""
+
+class StarterResult:
+    rig: Rig
+    messages: list[str]
+    rings: int
+    joins: int
+    unjoined: int
+    net_components: int
+
+Skeleton = Union[str, Rig, Binding, SkinnedMesh, Sequence[Joint]]
+"""A skeleton file path (skinned glTF/GLB/FBX, or a rig file), or anything holding joints."""
+
+def starter(
+    mesh: Mesh,
+    skeleton: Skeleton,
+    *,
+    nodes_per_ring: int = 4,
+    rings_per_bone: int = 1,
+    coverage: str = "full",
+    first_angle: float = 0.0,
+    weight_rule: str = "blend-zone",
+    blend: float = 0.3,
+) -> StarterResult:
+    """A starter net for the skeleton (bind matrices in the mesh's object space), checked to embed."""
+
+class TransferResult:
+    rig: Rig
+    """In the target's space, with the same ids, skeleton and weights."""
+    @property
+    def report(self) -> dict[str, Any]:
+        """The same keys as `curvenet transfer --report`."""
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def agreement(self) -> float:
+        """Fraction of the target's area whose region has the same identity on the source."""
+
+def transfer(
+    rig: Rig,
+    source: Mesh,
+    target: Mesh,
+    *,
+    source_frame: Optional[npt.ArrayLike] = None,
+    target_frame: Optional[npt.ArrayLike] = None,
+    max_offset: float = 0.05,
+    source_cage_levels: int = 0,
+    target_cage_levels: int = 0,
+    max_faces: int = 20_000_000,
+    density: float = 5.0,
+) -> TransferResult:
+    """Transfers the rig to another mesh of the same character, by logical ids only.
+
+    The frames (4, 4) map each mesh's space to a common world (Blender: the objects' matrix_world)."""
+
+def compare(a: Mesh, b: Mesh, *, samples_per_edge: int = 4) -> dict[str, Any]:
+    """Symmetric surface distance: the keys of `curvenet compare --json`."""
+
+def subdivide(cage: Mesh, levels: int = 2, *, max_faces: int = 20_000_000) -> Mesh:
+    """Catmull-Clark refinement of a control cage (OpenSubdiv)."""
+
+class JointPose:
+    """A joint's pose entry L = T R S against its rest pose."""
+    def __init__(self) -> None: ...
+    translation: FloatArray
+    rotation: FloatArray
+    """Unit quaternion (w, x, y, z)."""
+    scale: FloatArray
+    def matrix(self) -> FloatArray: ...
+
+class SkinnedMesh:
+    """A file's own skeleton, skin weights and clips (glTF/GLB; FBX without clips)."""
+    joints: list[Joint]
+    clip_names: list[str]
+    source: str
+    @property
+    def num_clips(self) -> int: ...
+    def find_clip(self, name_or_index: str) -> int:
+        """-1 when there is none."""
+    def clip_range(self, clip: int) -> tuple[float, float]:
+        """In seconds."""
+    def skinning_matrices(self, clip: int, t: float) -> FloatArray:
+        """The file's own (J, 4, 4) at time t of a clip (-1: rest)."""
+    @property
+    def vertex_joints(self) -> IntArray:
+        """(file vertices, 4), -1 where unused."""
+    @property
+    def vertex_weights(self) -> FloatArray: ...
+
+def load_skinned_mesh(path: str) -> SkinnedMesh: ...
+def load_skeleton(path: str) -> list[Joint]:
+    """Joints of a skinned glTF/GLB/FBX, or of a rig file with a skeleton."""
+def with_skeleton(rig: Rig, skeleton: Skeleton, source: str = "skeleton") -> Rig:
+    """The rig with its skeleton replaced (matched to its weights by joint name). Raises InputError."""
+def read_pose(path: str) -> dict[str, JointPose]: ...
+
+PoseLike = Union[str, Mapping[str, Any]]
+"""A pose file path; a pose file's dict; or joint name -> JointPose or {'rotation': (w, x, y, z),
+'translation': (x, y, z), 'scale': (x, y, z)}."""
+
+def skinning_matrices(skeleton: Skeleton, pose: PoseLike) -> FloatArray:
+    """(J, 4, 4) for the skeleton's joints; joints the pose leaves out stay at rest. Raises InputError."""
+def pose_from_clip(skin: SkinnedMesh, clip: int, t: float) -> dict[str, JointPose]: ...
+def clip_skinning_matrices(skeleton: Skeleton, clips: SkinnedMesh, clip: int, t: float) -> FloatArray:
+    """(J, 4, 4) at time t of a clip, joints matched by name. Raises InputError when none match."""
+def clip_frames(clips: SkinnedMesh, clip: int, fps: float = 24.0) -> tuple[int, int]:
+    """First and last whole frame of a clip at fps."""
+def write_pc2(path: str, frames: npt.ArrayLike, start_frame: float = 0.0) -> None:
+    """Writes (F, n, 3) positions as a PC2 point cache, all or nothing. Raises InputError for a non-finite value."""
+def validate_rig(rig: Rig, source: str = "rig") -> None:
+    """Checks a rig built in memory by read_rig's rules. Every call that takes a rig does it first.
+
+    Raises InputError naming `source` and the JSON path of the fault, e.g. `/profiles/2/from`."""

@@ -411,8 +411,31 @@ std::string rig_to_json(const Rig& rig) {
   return root.dump(1) + "\n";
 }
 
+namespace {
+/// The reader's rules, on a rig in memory. Its faults name the JSON path
+/// only: the line and column of text that was never a file mean nothing.
+std::string checked_json(const Rig& rig, const std::string& source) {
+  std::string text = rig_to_json(rig);
+  try {
+    (void)parse_rig(text, source);
+  } catch (const InputError& e) {
+    const std::string element = e.element().substr(0, e.element().find(" (line "));
+    std::string message = e.what();
+    const std::string head = source + ": " + e.element() + ": ";
+    if (message.rfind(head, 0) == 0)
+      message = message.substr(head.size());
+    throw InputError(source, element, message);
+  }
+  return text;
+}
+} // namespace
+
+void validate_rig(const Rig& rig, const std::string& source) {
+  (void)checked_json(rig, source);
+}
+
 void write_rig(const Rig& rig, const std::string& path) {
-  write_file_atomic(path, rig_to_json(rig));
+  write_file_atomic(path, checked_json(rig, path)); // never a file that read_rig would refuse
 }
 
 } // namespace curvenet

@@ -1,0 +1,380 @@
+"""The Python module, as a specification: what each call takes and gives,
+and that it gives exactly what the CLI gives on the shared hand.
+
+Run by ctest (tests/CMakeLists.txt) with PYTHONPATH=build/python,
+CURVENET_CLI and CURVENET_DATA_DIR set.
+"""
+
+import ast
+import json
+import os
+import struct
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import curvenet
+
+DATA = os.environ.get("CURVENET_DATA_DIR", os.path.join(os.path.dirname(__file__), "../../../shared/data"))
+CLI = os.environ.get("CURVENET_CLI", "build/bin/curvenet")
+HAND = os.path.join(DATA, "xr_tools_hand")
+needs_data = pytest.mark.skipif(not os.path.isdir(HAND), reason="no shared data")
+
+
+def hand(name="hand_l.gltf"):
+    return os.path.join(HAND, name)
+
+
+def example(name):
+    return os.path.join(HAND, "example", name)
+
+
+def cli(*args):
+    run = subprocess.run([CLI, *args], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    return run.stdout
+
+
+def read_obj_vertices(path):
+    with open(path) as f:
+        return np.array([[float(x) for x in line.split()[1:4]] for line in f if line.startswith("v ")])
+
+
+def read_pc2(path):
+    with open(path, "rb") as f:
+        head = f.read(32)
+        sig, version, points, start, rate, frames = struct.unpack("<12siiffi", head)
+        assert sig == b"POINTCACHE2\0"
+        data = np.frombuffer(f.read(), dtype="<f4")
+    return data.reshape(frames, points, 3), start
+
+
+def tetrahedron():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    F = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    return V, F
+
+
+# --- meshes -----------------------------------------------------------------
+
+
+def test_a_mesh_from_arrays_takes_triangles_quads_or_polygons():
+    V, F = tetrahedron()
+    m = curvenet.Mesh(V, F)
+    assert (m.num_vertices, m.num_faces, m.num_input_vertices) == (4, 4, 4)
+    np.testing.assert_array_equal(m.vertices, V)
+    cube_v = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    quads = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]])
+    cube = curvenet.Mesh(cube_v, quads)
+    assert cube.num_faces == 6 and list(cube.face_offsets) == [0, 4, 8, 12, 16, 20, 24]
+    # A list of polygons of mixed sizes: one quad split into two triangles.
+    mixed = [list(q) for q in quads[1:]] + [[0, 2, 3], [0, 3, 1]]
+    assert curvenet.Mesh(cube_v, mixed).num_faces == 7
+
+
+def test_a_bad_mesh_raises_input_error_naming_the_source_and_element():
+    V, F = tetrahedron()
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.Mesh(V, [[0, 1, 9]], source="mine")
+    assert e.value.file == "mine" and e.value.element == "index 9"
+    bad = V.copy()
+    bad[2, 1] = np.nan
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.Mesh(bad, F)
+    assert "vertex 2" in e.value.element
+    with pytest.raises(ValueError):
+        curvenet.Mesh(V[:, :2], F)
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.load_mesh("/no/such/mesh.obj")
+    assert e.value.file == "/no/such/mesh.obj"
+    assert isinstance(e.value, curvenet.Error) and isinstance(e.value, RuntimeError)
+
+
+# --- rigs -------------------------------------------------------------------
+
+
+@needs_data
+def test_a_rig_is_edited_in_place_and_written_back(tmp_path):
+    rig = curvenet.read_rig(example("hand_l.cnrig.json"))
+    n = len(rig.nodes)
+    node = rig.nodes[0]
+    before = node.position.copy()
+    node.position[1] += 0.001  # a view into the rig
+    np.testing.assert_allclose(rig.nodes[0].position, before + [0, 0.001, 0])
+    rig.add_node("extra", [0.01, 0.02, 0.03])
+    rig.profiles.append(curvenet.Profile("p_extra", rig.nodes[0].id, "extra"))
+    rig.weights["extra"] = {rig.joints[0].name: 1.0}
+    mid = (rig.nodes[0].position + [0.01, 0.02, 0.03]) / 2
+    rig.profile("p_extra").curve = curvenet.Curve(np.array([rig.nodes[0].position, mid, [0.01, 0.02, 0.03]]))
+    # A profile naming a node that does not exist is refused before anything is written.
+    broken = rig.copy()
+    broken.profiles.append(curvenet.Profile("p_bad", "extra", "nowhere", curvenet.Curve(np.zeros((2, 3)))))
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.write_rig(broken, str(tmp_path / "broken.cnrig.json"))
+    assert e.value.element.endswith("/to")
+    assert not (tmp_path / "broken.cnrig.json").exists()
+    with pytest.raises(curvenet.InputError):
+        curvenet.embed(curvenet.load_mesh(hand()), broken)
+    out = tmp_path / "edited.cnrig.json"
+    curvenet.write_rig(rig, str(out))
+    back = curvenet.read_rig(str(out))
+    assert len(back.nodes) == n + 1 and back.node_index("extra") == n
+    np.testing.assert_array_equal(back.node("extra").position, [0.01, 0.02, 0.03])
+    assert back.profile("p_extra").from_ == rig.nodes[0].id
+    assert dict(back.weights["extra"]) == {rig.joints[0].name: 1.0}
+    np.testing.assert_array_equal(back.nodes[0].position, rig.nodes[0].position)
+    assert back.to_json() == rig.to_json()
+    with pytest.raises(KeyError):
+        rig.node("nope")
+
+
+def test_a_damaged_rig_names_its_json_path(tmp_path):
+    bad = tmp_path / "bad.cnrig.json"
+    bad.write_text('{"format": "curvenet-rig", "version": 1, "nodes": [{"id": 3}]}')
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.read_rig(str(bad))
+    assert e.value.file == str(bad)
+    assert e.value.element.startswith("/nodes/0")
+    assert not (tmp_path / "out.cnrig.json").exists()
+
+
+# --- embedding --------------------------------------------------------------
+
+
+@needs_data
+def test_the_report_has_the_cli_keys_and_values(tmp_path):
+    report = tmp_path / "r.json"
+    cli("embed", hand(), example("hand_l.cnrig.json"), "--report", str(report))
+    want = json.loads(report.read_text())
+    e = curvenet.embed(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    got = e.report
+    assert set(got) == set(want)
+    for key in want:
+        if key != "timings_ms":
+            assert got[key] == want[key], key
+    assert e.ok and got["regions"] == 47
+
+
+@needs_data
+def test_the_cut_mesh_and_chains_come_as_arrays():
+    m = curvenet.load_mesh(hand())
+    rig = curvenet.read_rig(example("hand_l.cnrig.json"))
+    e = curvenet.embed(m, rig)
+    V, offsets, corners = e.cut_mesh()
+    nv, nf = e.report["cut_mesh"]["vertices"], e.report["cut_mesh"]["faces"]
+    assert V.shape == (nv, 3)
+    assert len(offsets) == nf + 1 and offsets[-1] == len(corners)
+    assert e.face_regions.shape == (nf,)
+    assert set(e.face_regions) == set(range(47))
+    assert e.face_colours.shape == (nf, 3)
+    assert list(e.chains) == [p.id for p in rig.profiles]
+    # Every chain point is a cut-mesh vertex.
+    for pts in e.chains.values():
+        d = np.min(np.linalg.norm(V[None, :, :] - pts[:, None, :], axis=2), axis=1)
+        assert d.max() == 0.0
+    # The traced paths are what the cut follows: same ends as the chains.
+    paths = curvenet.trace_profiles(m, rig)
+    assert len(paths) == len(rig.profiles)
+    tol = e.report["fidelity"]["tolerance"]
+    for path, pts in zip(paths, e.chains.values()):
+        assert np.linalg.norm(path[0] - pts[0]) < tol and np.linalg.norm(path[-1] - pts[-1]) < tol
+
+
+@needs_data
+def test_progress_is_reported_and_its_errors_are_raised():
+    m = curvenet.load_mesh(hand())
+    rig = curvenet.read_rig(example("hand_l.cnrig.json"))
+    seen = []
+    curvenet.embed(m, rig, progress=lambda stage, f: seen.append((stage, f)))
+    assert ("trace", 1.0) in seen
+
+    def fail(stage, f):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        curvenet.embed(m, rig, progress=fail)
+
+
+def test_crossing_profiles_raise_embed_error():
+    # Two straight profiles across a square's diagonals cross in the middle.
+    n = 8
+    V = np.array([[x / n, y / n, 0.0] for y in range(n + 1) for x in range(n + 1)])
+    F = [[y * (n + 1) + x, y * (n + 1) + x + 1, (y + 1) * (n + 1) + x + 1, (y + 1) * (n + 1) + x]
+         for y in range(n) for x in range(n)]
+    m = curvenet.Mesh(V, F)
+    rig = curvenet.Rig()
+    rig.coverage = "local"
+    for name, p in [("a", [0.1, 0.1, 0]), ("b", [0.9, 0.9, 0]), ("c", [0.9, 0.1, 0]), ("d", [0.1, 0.9, 0])]:
+        rig.add_node(name, p)
+    rig.add_profile("ab", "a", "b")
+    rig.add_profile("cd", "c", "d")
+    with pytest.raises(curvenet.EmbedError) as e:
+        curvenet.embed(m, rig)
+    assert "'ab'" in str(e.value) and "'cd'" in str(e.value)
+
+
+# --- binding and deformation ------------------------------------------------
+
+
+@needs_data
+def test_deform_gives_exactly_the_cli_pose_output(tmp_path):
+    out = tmp_path / "fist.obj"
+    cli("pose", hand(), example("hand_l.cnrig.json"), example("fist.pose.json"), "-o", str(out))
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    M = curvenet.skinning_matrices(b, example("fist.pose.json"))
+    assert M.shape == (len(b.joints), 4, 4)
+    P = b.deform(M)
+    want = read_obj_vertices(out)  # 17 significant digits read back exactly
+    assert P.shape == want.shape == (b.num_input_vertices, 3)
+    assert np.array_equal(P, want)  # bit for bit
+    # The same pose given as a dict, and as JointPose entries.
+    with open(example("fist.pose.json")) as f:
+        entries = json.load(f)["joints"]
+    assert np.array_equal(curvenet.skinning_matrices(b, entries), M)
+    poses = curvenet.read_pose(example("fist.pose.json"))
+    assert np.array_equal(curvenet.skinning_matrices(b, poses), M)
+
+
+@needs_data
+def test_deform_frames_gives_exactly_the_cli_animation(tmp_path):
+    clips_file = hand("hand_l_poses.glb")
+    mesh_file = example("hand_l_welded.obj")
+    pc2 = tmp_path / "grip.pc2"
+    cli("animate", mesh_file, example("hand_l.cnrig.json"), clips_file, "--clip", "Grip", "-o", str(pc2))
+    want, start = read_pc2(pc2)
+    b = curvenet.bind(curvenet.load_mesh(mesh_file), curvenet.read_rig(example("hand_l.cnrig.json")))
+    clips = curvenet.load_skinned_mesh(clips_file)
+    clip = clips.find_clip("Grip")
+    first, last = curvenet.clip_frames(clips, clip, 24.0)
+    assert first == start and last - first + 1 == want.shape[0]
+    M = np.stack([curvenet.clip_skinning_matrices(b, clips, clip, f / 24.0) for f in range(first, last + 1)])
+    P = b.deform_frames(M)
+    assert P.shape == want.shape
+    assert np.array_equal(P.astype(np.float32), want)  # the cache holds float32
+    for f in range(P.shape[0]):
+        assert np.array_equal(P[f], b.deform(M[f]))
+    # write_pc2 writes the same cache.
+    mine = tmp_path / "mine.pc2"
+    curvenet.write_pc2(str(mine), P, first)
+    assert mine.read_bytes() == pc2.read_bytes()
+
+
+@needs_data
+def test_deform_into_a_given_buffer_and_checks_its_input():
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    M = curvenet.skinning_matrices(b, example("fist.pose.json"))
+    P = b.deform(M)
+    buf64 = np.empty((b.num_input_vertices, 3))
+    buf32 = np.empty((b.num_input_vertices, 3), np.float32)
+    assert b.deform(M, out=buf64) is buf64 and np.array_equal(buf64, P)
+    b.deform(M, out=buf32)
+    assert np.array_equal(buf32, P.astype(np.float32))
+    rest = b.deform(np.stack([np.eye(4)] * len(b.joints)))
+    np.testing.assert_allclose(rest, b.deform(curvenet.skinning_matrices(b, {})), atol=0)
+    with pytest.raises(ValueError):
+        b.deform(M[:-1])
+    with pytest.raises(ValueError):
+        b.deform(M, out=np.empty((3, 3)))
+    bad = M.copy()
+    bad[3, 0, 0] = np.inf
+    with pytest.raises(curvenet.InputError) as e:
+        b.deform(bad)
+    assert e.value.element == "matrix 3"
+    with pytest.raises(curvenet.InputError):
+        curvenet.skinning_matrices(b, {"NoSuchJoint": {"rotation": [1, 0, 0, 0]}})
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.skinning_matrices(b, {rig_joint(b): {"rotation": [2, 0, 0, 0]}})
+    assert "rotation" in e.value.element
+
+
+def rig_joint(b):
+    return b.joint_names[0]
+
+
+@needs_data
+def test_deform_frames_runs_without_the_gil():
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    clips = curvenet.load_skinned_mesh(hand("hand_l_poses.glb"))
+    M = np.stack([curvenet.clip_skinning_matrices(b, clips, c, 0.0) for c in range(clips.num_clips)])
+    results = [None] * 4
+
+    def work(i):
+        results[i] = b.deform_frames(M)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in results:
+        assert np.array_equal(r, results[0])
+
+
+@needs_data
+def test_bind_options_and_weights(tmp_path):
+    m = curvenet.load_mesh(hand())
+    rig = curvenet.read_rig(example("hand_l.cnrig.json"))
+    b = curvenet.bind(m, rig)
+    assert b.has_embedding and b.embedding.ok
+    assert b.report["vertices"] == m.num_vertices and b.report["mean_influences"] > 1
+    for node, w in b.node_weights.items():
+        assert abs(sum(w.values()) - 1) < 1e-9, node
+    bare = rig.copy()
+    for node in list(bare.weights.keys()):
+        del bare.weights[node]
+    full = curvenet.complete_weights(bare)
+    assert len(full.weights) == len(rig.nodes)
+    cache = tmp_path / "hand.cnbind"
+    c1 = curvenet.bind(m, rig, cache=str(cache))
+    c2 = curvenet.bind(m, rig, cache=str(cache))
+    assert cache.exists() and not c2.has_embedding
+    M = curvenet.skinning_matrices(b, example("fist.pose.json"))
+    assert np.array_equal(c1.deform(M), c2.deform(M))
+    with pytest.raises(ValueError):
+        curvenet.bind(m, rig, laplacian="cotan")
+    no_skeleton = rig.copy()
+    no_skeleton.has_skeleton = False
+    no_skeleton.joints = []
+    with pytest.raises(curvenet.InputError):
+        curvenet.bind(m, no_skeleton)
+
+
+# --- starter, transfer, compare, subdivide ---------------------------------
+
+
+@needs_data
+def test_starter_transfer_and_compare_on_the_hand():
+    m = curvenet.load_mesh(hand())
+    low = curvenet.load_mesh(hand("Hand_low_L.gltf"))
+    s = curvenet.starter(m, hand())
+    assert s.rings >= 14 and s.net_components == 1 and s.rig.has_skeleton
+    assert curvenet.embed(m, s.rig).ok
+    assert curvenet.starter(m, curvenet.load_skeleton(hand())).rig.to_json() == s.rig.to_json()
+    t = curvenet.transfer(s.rig, m, low)
+    assert t.ok and t.agreement > 0.99
+    assert t.report["target"]["regions"] == t.report["source"]["regions"]
+    d = curvenet.compare(m, low)
+    assert set(d) >= {"a_to_b", "b_to_a", "mean", "rms", "max", "diagonal", "mean_percent"}
+    assert 0 < d["mean_percent"] < 1
+
+
+def test_subdivide_refines_a_cage():
+    cube_v = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    quads = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]])
+    s = curvenet.subdivide(curvenet.Mesh(cube_v, quads), 2)
+    assert s.num_faces == 6 * 16
+    with pytest.raises(curvenet.InputError):
+        curvenet.subdivide(curvenet.Mesh(cube_v, quads), 9)
+
+
+# --- the stub ---------------------------------------------------------------
+
+
+def test_the_stub_documents_every_public_name():
+    stub = os.path.join(os.path.dirname(curvenet.__file__), "__init__.pyi")
+    tree = ast.parse(open(stub).read())
+    documented = {n.name for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    public = {n for n in dir(curvenet) if not n.startswith("_")}
+    assert public - documented == set()
