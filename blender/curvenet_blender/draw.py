@@ -1,0 +1,109 @@
+"""The viewport overlay: node markers and each profile's traced path, the
+exact path the cut will follow, drawn with the gpu module. The geometry
+comes from overlay_geometry(), which headless tests call; drawing needs a
+window."""
+
+import bpy
+import numpy as np
+
+from . import core
+
+_handle = None
+
+COLOURS = {
+    "path": (0.1, 0.8, 1.0, 1.0),
+    "failed": (1.0, 0.15, 0.1, 1.0),
+    "node": (1.0, 0.85, 0.1, 1.0),
+    "selected": (1.0, 0.3, 0.9, 1.0),
+}
+
+
+def selected_nodes(scene):
+    text = scene.curvenet.selected_nodes
+    return [s for s in (t.strip() for t in text.split(",")) if s]
+
+
+def overlay_geometry(obj, scene):
+    """World-space line segments and points to draw, by colour name."""
+    rig = core.get_rig(obj)
+    paths = core.traced_paths(obj)
+    W = np.array(obj.matrix_world)
+    st = core.state(obj)
+
+    def world(p):
+        p = np.asarray(p, dtype=np.float64)
+        return p @ W[:3, :3].T + W[:3, 3]
+
+    lines = {"path": [], "failed": []}
+    for pid, path in paths.items():
+        pts = world(path)
+        seg = np.repeat(pts, 2, axis=0)[1:-1]
+        lines["failed" if pid == st.failed_profile else "path"].append(seg)
+    chosen = set(selected_nodes(scene))
+    points = {"node": [], "selected": []}
+    for n in rig.nodes:
+        points["selected" if n.id in chosen else "node"].append(world(n.position))
+    out = {}
+    for k, v in lines.items():
+        out[k] = np.vstack(v) if v else np.zeros((0, 3))
+    for k, v in points.items():
+        out[k] = np.array(v) if v else np.zeros((0, 3))
+    return out
+
+
+def _shader():
+    import gpu
+
+    for name in ("UNIFORM_COLOR", "3D_UNIFORM_COLOR"):
+        try:
+            return gpu.shader.from_builtin(name)
+        except (ValueError, SystemError):
+            continue
+    return None
+
+
+def _draw():
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+
+    obj = bpy.context.active_object
+    if not core.has_rig(obj):
+        return
+    try:
+        geo = overlay_geometry(obj, bpy.context.scene)
+    except Exception:
+        return
+    shader = _shader()
+    if shader is None:
+        return
+    gpu.state.depth_test_set("LESS_EQUAL")
+    gpu.state.line_width_set(3.0)
+    gpu.state.point_size_set(9.0)
+    for key in ("path", "failed"):
+        if len(geo[key]):
+            batch = batch_for_shader(shader, "LINES", {"pos": geo[key].astype(np.float32).tolist()})
+            shader.bind()
+            shader.uniform_float("color", COLOURS[key])
+            batch.draw(shader)
+    for key in ("node", "selected"):
+        if len(geo[key]):
+            batch = batch_for_shader(shader, "POINTS", {"pos": geo[key].astype(np.float32).tolist()})
+            shader.bind()
+            shader.uniform_float("color", COLOURS[key])
+            batch.draw(shader)
+    gpu.state.depth_test_set("NONE")
+    gpu.state.line_width_set(1.0)
+    gpu.state.point_size_set(1.0)
+
+
+def register():
+    global _handle
+    if _handle is None and not bpy.app.background:
+        _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+
+
+def unregister():
+    global _handle
+    if _handle is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
+        _handle = None

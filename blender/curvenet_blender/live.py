@@ -1,0 +1,66 @@
+"""Live deformation: posing the armature or scrubbing the timeline moves
+every bound mesh through its Binding (core.update_live). The handlers skip
+a mesh whose armature pose has not changed, so writing the positions (which
+triggers another depsgraph update) does not loop."""
+
+import bpy
+from bpy.app.handlers import persistent
+
+from . import core
+
+_busy = False
+
+
+def _update_all(depsgraph=None):
+    global _busy
+    if _busy:
+        return
+    _busy = True
+    try:
+        for obj in core.live_objects():
+            try:
+                if core.ensure_binding(obj) is not None:
+                    core.update_live(obj, depsgraph)
+            except Exception as e:  # a handler must not raise into Blender
+                core.state(obj).error = str(e)
+    finally:
+        _busy = False
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    _update_all(depsgraph)
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph=None):
+    # Only a pose or transform change of an armature can move a bound mesh.
+    if depsgraph is not None:
+        if not any(isinstance(u.id, bpy.types.Object) and u.id.type == "ARMATURE" for u in depsgraph.updates):
+            return
+    _update_all(depsgraph)
+
+
+@persistent
+def on_load(_dummy=None):
+    core.STATE.clear()  # bindings are runtime caches: bind again on demand
+    _update_all()
+
+
+HANDLERS = (
+    (bpy.app.handlers.frame_change_post, on_frame_change),
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+    (bpy.app.handlers.load_post, on_load),
+)
+
+
+def register():
+    for handlers, fn in HANDLERS:
+        if fn not in handlers:
+            handlers.append(fn)
+
+
+def unregister():
+    for handlers, fn in HANDLERS:
+        if fn in handlers:
+            handlers.remove(fn)

@@ -1,0 +1,382 @@
+"""The workflow's steps as operators: thin shells over core.py, so every
+step can be scripted (bpy.ops.curvenet.*) and tested headless."""
+
+import os
+
+import bpy
+from bpy.props import FloatProperty, IntProperty, StringProperty
+from bpy_extras import view3d_utils
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+import curvenet
+
+from . import core
+
+
+def _mesh(context):
+    obj = context.active_object
+    return obj if obj is not None and obj.type == "MESH" and not obj.get("curvenet_preview_of") else None
+
+
+def _armature(context):
+    for o in context.selected_objects:
+        if o.type == "ARMATURE":
+            return o
+    return context.scene.curvenet.armature
+
+
+def _target(context, source):
+    for o in context.selected_objects:
+        if o.type == "MESH" and o != source and not o.get("curvenet_preview_of"):
+            return o
+    return context.scene.curvenet.target
+
+
+def _status(context, text):
+    context.scene.curvenet.status = text.splitlines()[0] if text else ""
+
+
+class _MeshOperator:
+    @classmethod
+    def poll(cls, context):
+        return _mesh(context) is not None
+
+
+class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
+    """Draw a net on the mesh: click to place nodes (a click near a node reuses it);
+    each click after the first makes a profile, traced on the surface. Ctrl+Z removes
+    the last profile; Enter or Esc finishes"""
+
+    bl_idname = "curvenet.draw"
+    bl_label = "Draw"
+    bl_options = {"REGISTER"}
+
+    def invoke(self, context, event):
+        if context.area is None or context.area.type != "VIEW_3D":
+            self.report({"WARNING"}, "Draw works in a 3D view")
+            return {"CANCELLED"}
+        self.obj = _mesh(context)
+        self.previous = None
+        self.stroke = []  # surface points the mouse passed over since the last click
+        context.window_manager.modal_handler_add(self)
+        _status(context, "Draw: click on the mesh; Ctrl+Z undoes a profile; Enter or Esc finishes")
+        return {"RUNNING_MODAL"}
+
+    def _ray(self, context, event):
+        region, rv3d = context.region, context.region_data
+        xy = (event.mouse_region_x, event.mouse_region_y)
+        origin = view3d_utils.region_2d_to_origin_3d(region, rv3d, xy)
+        direction = view3d_utils.region_2d_to_vector_3d(region, rv3d, xy)
+        return origin, direction
+
+    def modal(self, context, event):
+        context.area.tag_redraw()
+        if event.type in {"RET", "NUMPAD_ENTER", "ESC"} and event.value == "PRESS":
+            _status(context, "Draw: finished, %d profiles" % len(core.get_rig(self.obj).profiles))
+            return {"FINISHED"}
+        if event.type == "Z" and event.ctrl and event.value == "PRESS":
+            removed = core.remove_last_profile(self.obj)
+            if removed is not None:
+                rig = core.get_rig(self.obj)
+                last = rig.profiles[len(rig.profiles) - 1] if len(rig.profiles) else None
+                self.previous = last.to if last is not None else None
+                _status(context, "Draw: removed profile %s" % removed)
+            self.stroke = []
+            return {"RUNNING_MODAL"}
+        if event.type == "MOUSEMOVE" and self.previous is not None:
+            hit = core.surface_hit(self.obj, *self._ray(context, event))
+            if hit is not None:
+                step = 0.01 * core.state(self.obj).diagonal
+                if not self.stroke or ((hit - self.stroke[-1]) ** 2).sum() ** 0.5 > step:
+                    self.stroke.append(hit)
+            return {"RUNNING_MODAL"}
+        if event.type == "LEFTMOUSE" and event.value == "PRESS":
+            origin, direction = self._ray(context, event)
+            node = core.add_node_at(self.obj, origin, direction)
+            if node is None:
+                return {"RUNNING_MODAL"}  # a miss: the click is the user's to make again
+            if self.previous is not None and node != self.previous:
+                try:
+                    rig = core.get_rig(self.obj)
+                    ends = [rig.node(self.previous).position, rig.node(node).position]
+                    via = [p for p in self.stroke if min(((p - e) ** 2).sum() for e in ends) ** 0.5 > 1e-9]
+                    pid = core.add_profile(self.obj, self.previous, node, via or None)
+                    _status(context, "Draw: profile %s, %s -> %s" % (pid, self.previous, node))
+                except curvenet.Error as e:
+                    self.report({"WARNING"}, str(e))
+                    _status(context, "Draw: " + str(e))
+                    self.stroke = []
+                    return {"RUNNING_MODAL"}
+            self.previous = node
+            self.stroke = []
+            return {"RUNNING_MODAL"}
+        return {"PASS_THROUGH"}
+
+
+class CURVENET_OT_connect(_MeshOperator, bpy.types.Operator):
+    """Embed the net in the mesh: SUCCESS or FAILED with the counts, and a region preview object"""
+
+    bl_idname = "curvenet.connect"
+    bl_label = "Connect"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = _mesh(context)
+        ok, _report, message = core.connect(obj)
+        _status(context, message)
+        failed = core.state(obj).failed_profile
+        if failed:
+            context.scene.curvenet.selected_profile = failed
+        self.report({"INFO"} if ok else {"WARNING"}, "Curvenet embedding: " + message)
+        return {"FINISHED"} if ok else {"CANCELLED"}
+
+
+class CURVENET_OT_starter(_MeshOperator, bpy.types.Operator):
+    """Make a starter net from the selected armature's bones (rest pose), for the rigger to edit"""
+
+    bl_idname = "curvenet.starter"
+    bl_label = "Starter Net"
+    bl_options = {"REGISTER", "UNDO"}
+
+    nodes_per_ring: IntProperty(name="Nodes per ring", default=4, min=3, max=16)
+
+    def execute(self, context):
+        obj, arm = _mesh(context), _armature(context)
+        if arm is None:
+            self.report({"ERROR"}, "Select an armature (or set one in the panel)")
+            return {"CANCELLED"}
+        try:
+            r = core.starter(obj, arm, nodes_per_ring=self.nodes_per_ring)
+        except curvenet.Error as e:
+            self.report({"ERROR"}, str(e))
+            _status(context, "Starter: " + str(e))
+            return {"CANCELLED"}
+        msg = "Starter: %d rings, %d nodes, %d profiles, %d components" % (
+            r.rings, len(r.rig.nodes), len(r.rig.profiles), r.net_components)
+        _status(context, msg)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+
+class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
+    """Bind the net to the selected armature; the mesh then follows the armature through the net"""
+
+    bl_idname = "curvenet.bind"
+    bl_label = "Bind"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj, arm = _mesh(context), _armature(context)
+        if arm is None:
+            self.report({"ERROR"}, "Select an armature (or set one in the panel)")
+            return {"CANCELLED"}
+        try:
+            b = core.bind(obj, arm)
+        except curvenet.Error as e:
+            core.state(obj).error = str(e)
+            self.report({"ERROR"}, str(e))
+            _status(context, "Bind: " + str(e))
+            return {"CANCELLED"}
+        context.scene.curvenet.armature = arm
+        msg = "Bind: %d vertices, %.2f influences per vertex" % (b.report["vertices"], b.report["mean_influences"])
+        _status(context, msg)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+
+class CURVENET_OT_unbind(_MeshOperator, bpy.types.Operator):
+    """Stop deforming the mesh through the net (its rest shape and Armature modifiers come back)"""
+
+    bl_idname = "curvenet.unbind"
+    bl_label = "Unbind"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        core.unbind(_mesh(context))
+        _status(context, "Unbound")
+        return {"FINISHED"}
+
+
+class CURVENET_OT_pick_node(_MeshOperator, bpy.types.Operator):
+    """Click node markers to select them for the weight editor (Shift adds); Enter or Esc finishes"""
+
+    bl_idname = "curvenet.pick_node"
+    bl_label = "Pick Nodes"
+
+    def invoke(self, context, event):
+        if context.area is None or context.area.type != "VIEW_3D":
+            return {"CANCELLED"}
+        self.obj = _mesh(context)
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        context.area.tag_redraw()
+        if event.type in {"RET", "NUMPAD_ENTER", "ESC"} and event.value == "PRESS":
+            return {"FINISHED"}
+        if event.type == "LEFTMOUSE" and event.value == "PRESS":
+            xy = (event.mouse_region_x, event.mouse_region_y)
+            origin = view3d_utils.region_2d_to_origin_3d(context.region, context.region_data, xy)
+            direction = view3d_utils.region_2d_to_vector_3d(context.region, context.region_data, xy)
+            node = core.nearest_node(self.obj, origin, direction)
+            if node is not None:
+                props = context.scene.curvenet
+                chosen = [s for s in props.selected_nodes.split(",") if s.strip()] if event.shift else []
+                if node not in chosen:
+                    chosen.append(node)
+                props.selected_nodes = ",".join(chosen)
+                w = core.node_weights(self.obj, node)
+                _status(context, "Node %s: %s" % (node, ", ".join("%s %.2f" % kv for kv in sorted(w.items()))))
+            return {"RUNNING_MODAL"}
+        return {"PASS_THROUGH"}
+
+
+class CURVENET_OT_set_node_weight(_MeshOperator, bpy.types.Operator):
+    """Set the active bone's weight on the selected nodes (the others are scaled to sum to 1)"""
+
+    bl_idname = "curvenet.set_node_weight"
+    bl_label = "Set Node Weight"
+    bl_options = {"REGISTER", "UNDO"}
+
+    weight: FloatProperty(name="Weight", default=1.0, min=0.0, max=1.0)
+    bone: StringProperty(name="Bone", description="Empty: the armature's active bone")
+    nodes: StringProperty(name="Nodes", description="Comma-separated node ids; empty: the selected nodes")
+
+    def execute(self, context):
+        obj = _mesh(context)
+        props = context.scene.curvenet
+        nodes = [s.strip() for s in (self.nodes or props.selected_nodes).split(",") if s.strip()]
+        bone = self.bone
+        if not bone:
+            arm = _armature(context) or core.bound_armature(obj)
+            active = arm.data.bones.active if arm is not None else None
+            bone = active.name if active is not None else ""
+        if not nodes or not bone:
+            self.report({"ERROR"}, "Pick nodes and an active bone first")
+            return {"CANCELLED"}
+        try:
+            core.set_node_weight(obj, nodes, bone, self.weight)
+        except (curvenet.Error, KeyError, ValueError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        _status(context, "Weight of %s set to %.3f on %s" % (bone, self.weight, ", ".join(nodes)))
+        return {"FINISHED"}
+
+
+class CURVENET_OT_transfer(_MeshOperator, bpy.types.Operator):
+    """Transfer the net to the selected (or the panel's) target mesh of the same character"""
+
+    bl_idname = "curvenet.transfer"
+    bl_label = "Transfer"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = _mesh(context)
+        target = _target(context, obj)
+        if target is None:
+            self.report({"ERROR"}, "Select a target mesh (or set one in the panel)")
+            return {"CANCELLED"}
+        try:
+            r = core.transfer(obj, target)
+        except curvenet.Error as e:
+            self.report({"ERROR"}, str(e))
+            _status(context, "Transfer: " + str(e))
+            return {"CANCELLED"}
+        rep = r.report
+        msg = "Transfer %s to %s: %s, %d regions, %.2f%% of the area agrees" % (
+            obj.name, target.name, "SUCCESS" if r.ok else "FAILED", rep["target"]["regions"], 100 * r.agreement)
+        _status(context, msg)
+        self.report({"INFO"} if r.ok else {"WARNING"}, msg)
+        return {"FINISHED"} if r.ok else {"CANCELLED"}
+
+
+class CURVENET_OT_export_rig(_MeshOperator, bpy.types.Operator, ExportHelper):
+    """Write the mesh's net as a rig file"""
+
+    bl_idname = "curvenet.export_rig"
+    bl_label = "Export Rig"
+    filename_ext = ".cnrig.json"
+    filter_glob: StringProperty(default="*.cnrig.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        try:
+            core.export_rig(_mesh(context), self.filepath)
+        except curvenet.Error as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        _status(context, "Rig written: " + self.filepath)
+        return {"FINISHED"}
+
+
+class CURVENET_OT_import_rig(_MeshOperator, bpy.types.Operator, ImportHelper):
+    """Read a rig file onto the mesh (in its object space)"""
+
+    bl_idname = "curvenet.import_rig"
+    bl_label = "Import Rig"
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".cnrig.json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        try:
+            rig = core.import_rig(_mesh(context), self.filepath)
+        except curvenet.Error as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        _status(context, "Rig read: %d nodes, %d profiles" % (len(rig.nodes), len(rig.profiles)))
+        return {"FINISHED"}
+
+
+class CURVENET_OT_bake_cache(_MeshOperator, bpy.types.Operator, ExportHelper):
+    """Bake the scene's frame range to a PC2 cache with a Mesh Cache modifier, so the .blend plays without the add-on"""
+
+    bl_idname = "curvenet.bake_cache"
+    bl_label = "Bake Cache"
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".pc2"
+    filter_glob: StringProperty(default="*.pc2", options={"HIDDEN"})
+    frame_start: IntProperty(name="Start", default=-1, description="-1: the scene's")
+    frame_end: IntProperty(name="End", default=-1, description="-1: the scene's")
+
+    def execute(self, context):
+        scene = context.scene
+        start = scene.frame_start if self.frame_start < 0 else self.frame_start
+        end = scene.frame_end if self.frame_end < 0 else self.frame_end
+        try:
+            core.bake_cache(_mesh(context), bpy.path.abspath(self.filepath), start, end, scene)
+        except (curvenet.Error, ValueError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        _status(context, "Cache written: %s (frames %d-%d)" % (os.path.basename(self.filepath), start, end))
+        return {"FINISHED"}
+
+
+class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):
+    """Remove the net from the mesh"""
+
+    bl_idname = "curvenet.clear"
+    bl_label = "Clear Net"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = _mesh(context)
+        core.unbind(obj)
+        core.clear_rig(obj)
+        _status(context, "Net removed")
+        return {"FINISHED"}
+
+
+CLASSES = (
+    CURVENET_OT_draw,
+    CURVENET_OT_connect,
+    CURVENET_OT_starter,
+    CURVENET_OT_bind,
+    CURVENET_OT_unbind,
+    CURVENET_OT_pick_node,
+    CURVENET_OT_set_node_weight,
+    CURVENET_OT_transfer,
+    CURVENET_OT_export_rig,
+    CURVENET_OT_import_rig,
+    CURVENET_OT_bake_cache,
+    CURVENET_OT_clear,
+)

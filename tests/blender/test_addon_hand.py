@@ -1,0 +1,207 @@
+"""The add-on's whole workflow on the shared hand (hand_l.gltf with its
+armature), headless, through the non-modal core and the operators:
+
+1. draw a small net with the non-modal core (a ring round the index finger);
+2. connect, and check the counts;
+3. make a starter net from the armature, connect, and bind;
+4. set one node weight, rotate a bone, and check that the evaluated mesh equals
+   curvenet.Binding.deform for the same matrices, posing and scrubbing;
+5. transfer to Hand_low_L.gltf;
+6. render Workbench PNGs of the region preview and a posed frame;
+and bake a cache that plays without the add-on.
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+
+import addon_support as t  # noqa: E402
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from mathutils import Quaternion, Vector  # noqa: E402
+
+t.empty_scene()  # factory settings first: they switch add-ons off
+t.enable_addon()
+import curvenet  # noqa: E402
+import curvenet_blender  # noqa: E402
+from curvenet_blender import core, draw  # noqa: E402
+
+HAND = os.path.join(t.DATA, "xr_tools_hand")
+meshes, arms = t.import_gltf(os.path.join(HAND, "hand_l.gltf"))
+obj, arm = meshes[0], arms[0]
+rest = np.array([v.co[:] for v in obj.data.vertices])
+t.check(len(obj.modifiers) and obj.modifiers[0].type == "ARMATURE", "the import comes with its own skin")
+
+# --- 1. draw a ring round the index finger with the non-modal core ---------
+bone = arm.data.bones["Index_Intermediate_L"]
+W = arm.matrix_world
+head, tail = W @ bone.head_local, W @ bone.tail_local
+centre = (head + tail) / 2
+axis = (tail - head).normalized()
+u = axis.orthogonal().normalized()
+v = axis.cross(u)
+rays = [(u * np.cos(a) + v * np.sin(a)).normalized() for a in np.radians([0, 90, 180, 270])]
+nodes = []
+for d in rays:
+    nodes.append(core.add_node_at(obj, centre, d))  # from inside the finger, out to its surface
+t.check(len(set(nodes)) == 4 and None not in nodes, "four rays place four nodes")
+for n, d in zip(nodes, rays):
+    hit = core.surface_hit(obj, centre, d)
+    t.check(np.allclose(core.get_rig(obj).node(n).position, hit), "node %s is where its ray meets the surface" % n)
+# A click near a node reuses it (tolerance scaled to the mesh).
+again = core.add_node_at(obj, centre, (rays[0] + 0.02 * rays[1]).normalized())
+t.check(again == nodes[0], "a click near node %s reuses it" % nodes[0])
+t.check(core.add_node_at(obj, centre + axis * 10, axis) is None, "a ray that misses the mesh places nothing")
+pids = [core.add_profile(obj, nodes[i], nodes[(i + 1) % 4]) for i in range(4)]
+rig = core.get_rig(obj)
+t.check(len(rig.nodes) == 4 and len(rig.profiles) == 4, "the ring has 4 nodes and 4 profiles")
+# The overlay draws the traced path of each profile: the path the cut follows.
+geo = draw.overlay_geometry(obj, bpy.context.scene)
+t.check(len(geo["path"]) > 0 and len(geo["node"]) == 4, "the overlay has paths and node markers")
+# Ctrl+Z removes the last profile; drawing it again restores the ring.
+removed = core.remove_last_profile(obj)
+t.check(removed == pids[-1] and len(core.get_rig(obj).profiles) == 3, "undo removes the last profile")
+t.check(len(core.get_rig(obj).nodes) == 4, "the nodes the other profiles use stay")
+core.add_profile(obj, nodes[3], nodes[0])
+t.check("curvenet_rig" in obj and obj["curvenet_rig"].startswith("{"), "the rig lives on the object")
+
+# --- 2. connect ------------------------------------------------------------
+t.select(obj)
+result = bpy.ops.curvenet.connect()
+st = core.state(obj)
+t.check(result == {"FINISHED"} and st.report["ok"], "Connect: " + bpy.context.scene.curvenet.status)
+t.check(st.report["regions"] == 2 and st.report["expected_regions"] == 2, "a ring on a closed hand makes 2 regions")
+t.check(bpy.context.scene.curvenet.status.startswith("SUCCESS"), "the panel says SUCCESS")
+preview = bpy.data.objects[obj.name + core.PREVIEW_SUFFIX]
+t.check(preview.data.color_attributes.get("regions") is not None, "the preview object has region colours")
+t.check(np.array_equal(np.array([v.co[:] for v in obj.data.vertices]), rest), "the user's mesh is not edited")
+# For every traced path, the chain the cut made ends at the same nodes.
+for pid, chain in st.paths.items():
+    t.check(len(chain) >= 2, "profile %s has a chain" % pid)
+
+# A profile along the finger that crosses the ring between two of its nodes
+# fails Connect with the engine's reason, and the profile it names is selected.
+diag45 = (rays[0] + rays[1]).normalized()
+length = (tail - head).length
+e = core.add_node_at(obj, centre - axis * (0.35 * length), diag45)
+f = core.add_node_at(obj, centre + axis * (0.35 * length), diag45)
+across = core.add_profile(obj, e, f, [core.surface_hit(obj, centre, diag45)])
+ok, _, message = core.connect(obj)
+t.check(not ok and message.startswith("FAILED") and ("'%s'" % across) in message, "a crossing net fails: " + message)
+t.check(core.state(obj).failed_profile in (across, pids[0]), "the failure names the crossing profiles")
+t.select(obj)
+t.check(bpy.ops.curvenet.connect() == {"CANCELLED"}, "the operator reports the failure")
+t.check(bpy.context.scene.curvenet.selected_profile == core.state(obj).failed_profile, "the named profile is selected")
+
+# --- 3. starter net from the armature, connect, bind -----------------------
+t.select(obj, arm)
+t.check(bpy.ops.curvenet.starter() == {"FINISHED"}, "Starter: " + bpy.context.scene.curvenet.status)
+rig = core.get_rig(obj)
+t.check(len(rig.nodes) > 40 and rig.has_skeleton, "the starter net has %d nodes" % len(rig.nodes))
+t.select(obj)
+t.check(bpy.ops.curvenet.connect() == {"FINISHED"}, "the starter net connects: " + bpy.context.scene.curvenet.status)
+t.select(obj, arm)
+t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "Bind: " + bpy.context.scene.curvenet.status)
+t.check(not obj.modifiers[0].show_viewport, "the file's own Armature modifier is off while bound")
+t.check(np.abs(t.evaluated_positions(obj) - rest).max() < 1e-6, "at rest the mesh does not move")
+
+# --- 4. a node weight, a bone rotated, the mesh equals Binding.deform -------
+# The node of the starter net nearest the index finger's middle knuckle.
+bone_name = "Index_Proximal_L"
+knuckle = np.array(obj.matrix_world.inverted() @ arm.matrix_world @ arm.data.bones[bone_name].tail_local)
+node = min(core.get_rig(obj).nodes, key=lambda n: np.linalg.norm(np.asarray(n.position) - knuckle)).id
+t.select(obj, arm)
+arm.data.bones.active = arm.data.bones[bone_name]
+t.check(bpy.ops.curvenet.set_node_weight(nodes=node, weight=0.75) == {"FINISHED"}, "Set node weight")
+w = dict(core.get_rig(obj).weights[node])
+t.check(abs(w[bone_name] - 0.75) < 1e-12 and abs(sum(w.values()) - 1) < 1e-12, "the node's weights: %s" % w)
+t.check(abs(core.state(obj).binding.node_weights[node][bone_name] - 0.75) < 1e-12, "the binding uses the new weight")
+
+
+def expected_matrices():
+    """Skinning matrices computed here from the armature, independently of the add-on."""
+    binding = core.state(obj).binding
+    O, A = obj.matrix_world, arm.matrix_world
+    M = []
+    for name in binding.joint_names:
+        pb = arm.pose.bones[name]
+        M.append(np.array(O.inverted() @ A @ pb.matrix @ pb.bone.matrix_local.inverted() @ A.inverted() @ O))
+    return np.array(M)
+
+
+def check_pose(label):
+    bpy.context.view_layer.update()  # the handler writes the deformed positions
+    bpy.context.view_layer.update()  # and the depsgraph evaluates them
+    got = t.evaluated_positions(obj)
+    want = core.state(obj).binding.deform(expected_matrices())
+    err = np.abs(got - want).max()
+    scale = np.abs(want).max()
+    t.check(err <= 4e-7 * scale, "%s: the evaluated mesh equals Binding.deform (max error %.3g)" % (label, err))
+    return got
+
+
+pb = arm.pose.bones[bone_name]
+pb.rotation_mode = "QUATERNION"
+pb.rotation_quaternion = Quaternion((1, 0, 0), np.radians(60))
+posed = check_pose("posing")
+t.check(np.abs(posed - rest).max() > 0.005, "the bone's rotation moves the mesh")
+# Scrubbing: keys at frames 1 and 21, evaluated at frame 11.
+scene = bpy.context.scene
+pb.rotation_quaternion = Quaternion((1, 0, 0), 0)
+pb.keyframe_insert("rotation_quaternion", frame=1)
+pb.rotation_quaternion = Quaternion((1, 0, 0), np.radians(80))
+pb.keyframe_insert("rotation_quaternion", frame=21)
+scene.frame_start, scene.frame_end = 1, 21
+scene.frame_set(11)
+check_pose("scrubbing to frame 11")
+scene.frame_set(21)
+check_pose("scrubbing to frame 21")
+
+# --- 6. renders: a posed frame, and the region preview ---------------------
+t.render_workbench([obj], os.path.join(t.OUT, "hand_posed.png"), colour="SINGLE")
+t.select(obj)
+bpy.ops.curvenet.connect()
+preview = bpy.data.objects[obj.name + core.PREVIEW_SUFFIX]
+chains = bpy.data.objects[obj.name + core.CHAINS_SUFFIX]
+scene.frame_set(1)
+obj.hide_render = True
+t.render_workbench([preview, chains], os.path.join(t.OUT, "hand_regions.png"), colour="VERTEX")
+obj.hide_render = False
+
+# --- bake a cache that plays without the add-on ----------------------------
+pc2 = os.path.join(t.OUT, "hand_bake.pc2")
+scene.frame_set(11)
+live_11 = t.evaluated_positions(obj)
+t.select(obj, arm)
+t.check(bpy.ops.curvenet.bake_cache(filepath=pc2) == {"FINISHED"}, "Bake cache: " + scene.curvenet.status)
+t.check(obj.modifiers[0].type == "MESH_CACHE", "the Mesh Cache modifier comes first")
+curvenet_blender.unregister()  # the cache plays with the add-on off
+scene.frame_set(1)
+scene.frame_set(11)
+baked_11 = t.evaluated_positions(obj)
+err = np.abs(baked_11 - live_11).max()
+t.check(err < 1e-6, "the baked cache plays frame 11 as the live deformation showed it (max error %.3g)" % err)
+curvenet_blender.register()
+
+# --- 5. transfer to the low-resolution hand --------------------------------
+low_meshes, low_arms = t.import_gltf(os.path.join(HAND, "Hand_low_L.gltf"))
+low = low_meshes[0]
+t.select(obj, low)
+t.check(bpy.ops.curvenet.transfer() == {"FINISHED"}, scene.curvenet.status)
+low_rig = core.get_rig(low)
+t.check(len(low_rig.nodes) == len(core.get_rig(obj).nodes), "the transferred rig has the same nodes")
+t.check("agrees" in scene.curvenet.status, "the panel shows the agreement: " + scene.curvenet.status)
+agreement = float(scene.curvenet.status.split("%")[0].split()[-1])
+t.check(agreement > 99.0, "the regions agree over %.2f%% of the area" % agreement)
+t.select(low)
+t.check(bpy.ops.curvenet.connect() == {"FINISHED"}, "the transferred rig connects on the low hand")
+
+# Export and import round trip.
+path = os.path.join(t.OUT, "hand_from_blender.cnrig.json")
+t.select(obj)
+t.check(bpy.ops.curvenet.export_rig(filepath=path) == {"FINISHED"}, "Export rig")
+t.check(curvenet.read_rig(path).to_json() == core.get_rig(obj).to_json(), "the exported rig reads back the same")
+t.select(low)
+t.check(bpy.ops.curvenet.import_rig(filepath=path) == {"FINISHED"}, "Import rig")
+print("CURVENET_TEST all passed")
