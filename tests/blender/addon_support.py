@@ -17,6 +17,9 @@ numpy.bool = bool  # Blender 3.4's glTF importer uses numpy.bool, which Debian's
 ARGS = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
 BUILD, DATA, OUT = (os.path.abspath(a) for a in ARGS[:3])
 os.makedirs(OUT, exist_ok=True)
+if not os.path.isdir(DATA):
+    print("CURVENET_TEST skipped: no shared data at " + DATA)
+    sys.exit(0)
 
 
 def enable_addon():
@@ -71,9 +74,10 @@ def evaluated_positions(obj):
     return co.reshape(-1, 3).astype(numpy.float64)
 
 
-def render_workbench(objects, path, colour="MATERIAL", size=(800, 600), side=1.0):
-    """A Workbench still of `objects`: the camera looks along their thinnest
-    extent (a palm's normal), with the longest one across the picture."""
+def render_workbench(objects, path, colour="MATERIAL", size=(800, 600), side=1.0, view=None, up=None):
+    """A Workbench still of `objects`: by default the camera looks along their
+    thinnest extent (a palm's normal), with the longest one across the
+    picture; or from `view` (towards the camera), with `up` up."""
     from mathutils import Matrix, Vector
 
     scene = bpy.context.scene
@@ -97,10 +101,15 @@ def render_workbench(objects, path, colour="MATERIAL", size=(800, 600), side=1.0
     centre, extent = (lo + hi) / 2, hi - lo
     order = numpy.argsort(extent)
     axes = numpy.eye(3)
-    z = Vector(side * axes[order[0]] + 0.35 * axes[order[1]]).normalized()  # towards the camera
-    x = Vector(axes[order[2]])
-    x = (x - z * x.dot(z)).normalized()
-    y = z.cross(x)
+    z = Vector(view if view is not None else side * axes[order[0]] + 0.35 * axes[order[1]]).normalized()
+    if up is not None:
+        y = Vector(up)
+        y = (y - z * y.dot(z)).normalized()
+        x = y.cross(z)
+    else:
+        x = Vector(axes[order[2]])
+        x = (x - z * x.dot(z)).normalized()
+        y = z.cross(x)
     cam_data = bpy.data.cameras.new("curvenet_camera")
     cam_data.lens = 50
     cam = bpy.data.objects.new("curvenet_camera", cam_data)
