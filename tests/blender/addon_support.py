@@ -84,6 +84,9 @@ def render_workbench(objects, path, colour="MATERIAL", size=(800, 600), side=1.0
     scene.render.engine = "BLENDER_WORKBENCH"
     scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGB"
+    scene.render.image_settings.compression = 100
     if scene.world is None:
         scene.world = bpy.data.worlds.new("curvenet_world")
     scene.world.color = (0.82, 0.84, 0.87)
@@ -96,6 +99,7 @@ def render_workbench(objects, path, colour="MATERIAL", size=(800, 600), side=1.0
     visible = set(objects)
     for o in scene.objects:
         o.hide_render = o not in visible
+    bpy.context.view_layer.update()  # bounding boxes of new objects
     pts = numpy.array([(o.matrix_world @ Vector(c))[:] for o in objects for c in o.bound_box])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     centre, extent = (lo + hi) / 2, hi - lo
