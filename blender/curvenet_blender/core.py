@@ -394,6 +394,49 @@ def _bones_parents_first(arm):
     return out
 
 
+def make_armature(obj, name=None):
+    """An armature object from the rig's skeleton, placed with the mesh: one
+    bone per joint, its head at the joint, its tail at its first child (a
+    leaf continues its parent's direction at half its length)."""
+    rig = get_rig(obj)
+    if not rig.has_skeleton or len(rig.joints) == 0:
+        raise curvenet.InputError(obj.name, "/skeleton", "the rig has no skeleton to make an armature from")
+    F = np.asarray(rig.frame)
+    heads = {j.name: (F @ np.asarray(j.bind))[:3, 3] for j in rig.joints}
+    children = {}
+    for j in rig.joints:
+        if j.parent is not None:
+            children.setdefault(j.parent, []).append(j.name)
+    data = bpy.data.armatures.new(name or obj.name + ".curvenet_armature")
+    arm = bpy.data.objects.new(data.name, data)
+    _link_like(arm, obj)
+    arm.matrix_world = obj.matrix_world.copy()
+    fallback = 0.05 * engine_mesh(obj).bbox_diagonal()
+    view_layer = bpy.context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    bones = {}
+    for j in rig.joints:
+        b = data.edit_bones.new(j.name)
+        head = heads[j.name]
+        if j.name in children:
+            tail = heads[children[j.name][0]]
+        elif j.parent is not None:
+            tail = head + 0.5 * (head - heads[j.parent])
+        else:
+            tail = head + np.array([0.0, 0.0, fallback])
+        if np.linalg.norm(tail - head) < 1e-9 * fallback:
+            tail = head + np.array([0.0, 0.0, fallback])
+        b.head, b.tail = Vector(head), Vector(tail)
+        if j.parent is not None:
+            b.parent = bones[j.parent]
+        bones[j.name] = b
+    bpy.ops.object.mode_set(mode="OBJECT")
+    view_layer.objects.active = previous
+    return arm
+
+
 def starter(obj, arm, **options):
     """A starter net from the armature's bones (rest pose), set as the object's rig."""
     result = curvenet.starter(engine_mesh(obj), armature_joints(obj, arm), **options)

@@ -158,6 +158,24 @@ class CURVENET_OT_starter(_MeshOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class CURVENET_OT_make_armature(_MeshOperator, bpy.types.Operator):
+    """Make an armature from the rig's skeleton (an imported rig brings one), placed with the mesh"""
+
+    bl_idname = "curvenet.make_armature"
+    bl_label = "Make Armature"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        try:
+            arm = core.make_armature(_mesh(context))
+        except curvenet.Error as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        context.scene.curvenet.armature = arm
+        _status(context, "Armature %s: %d bones" % (arm.name, len(arm.data.bones)))
+        return {"FINISHED"}
+
+
 class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
     """Bind the net to the selected armature; the mesh then follows the armature through the net"""
 
@@ -370,6 +388,7 @@ CLASSES = (
     CURVENET_OT_draw,
     CURVENET_OT_connect,
     CURVENET_OT_starter,
+    CURVENET_OT_make_armature,
     CURVENET_OT_bind,
     CURVENET_OT_unbind,
     CURVENET_OT_pick_node,

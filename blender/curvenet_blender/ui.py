@@ -65,6 +65,8 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box = layout.box()
         box.label(text="3. Bind", icon="ARMATURE_DATA")
         box.prop(props, "armature")
+        if rig is not None and rig.has_skeleton and props.armature is None:
+            box.operator("curvenet.make_armature")
         row = box.row(align=True)
         row.operator("curvenet.bind")
         row.operator("curvenet.unbind")
