@@ -132,6 +132,10 @@ SurfaceMesh mesh_from_arrays(const py::object& V, const py::object& F, const std
     return static_cast<int>(i);
   };
   if (py::isinstance<py::array>(F)) {
+    const char kind = py::reinterpret_borrow<py::array>(F).dtype().kind();
+    if (kind != 'i' && kind != 'u')
+      throw py::value_error("F: expected integer vertex indices, not an array of dtype kind '" + std::string(1, kind) +
+                            "'");
     const Indices a = Indices::ensure(F);
     if (!a || a.ndim() != 2 || a.shape(1) < 3)
       throw py::value_error("F: expected an (m, 3) or (m, 4) int array, or a list of polygons");
@@ -284,13 +288,20 @@ Pose pose_from(const py::object& obj) {
     // numpy values become lists, so the file's own reader checks them.
     py::object np = py::module_::import("numpy");
     py::object dumps = json_module().attr("dumps");
-    py::object text = dumps(file, py::arg("default") = py::cpp_function([np](py::object o) -> py::object {
+    py::object text;
+    try {
+      text = dumps(file, py::arg("allow_nan") = false, py::arg("default") = py::cpp_function([np](py::object o) -> py::object {
       if (py::isinstance(o, np.attr("ndarray")))
         return o.attr("tolist")();
       if (py::isinstance(o, np.attr("generic")))
         return o.attr("item")();
       throw py::type_error("not a JSON value");
     }));
+    } catch (const py::error_already_set& e) {
+      if (!e.matches(PyExc_ValueError))
+        throw;
+      throw InputError("pose dict", "", "a value is not a finite number");
+    }
     return parse_pose(text.cast<std::string>(), "pose dict");
   }
   return obj.cast<Pose>();

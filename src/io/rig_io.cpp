@@ -414,8 +414,22 @@ std::string rig_to_json(const Rig& rig) {
 namespace {
 /// The reader's rules, on a rig in memory. Its faults name the JSON path
 /// only: the line and column of text that was never a file mean nothing.
-std::string checked_json(const Rig& rig, const std::string& source) {
-  std::string text = rig_to_json(rig);
+std::string checked_json(const Rig& rig, const std::string& source, bool writing) {
+  std::string text;
+  try {
+    text = rig_to_json(rig);
+  } catch (const InputError&) {
+    throw;
+  } catch (const Error& e) {
+    // A number that is not finite: rig_to_json names the node, profile or joint.
+    std::string message = e.what();
+    if (message.rfind("rig: ", 0) == 0)
+      message = message.substr(5);
+    const std::string tail = "; nothing was written";
+    if (!writing && message.size() > tail.size() && message.compare(message.size() - tail.size(), tail.size(), tail) == 0)
+      message.resize(message.size() - tail.size());
+    throw InputError(source, "", message);
+  }
   try {
     (void)parse_rig(text, source);
   } catch (const InputError& e) {
@@ -431,11 +445,11 @@ std::string checked_json(const Rig& rig, const std::string& source) {
 } // namespace
 
 void validate_rig(const Rig& rig, const std::string& source) {
-  (void)checked_json(rig, source);
+  (void)checked_json(rig, source, false);
 }
 
 void write_rig(const Rig& rig, const std::string& path) {
-  write_file_atomic(path, checked_json(rig, path)); // never a file that read_rig would refuse
+  write_file_atomic(path, checked_json(rig, path, true)); // never a file that read_rig would refuse
 }
 
 } // namespace curvenet

@@ -378,3 +378,39 @@ def test_the_stub_documents_every_public_name():
     documented = {n.name for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
     public = {n for n in dir(curvenet) if not n.startswith("_")}
     assert public - documented == set()
+
+
+# --- bad values from Python -------------------------------------------------
+
+
+@needs_data
+def test_bad_values_from_python_are_refused_not_crashed_on():
+    V, F = tetrahedron()
+    with pytest.raises(ValueError):
+        curvenet.Mesh(V, F.astype(float))  # indices must be integers, not truncated
+    with pytest.raises(curvenet.InputError):
+        curvenet.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int))
+    m = curvenet.load_mesh(hand())
+    rig = curvenet.read_rig(example("hand_l.cnrig.json"))
+    nan_node = rig.copy()
+    nan_node.nodes[0].position[0] = np.nan
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.embed(m, nan_node)
+    assert "not finite" in str(e.value) and "nothing was written" not in str(e.value)
+    bad_parent = rig.copy()
+    bad_parent.joints[3].parent = "Nope"
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.bind(m, bad_parent)
+    assert e.value.element == "/skeleton/joints/3/parent"
+    with pytest.raises(curvenet.InputError):
+        curvenet.transfer(rig, m, m, source_frame=np.zeros((4, 4)))
+    with pytest.raises(curvenet.InputError):
+        curvenet.transfer(rig, m, m, source_frame=np.full((4, 4), np.nan))
+    b = curvenet.bind(m, rig)
+    with pytest.raises(curvenet.InputError):
+        curvenet.skinning_matrices(b, {"Wrist_L": {"translation": [np.nan, 0, 0]}})
+    assert b.deform_frames(np.zeros((0, len(b.joints), 4, 4))).shape == (0, b.num_input_vertices, 3)
+    with pytest.raises(curvenet.InputError):
+        curvenet.write_pc2(os.devnull + ".pc2", np.full((1, 2, 3), np.nan))
+    with pytest.raises(curvenet.InputError):
+        curvenet.starter(m, [])
