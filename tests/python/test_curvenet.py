@@ -384,7 +384,7 @@ def test_the_stub_documents_every_public_name():
 
 
 @needs_data
-def test_bad_values_from_python_are_refused_not_crashed_on():
+def test_bad_values_from_python_are_refused_not_crashed_on(tmp_path):
     V, F = tetrahedron()
     with pytest.raises(ValueError):
         curvenet.Mesh(V, F.astype(float))  # indices must be integers, not truncated
@@ -411,6 +411,7 @@ def test_bad_values_from_python_are_refused_not_crashed_on():
         curvenet.skinning_matrices(b, {"Wrist_L": {"translation": [np.nan, 0, 0]}})
     assert b.deform_frames(np.zeros((0, len(b.joints), 4, 4))).shape == (0, b.num_input_vertices, 3)
     with pytest.raises(curvenet.InputError):
-        curvenet.write_pc2(os.devnull + ".pc2", np.full((1, 2, 3), np.nan))
+        curvenet.write_pc2(str(tmp_path / "nan.pc2"), np.full((1, 2, 3), np.nan))
+    assert not (tmp_path / "nan.pc2").exists()
     with pytest.raises(curvenet.InputError):
         curvenet.starter(m, [])
