@@ -204,4 +204,23 @@ t.check(bpy.ops.curvenet.export_rig(filepath=path) == {"FINISHED"}, "Export rig"
 t.check(curvenet.read_rig(path).to_json() == core.get_rig(obj).to_json(), "the exported rig reads back the same")
 t.select(low)
 t.check(bpy.ops.curvenet.import_rig(filepath=path) == {"FINISHED"}, "Import rig")
+# The rig is saved in the .blend, and a bound mesh deforms again after loading.
+t.select(low, low_arms[0])
+t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "the low hand binds to its armature")
+blend = os.path.join(t.OUT, "hand_low_bound.blend")
+bpy.ops.wm.save_as_mainfile(filepath=blend)
+saved_rig, low_name = low["curvenet_rig"], low.name
+bpy.ops.wm.open_mainfile(filepath=blend)
+low = bpy.data.objects[low_name]
+low_arm = core.bound_armature(low)
+t.check(low["curvenet_rig"] == saved_rig, "the rig comes back with the .blend")
+t.check(low_arm is not None and core.state(low).binding is not None, "after loading, the mesh is bound again")
+pb = low_arm.pose.bones["Middle_Proximal_L"]
+pb.rotation_mode = "QUATERNION"
+pb.rotation_quaternion = Quaternion((1, 0, 0), np.radians(50))
+bpy.context.view_layer.update()
+bpy.context.view_layer.update()
+low_rest = np.array([v.co[:] for v in low.data.vertices])
+moved = np.abs(t.evaluated_positions(low) - low_rest).max()
+t.check(core.state(low).binding is not None and moved > 0.002, "the loaded mesh follows its armature (moved %.4f)" % moved)
 print("CURVENET_TEST all passed")
