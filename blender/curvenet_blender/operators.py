@@ -71,6 +71,14 @@ class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
 
     def modal(self, context, event):
         context.area.tag_redraw()
+        try:
+            return self._step(context, event)
+        except curvenet.Error as e:  # a mesh the engine refuses: say why and stop
+            self.report({"ERROR"}, str(e))
+            _status(context, "Draw: " + str(e))
+            return {"CANCELLED"}
+
+    def _step(self, context, event):
         if event.type in {"RET", "NUMPAD_ENTER", "ESC"} and event.value == "PRESS":
             _status(context, "Draw: finished, %d profiles" % len(core.get_rig(self.obj).profiles))
             return {"FINISHED"}
