@@ -32,6 +32,14 @@ def _target(context, source):
     return context.scene.curvenet.target
 
 
+def _event_ray(context, event):
+    """The world-space ray under the mouse: from the view's origin through the pixel."""
+    xy = (event.mouse_region_x, event.mouse_region_y)
+    origin = view3d_utils.region_2d_to_origin_3d(context.region, context.region_data, xy)
+    direction = view3d_utils.region_2d_to_vector_3d(context.region, context.region_data, xy)
+    return origin, direction
+
+
 def _status(context, text):
     context.scene.curvenet.status = text.splitlines()[0] if text else ""
 
@@ -62,13 +70,6 @@ class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
         _status(context, "Draw: click on the mesh; Ctrl+Z undoes a profile; Enter or Esc finishes")
         return {"RUNNING_MODAL"}
 
-    def _ray(self, context, event):
-        region, rv3d = context.region, context.region_data
-        xy = (event.mouse_region_x, event.mouse_region_y)
-        origin = view3d_utils.region_2d_to_origin_3d(region, rv3d, xy)
-        direction = view3d_utils.region_2d_to_vector_3d(region, rv3d, xy)
-        return origin, direction
-
     def modal(self, context, event):
         context.area.tag_redraw()
         try:
@@ -92,14 +93,14 @@ class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
             self.stroke = []
             return {"RUNNING_MODAL"}
         if event.type == "MOUSEMOVE" and self.previous is not None:
-            hit = core.surface_hit(self.obj, *self._ray(context, event))
+            hit = core.surface_hit(self.obj, *_event_ray(context, event))
             if hit is not None:
                 step = 0.01 * core.state(self.obj).diagonal
                 if not self.stroke or ((hit - self.stroke[-1]) ** 2).sum() ** 0.5 > step:
                     self.stroke.append(hit)
             return {"RUNNING_MODAL"}
         if event.type == "LEFTMOUSE" and event.value == "PRESS":
-            origin, direction = self._ray(context, event)
+            origin, direction = _event_ray(context, event)
             node = core.add_node_at(self.obj, origin, direction)
             if node is None:
                 return {"RUNNING_MODAL"}  # a miss: the click is the user's to make again
@@ -241,20 +242,24 @@ class CURVENET_OT_pick_node(_MeshOperator, bpy.types.Operator):
         if event.type in {"RET", "NUMPAD_ENTER", "ESC"} and event.value == "PRESS":
             return {"FINISHED"}
         if event.type == "LEFTMOUSE" and event.value == "PRESS":
-            xy = (event.mouse_region_x, event.mouse_region_y)
-            origin = view3d_utils.region_2d_to_origin_3d(context.region, context.region_data, xy)
-            direction = view3d_utils.region_2d_to_vector_3d(context.region, context.region_data, xy)
-            node = core.nearest_node(self.obj, origin, direction)
-            if node is not None:
-                props = context.scene.curvenet
-                chosen = [s for s in props.selected_nodes.split(",") if s.strip()] if event.shift else []
-                if node not in chosen:
-                    chosen.append(node)
-                props.selected_nodes = ",".join(chosen)
-                w = core.node_weights(self.obj, node)
-                _status(context, "Node %s: %s" % (node, ", ".join("%s %.2f" % kv for kv in sorted(w.items()))))
+            try:
+                self._pick(context, event)
+            except curvenet.Error as e:
+                self.report({"ERROR"}, str(e))
+                return {"CANCELLED"}
             return {"RUNNING_MODAL"}
         return {"PASS_THROUGH"}
+
+    def _pick(self, context, event):
+        node = core.nearest_node(self.obj, *_event_ray(context, event))
+        if node is not None:
+            props = context.scene.curvenet
+            chosen = [s for s in props.selected_nodes.split(",") if s.strip()] if event.shift else []
+            if node not in chosen:
+                chosen.append(node)
+            props.selected_nodes = ",".join(chosen)
+            w = core.node_weights(self.obj, node)
+            _status(context, "Node %s: %s" % (node, ", ".join("%s %.2f" % kv for kv in sorted(w.items()))))
 
 
 class CURVENET_OT_set_node_weight(_MeshOperator, bpy.types.Operator):

@@ -66,6 +66,41 @@ t.check(len(core.get_rig(obj).nodes) == 4, "the nodes the other profiles use sta
 core.add_profile(obj, nodes[3], nodes[0])
 t.check("curvenet_rig" in obj and obj["curvenet_rig"].startswith("{"), "the rig lives on the object")
 
+# The modal Draw operator is a shell over the same core: fed events (the ray
+# under the mouse given with each), it draws the same ring.
+from types import SimpleNamespace  # noqa: E402
+
+from curvenet_blender import operators  # noqa: E402
+
+drawn_by_core = core.get_rig(obj).to_json()
+core.clear_rig(obj)
+operators._event_ray = lambda _context, event: event.ray
+shell = SimpleNamespace(obj=obj, previous=None, stroke=[], report=lambda kind, text: print("REPORT", kind, text))
+
+
+def event(kind, ray=None, ctrl=False):
+    return SimpleNamespace(type=kind, value="PRESS", ctrl=ctrl, ray=ray)
+
+
+def step(e):
+    return operators.CURVENET_OT_draw._step(shell, bpy.context, e)
+
+
+clicks = rays + [rays[0]]
+for i, d in enumerate(clicks):
+    if i > 0:  # the mouse passes over the arc between the last click and this one
+        for s in (0.3, 0.5, 0.7):
+            step(event("MOUSEMOVE", (centre, ((1 - s) * clicks[i - 1] + s * d).normalized())))
+    t.check(step(event("LEFTMOUSE", (centre, d))) == {"RUNNING_MODAL"}, "a click")
+t.check(len(core.get_rig(obj).profiles) == 4, "five clicks round the finger make the ring's 4 profiles")
+t.check(step(event("Z", ctrl=True)) == {"RUNNING_MODAL"} and len(core.get_rig(obj).profiles) == 3, "Ctrl+Z")
+t.check(shell.previous == core.get_rig(obj).profiles[2].to, "the stroke goes on from the last profile's end")
+step(event("LEFTMOUSE", (centre, rays[0])))
+t.check(step(event("RET")) == {"FINISHED"}, "Enter finishes")
+rig = core.get_rig(obj)
+t.check(len(rig.nodes) == 4 and len(rig.profiles) == 4, "the modal shell drew the same ring: 4 nodes, 4 profiles")
+t.check(len(rig.profile("p1").curve.points) > 2, "a profile passes through the surface points the mouse went over")
+
 # --- 2. connect ------------------------------------------------------------
 t.select(obj)
 result = bpy.ops.curvenet.connect()
