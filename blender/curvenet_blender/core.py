@@ -311,11 +311,7 @@ def make_preview(obj, emb):
     V, offsets, corners = emb.cut_mesh()
     faces = [corners[offsets[f] : offsets[f + 1]].tolist() for f in range(len(offsets) - 1)]
     name = obj.name + PREVIEW_SUFFIX
-    old = bpy.data.objects.get(name)
-    if old is not None:
-        old_mesh = old.data
-        bpy.data.objects.remove(old)
-        bpy.data.meshes.remove(old_mesh)
+    _remove_object(name)
     me = bpy.data.meshes.new(name)
     me.from_pydata(V.tolist(), [], faces)
     colours = emb.face_colours.astype(np.float32) / 255.0
@@ -327,22 +323,14 @@ def make_preview(obj, emb):
     regions = me.attributes.new("region", "INT", "FACE")
     regions.data.foreach_set("value", emb.face_regions.astype(np.int32))
     me.update()
-    preview = bpy.data.objects.new(name, me)
-    _link_like(preview, obj)
-    preview.parent = obj
-    preview.matrix_parent_inverse = Matrix.Identity(4)
-    preview["curvenet_preview_of"] = obj.name
+    preview = _attach(bpy.data.objects.new(name, me), obj)
     make_chains(obj, emb.chains)
     return preview
 
 
 def make_chains(obj, chains):
     name = obj.name + CHAINS_SUFFIX
-    old = bpy.data.objects.get(name)
-    if old is not None:
-        old_curve = old.data
-        bpy.data.objects.remove(old)
-        bpy.data.curves.remove(old_curve)
+    _remove_object(name)
     cu = bpy.data.curves.new(name, "CURVE")
     cu.dimensions = "3D"
     cu.bevel_depth = 0.0015 * state(obj).diagonal
@@ -352,11 +340,26 @@ def make_chains(obj, chains):
         co = np.ones((len(pts), 4))
         co[:, :3] = pts
         spline.points.foreach_set("co", co.ravel())
-    ob = bpy.data.objects.new(name, cu)
-    _link_like(ob, obj)
-    ob.parent = obj
-    ob.matrix_parent_inverse = Matrix.Identity(4)
-    return ob
+    return _attach(bpy.data.objects.new(name, cu), obj)
+
+
+def _remove_object(name):
+    """Removes a preview object of an earlier Connect, and its data."""
+    old = bpy.data.objects.get(name)
+    if old is not None:
+        data = old.data
+        bpy.data.objects.remove(old)
+        if data is not None and data.users == 0:
+            (bpy.data.meshes if isinstance(data, bpy.types.Mesh) else bpy.data.curves).remove(data)
+
+
+def _attach(new, obj):
+    """Links a preview object beside the mesh and parents it, in the mesh's space."""
+    _link_like(new, obj)
+    new.parent = obj
+    new.matrix_parent_inverse = Matrix.Identity(4)
+    new["curvenet_preview_of"] = obj.name
+    return new
 
 
 def _link_like(new, obj):

@@ -44,6 +44,23 @@ def _status(context, text):
     context.scene.curvenet.status = text.splitlines()[0] if text else ""
 
 
+def _attempt(op, context, label, call, errors=(curvenet.Error,)):
+    """Runs a core call; a refusal is reported in the info bar and the panel.
+    Returns (ok, result)."""
+    try:
+        return True, call()
+    except errors as e:
+        op.report({"ERROR"}, str(e))
+        _status(context, "%s: %s" % (label, e))
+        return False, None
+
+
+def _done(op, context, message, ok=True):
+    _status(context, message)
+    op.report({"INFO"} if ok else {"WARNING"}, message)
+    return {"FINISHED"} if ok else {"CANCELLED"}
+
+
 class _MeshOperator:
     @classmethod
     def poll(cls, context):
@@ -154,17 +171,11 @@ class CURVENET_OT_starter(_MeshOperator, bpy.types.Operator):
         if arm is None:
             self.report({"ERROR"}, "Select an armature (or set one in the panel)")
             return {"CANCELLED"}
-        try:
-            r = core.starter(obj, arm, nodes_per_ring=self.nodes_per_ring)
-        except curvenet.Error as e:
-            self.report({"ERROR"}, str(e))
-            _status(context, "Starter: " + str(e))
+        ok, r = _attempt(self, context, "Starter", lambda: core.starter(obj, arm, nodes_per_ring=self.nodes_per_ring))
+        if not ok:
             return {"CANCELLED"}
-        msg = "Starter: %d rings, %d nodes, %d profiles, %d components" % (
-            r.rings, len(r.rig.nodes), len(r.rig.profiles), r.net_components)
-        _status(context, msg)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _done(self, context, "Starter: %d rings, %d nodes, %d profiles, %d components" % (
+            r.rings, len(r.rig.nodes), len(r.rig.profiles), r.net_components))
 
 
 class CURVENET_OT_make_armature(_MeshOperator, bpy.types.Operator):
@@ -175,14 +186,11 @@ class CURVENET_OT_make_armature(_MeshOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        try:
-            arm = core.make_armature(_mesh(context))
-        except curvenet.Error as e:
-            self.report({"ERROR"}, str(e))
+        ok, arm = _attempt(self, context, "Make armature", lambda: core.make_armature(_mesh(context)))
+        if not ok:
             return {"CANCELLED"}
         context.scene.curvenet.armature = arm
-        _status(context, "Armature %s: %d bones" % (arm.name, len(arm.data.bones)))
-        return {"FINISHED"}
+        return _done(self, context, "Armature %s: %d bones" % (arm.name, len(arm.data.bones)))
 
 
 class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
@@ -197,18 +205,12 @@ class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
         if arm is None:
             self.report({"ERROR"}, "Select an armature (or set one in the panel)")
             return {"CANCELLED"}
-        try:
-            b = core.bind(obj, arm)
-        except curvenet.Error as e:
-            core.state(obj).error = str(e)
-            self.report({"ERROR"}, str(e))
-            _status(context, "Bind: " + str(e))
+        ok, b = _attempt(self, context, "Bind", lambda: core.bind(obj, arm))
+        if not ok:
             return {"CANCELLED"}
         context.scene.curvenet.armature = arm
-        msg = "Bind: %d vertices, %.2f influences per vertex" % (b.report["vertices"], b.report["mean_influences"])
-        _status(context, msg)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _done(self, context, "Bind: %d vertices, %.2f influences per vertex" % (
+            b.report["vertices"], b.report["mean_influences"]))
 
 
 class CURVENET_OT_unbind(_MeshOperator, bpy.types.Operator):
@@ -285,13 +287,11 @@ class CURVENET_OT_set_node_weight(_MeshOperator, bpy.types.Operator):
         if not nodes or not bone:
             self.report({"ERROR"}, "Pick nodes and an active bone first")
             return {"CANCELLED"}
-        try:
-            core.set_node_weight(obj, nodes, bone, self.weight)
-        except (curvenet.Error, KeyError, ValueError) as e:
-            self.report({"ERROR"}, str(e))
+        ok, _ = _attempt(self, context, "Set node weight", lambda: core.set_node_weight(obj, nodes, bone, self.weight),
+                         (curvenet.Error, KeyError, ValueError))
+        if not ok:
             return {"CANCELLED"}
-        _status(context, "Weight of %s set to %.3f on %s" % (bone, self.weight, ", ".join(nodes)))
-        return {"FINISHED"}
+        return _done(self, context, "Weight of %s set to %.3f on %s" % (bone, self.weight, ", ".join(nodes)))
 
 
 class CURVENET_OT_transfer(_MeshOperator, bpy.types.Operator):
@@ -307,18 +307,12 @@ class CURVENET_OT_transfer(_MeshOperator, bpy.types.Operator):
         if target is None:
             self.report({"ERROR"}, "Select a target mesh (or set one in the panel)")
             return {"CANCELLED"}
-        try:
-            r = core.transfer(obj, target)
-        except curvenet.Error as e:
-            self.report({"ERROR"}, str(e))
-            _status(context, "Transfer: " + str(e))
+        ok, r = _attempt(self, context, "Transfer", lambda: core.transfer(obj, target))
+        if not ok:
             return {"CANCELLED"}
-        rep = r.report
-        msg = "Transfer %s to %s: %s, %d regions, %.2f%% of the area agrees" % (
-            obj.name, target.name, "SUCCESS" if r.ok else "FAILED", rep["target"]["regions"], 100 * r.agreement)
-        _status(context, msg)
-        self.report({"INFO"} if r.ok else {"WARNING"}, msg)
-        return {"FINISHED"} if r.ok else {"CANCELLED"}
+        return _done(self, context, "Transfer %s to %s: %s, %d regions, %.2f%% of the area agrees" % (
+            obj.name, target.name, "SUCCESS" if r.ok else "FAILED", r.report["target"]["regions"], 100 * r.agreement),
+            r.ok)
 
 
 class CURVENET_OT_export_rig(_MeshOperator, bpy.types.Operator, ExportHelper):
@@ -330,13 +324,8 @@ class CURVENET_OT_export_rig(_MeshOperator, bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.cnrig.json", options={"HIDDEN"})
 
     def execute(self, context):
-        try:
-            core.export_rig(_mesh(context), self.filepath)
-        except curvenet.Error as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        _status(context, "Rig written: " + self.filepath)
-        return {"FINISHED"}
+        ok, _ = _attempt(self, context, "Export rig", lambda: core.export_rig(_mesh(context), self.filepath))
+        return _done(self, context, "Rig written: " + self.filepath) if ok else {"CANCELLED"}
 
 
 class CURVENET_OT_import_rig(_MeshOperator, bpy.types.Operator, ImportHelper):
@@ -349,13 +338,10 @@ class CURVENET_OT_import_rig(_MeshOperator, bpy.types.Operator, ImportHelper):
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
     def execute(self, context):
-        try:
-            rig = core.import_rig(_mesh(context), self.filepath)
-        except curvenet.Error as e:
-            self.report({"ERROR"}, str(e))
+        ok, rig = _attempt(self, context, "Import rig", lambda: core.import_rig(_mesh(context), self.filepath))
+        if not ok:
             return {"CANCELLED"}
-        _status(context, "Rig read: %d nodes, %d profiles" % (len(rig.nodes), len(rig.profiles)))
-        return {"FINISHED"}
+        return _done(self, context, "Rig read: %d nodes, %d profiles" % (len(rig.nodes), len(rig.profiles)))
 
 
 class CURVENET_OT_bake_cache(_MeshOperator, bpy.types.Operator, ExportHelper):
@@ -373,13 +359,12 @@ class CURVENET_OT_bake_cache(_MeshOperator, bpy.types.Operator, ExportHelper):
         scene = context.scene
         start = scene.frame_start if self.frame_start < 0 else self.frame_start
         end = scene.frame_end if self.frame_end < 0 else self.frame_end
-        try:
-            core.bake_cache(_mesh(context), bpy.path.abspath(self.filepath), start, end, scene)
-        except (curvenet.Error, ValueError) as e:
-            self.report({"ERROR"}, str(e))
+        path = bpy.path.abspath(self.filepath)
+        ok, _ = _attempt(self, context, "Bake cache", lambda: core.bake_cache(_mesh(context), path, start, end, scene),
+                         (curvenet.Error, ValueError))
+        if not ok:
             return {"CANCELLED"}
-        _status(context, "Cache written: %s (frames %d-%d)" % (os.path.basename(self.filepath), start, end))
-        return {"FINISHED"}
+        return _done(self, context, "Cache written: %s (frames %d-%d)" % (os.path.basename(path), start, end))
 
 
 class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):
