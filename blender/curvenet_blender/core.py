@@ -48,6 +48,7 @@ class ObjectState:
         self.matrices = None  # (J, 4, 4) scratch, filled per frame
         self.positions = None  # (n, 3) float32 scratch
         self.last_pose = None  # the matrices of the last update, to skip unchanged poses
+        self.changed = None  # scratch for comparing them
         self.report = None  # the last Connect's report
         self.error = ""  # the last failure, one line
         self.failed_profile = ""
@@ -555,12 +556,12 @@ def update_live(obj, depsgraph=None, force=False):
     if st.binding is None or arm is None:
         return False
     skinning_matrices(obj, arm, st.matrices, depsgraph)
-    if not force and st.last_pose is not None and np.array_equal(st.last_pose, st.matrices):
-        return False
     if st.last_pose is None:
-        st.last_pose = st.matrices.copy()
-    else:
-        st.last_pose[...] = st.matrices
+        st.last_pose = np.full_like(st.matrices, np.nan)
+        st.changed = np.empty(st.matrices.shape, dtype=bool)
+    if not force and not np.not_equal(st.last_pose, st.matrices, out=st.changed).any():
+        return False
+    st.last_pose[...] = st.matrices
     st.binding.deform(st.matrices, out=st.positions)
     key = obj.data.shape_keys.key_blocks.get(SHAPE_KEY) if obj.data.shape_keys else None
     if key is None:
