@@ -141,6 +141,18 @@ t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "Bind: " + bpy.context.scene.cu
 t.check(not obj.modifiers[0].show_viewport, "the file's own Armature modifier is off while bound")
 t.check(np.abs(t.evaluated_positions(obj) - rest).max() < 1e-6, "at rest the mesh does not move")
 
+# The panel draws for a bound mesh (its layout calls are recorded, not shown).
+from unittest import mock  # noqa: E402
+
+from curvenet_blender import ui  # noqa: E402
+
+layout = mock.MagicMock()
+ui.CURVENET_PT_panel.draw(SimpleNamespace(layout=layout), bpy.context)
+drawn = str(layout.mock_calls)
+t.check("curvenet.connect" in drawn and "curvenet.bind" in drawn and "curvenet.bake_cache" in drawn,
+        "the panel shows the workflow's steps")
+t.check("SUCCESS" in drawn, "the panel shows the last Connect's result")
+
 # --- 4. a node weight, a bone rotated, the mesh equals Binding.deform -------
 # The node of the starter net nearest the index finger's middle knuckle.
 bone_name = "Index_Proximal_L"
