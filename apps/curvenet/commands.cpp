@@ -2,6 +2,7 @@
 
 #include "core/matrix_checks.hpp"
 #include "core/numbers.hpp"
+#include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/embed.hpp"
@@ -23,6 +24,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <tbb/enumerable_thread_specific.h>
@@ -312,6 +314,80 @@ int run_animate(const AnimateArgs& a) {
             << a.fps << " fps\n";
   std::cout << "output: " << (a.obj_sequence.empty() ? a.out : a.obj_sequence) << " (" << frames << " frames, " << nv
             << " vertices)\n";
+  return 0;
+}
+
+/// Skinning matrices of every frame of every clip of a file, for `joints`.
+std::vector<std::vector<Mat4>> clip_poses(const std::vector<Joint>& joints, const SkinnedMesh& clips, double fps,
+                                          long long max_frames) {
+  std::vector<std::vector<Mat4>> poses;
+  for (int c = 0; c < clips.num_clips(); ++c) {
+    const auto [first, last] = clip_frames(clips, c, fps);
+    for (int f = first; f <= last; ++f) {
+      if (static_cast<long long>(poses.size()) >= max_frames)
+        throw InputError(clips.source, "clip '" + clips.clip_names[c] + "'",
+                         "more than " + std::to_string(max_frames) + " frames to fit over");
+      poses.push_back(clip_skinning_matrices(joints, clips, c, f / fps));
+    }
+  }
+  return poses;
+}
+
+int run_bake(const BakeArgs& a) {
+  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const Rig rig = rig_for(a);
+  std::optional<SkinnedMesh> clips, fit;
+  if (!a.clip_file.empty()) {
+    clips = load_skinned_mesh(a.clip_file);
+    for (const auto& name : a.clip_names)
+      if (clips->find_clip(name) < 0)
+        throw InputError(a.clip_file, "clip '" + name + "'", "no clip has this name");
+  } else if (!a.clip_names.empty()) {
+    throw InputError("--clip-name", a.clip_names.front(), "give the clip file with --clip");
+  }
+  if (!a.fit.empty()) {
+    fit = load_skinned_mesh(a.fit);
+    if (fit->num_clips() == 0)
+      throw InputError(a.fit, "/animations", "the file has no animation clips to fit over");
+    (void)clip_skinning_matrices(rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
+  }
+  const Binding b = bind_for(mesh, rig, a);
+  const SkinWeights w = fit ? fit_weights(b, clip_poses(b.joints(), *fit, a.fps, 100000), a.max_influences)
+                            : bake_weights(b, a.max_influences);
+  GltfBakeOptions opt;
+  opt.up = a.up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
+  opt.fps = a.fps;
+  opt.clips = a.clip_names;
+  OutputFiles files; // all or nothing
+  if (!a.out.empty())
+    files.add(a.out, skinned_glb(a.mesh, b.joints(), w, clips ? &*clips : nullptr, opt));
+  if (!a.weights_csv.empty())
+    files.add(a.weights_csv, weights_csv(w));
+  files.commit();
+  int used = 0, most = 0;
+  for (int v = 0; v < w.num_vertices(); ++v) {
+    int n = 0;
+    for (int i = 0; i < w.influences; ++i)
+      n += w.joint[static_cast<size_t>(v) * w.influences + i] >= 0;
+    used += n;
+    most = std::max(most, n);
+  }
+  std::cout << "Curvenet bake: SUCCESS\n";
+  print_bind(std::cout, b);
+  std::cout << "weights: " << (fit ? "fitted to the deformation over " + a.fit : std::string("harmonic, top ") +
+                                                                                     std::to_string(w.influences))
+            << ", " << std::fixed << std::setprecision(2)
+            << (w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0) << std::defaultfloat
+            << std::setprecision(6) << " joints per vertex on average, " << most << " at most, " << w.joints.size()
+            << " joints\n";
+  if (clips)
+    std::cout << "clips: " << (a.clip_names.empty() ? clips->num_clips() : static_cast<int>(a.clip_names.size()))
+              << " from " << a.clip_file << " at " << a.fps << " keys per second\n";
+  if (!a.out.empty())
+    std::cout << "glTF: " << a.out << " (" << w.num_vertices() << " vertices, Y-up"
+              << (a.up == "z" ? ", turned from Z-up" : "") << ")\n";
+  if (!a.weights_csv.empty())
+    std::cout << "weights: " << a.weights_csv << "\n";
   return 0;
 }
 

@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace curvenet::cli {
 
@@ -42,6 +43,14 @@ struct AnimateArgs : DeformArgs {
   long long max_frames = 100000;
 };
 int run_animate(const AnimateArgs& args);
+
+struct BakeArgs : DeformArgs {
+  std::string out, weights_csv, clip_file, fit, up = "y";
+  std::vector<std::string> clip_names;
+  int max_influences = 4;
+  double fps = 24;
+};
+int run_bake(const BakeArgs& args);
 
 struct TransferArgs {
   std::string rig, from, to, out, report, source_frame, target_frame;

@@ -125,6 +125,29 @@ int main(int argc, char** argv) {
       animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
   out_opt->excludes(seq_opt);
 
+  curvenet::cli::BakeArgs bake_args;
+  auto* bake = app.add_subcommand(
+      "bake", "Bake the rig to an ordinary linear-blend skin: a skinned glTF binary, and the weights as CSV");
+  deform_options(bake, bake_args);
+  auto* bake_out = bake->add_option("-o,--output", bake_args.out, "Skinned glTF binary (.glb) to write");
+  auto* bake_csv = bake->add_option("--weights-csv", bake_args.weights_csv, "Write the weights as CSV");
+  bake->add_option("--max-influences", bake_args.max_influences, "Joints per vertex (4 or fewer: JOINTS_0; up to 8)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 8));
+  bake->add_option("--clip", bake_args.clip_file, "Add the animations of this glTF/GLB, retargeted by joint name");
+  bake->add_option("--clip-name", bake_args.clip_names, "Only these clips of --clip (repeatable)");
+  bake->add_option("--fps", bake_args.fps, "Keys per second for the clips")
+      ->capture_default_str()
+      ->check(finite_in(0, 1000, true));
+  bake->add_option("--up", bake_args.up, "The source's up axis; glTF is Y-up, a Z-up source is turned")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"y", "z"}));
+  bake->add_option("--fit", bake_args.fit,
+                   "Fit the weights to the full deformation over every frame of this glTF/GLB's clips "
+                   "(least squares per vertex, non-negative, on the harmonic influences)");
+  (void)bake_out;
+  (void)bake_csv;
+
   curvenet::cli::TransferArgs transfer_args;
   auto* transfer =
       app.add_subcommand("transfer", "Transfer a rig to another mesh of the same character, by logical ids only");
@@ -198,6 +221,11 @@ int main(int argc, char** argv) {
       if (anim_args.out.empty() && anim_args.obj_sequence.empty())
         throw curvenet::Error("animate: give -o OUT.pc2 or --obj-sequence DIR");
       return curvenet::cli::run_animate(anim_args);
+    }
+    if (*bake) {
+      if (bake_args.out.empty() && bake_args.weights_csv.empty())
+        throw curvenet::Error("bake: give -o OUT.glb, --weights-csv OUT.csv, or both");
+      return curvenet::cli::run_bake(bake_args);
     }
     if (*transfer)
       return curvenet::cli::run_transfer(transfer_args);

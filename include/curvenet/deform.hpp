@@ -83,6 +83,10 @@ public:
   /// \throw Error when the sizes do not fit.
   void deform_frames(std::span<const Mat4> skinning, std::span<Eigen::Vector3d> out) const;
 
+  /// The harmonic joint weights s_j = H(w_j) of one input vertex, as (joint
+  /// index, weight) pairs with s_j > 0; they sum to 1 (docs/deform.md).
+  void harmonic_weights(int input_vertex, std::vector<std::pair<int, double>>& out) const;
+
   /// Writes the binding to a cache file (atomically).
   void save(const std::string& path) const;
 

@@ -20,6 +20,10 @@ struct InputTopology {
   std::vector<int> corner_uv;     ///< per face corner, -1 for none
   std::vector<int> corner_normal; ///< per face corner, a normal slot
   int num_normals = 0;
+  /// The file's own normals for the first slots (OBJ `vn`, glTF NORMAL),
+  /// where it has them; the other slots have none.
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<int> face_material; ///< glTF only: per face, its material index (-1 for none)
 };
 
 /// \throw InputError for an unreadable file.

@@ -553,6 +553,15 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   return Binding(impl);
 }
 
+void Binding::harmonic_weights(int input_vertex, std::vector<std::pair<int, double>>& out) const {
+  const Impl& b = *impl_;
+  out.clear();
+  const int v = b.input_to_welded.at(static_cast<size_t>(input_vertex));
+  for (int k = b.offset[v]; k < b.offset[v + 1]; ++k)
+    if (b.s[k] > 0)
+      out.emplace_back(b.joint[k], b.s[k]);
+}
+
 void Binding::deform_frames(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) const {
   const size_t nj = impl_->joints.size(), nv = impl_->input_to_welded.size();
   const size_t frames = nj ? M.size() / nj : 0;

@@ -157,6 +157,19 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   }
   if (!scene.uv.empty())
     scene.uv.resize(raw.positions.size(), Eigen::Vector2d::Zero());
+  if (auto ns = prim.attributes.find("NORMAL"); ns != prim.attributes.end()) {
+    AccessorReader nr(model, ns->second, path, what + " NORMAL");
+    if (nr.count() == pos.count() && nr.ncomp == 3) {
+      scene.normal.resize(base, Eigen::Vector3d::Zero());
+      const Eigen::Matrix3d to_world = world.topLeftCorner<3, 3>().inverse().transpose();
+      for (size_t i = 0; i < nr.count(); ++i) {
+        const Eigen::Vector3d n = to_world * Eigen::Vector3d(nr.get(i, 0), nr.get(i, 1), nr.get(i, 2));
+        scene.normal.push_back(n.allFinite() && n.norm() > 0 ? n.normalized() : Eigen::Vector3d::Zero());
+      }
+    }
+  }
+  if (!scene.normal.empty())
+    scene.normal.resize(raw.positions.size(), Eigen::Vector3d::Zero());
   auto jt = prim.attributes.find("JOINTS_0"), wt = prim.attributes.find("WEIGHTS_0");
   if (skinned && jt != prim.attributes.end() && wt != prim.attributes.end()) {
     AccessorReader joints(model, jt->second, path, what + " JOINTS_0");
@@ -191,6 +204,7 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
     if (mirrored)
       std::swap(t[1], t[2]);
     raw.add_face(t);
+    scene.face_material.push_back(prim.material);
   };
   if (mode == TINYGLTF_MODE_TRIANGLES) {
     if (idx.size() % 3 != 0)

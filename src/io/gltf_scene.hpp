@@ -23,6 +23,8 @@ struct GltfScene {
   std::shared_ptr<const tinygltf::Model> model;
   RawMesh mesh;                  ///< every triangle primitive, in traversal order
   std::vector<Eigen::Vector2d> uv; ///< per mesh vertex (TEXCOORD_0), empty when no primitive has one
+  std::vector<Eigen::Vector3d> normal; ///< per mesh vertex (NORMAL), empty when no primitive has one
+  std::vector<int> face_material;      ///< per triangle, its primitive's material (-1 for none)
   std::vector<int> node_parent;  ///< per node, -1 for roots
   int skin = -1;                 ///< the skin of the first skinned mesh node, or -1
   /// Per mesh vertex: up to 4 (skin joint slot, weight); slot -1 when unused.

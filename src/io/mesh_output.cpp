@@ -36,6 +36,8 @@ InputTopology read_input_topology(const std::string& path) {
     // per vertex, after the file's own normals.
     const int file_normals = static_cast<int>(a.normals.size() / 3);
     out.num_normals = file_normals;
+    for (int n = 0; n < file_normals; ++n)
+      out.normals.emplace_back(a.normals[3 * n], a.normals[3 * n + 1], a.normals[3 * n + 2]);
     std::vector<int> vertex_slot(out.faces.positions.size(), -1);
     std::vector<int> corners;
     for (const auto& shape : reader.GetShapes()) {
@@ -64,6 +66,8 @@ InputTopology read_input_topology(const std::string& path) {
     const detail::GltfScene scene = detail::read_gltf_scene(path);
     out.faces = scene.mesh;
     out.uv = scene.uv;
+    out.normals = scene.normal;
+    out.face_material = scene.face_material;
     out.num_normals = static_cast<int>(out.faces.positions.size());
     for (int v : out.faces.face_vertices) {
       out.corner_uv.push_back(out.uv.empty() ? -1 : v);

@@ -1,0 +1,77 @@
+#pragma once
+/// \file bake.hpp
+/// Baking a binding to an ordinary linear-blend skin, for engines and tools
+/// that read skins and not Curvenets: per input vertex, the k largest
+/// harmonic joint weights s_j = H(w_j), renormalised (or weights fitted to the
+/// full deformation over sample poses), and a skinned glTF 2.0 binary.
+/// The weights come from the net, not from the mesh's vertices, so every
+/// tessellation the rig is transferred to gets a skin that agrees (docs/bake.md).
+
+#include "curvenet/deform.hpp"
+#include "curvenet/rig.hpp"
+#include "curvenet/skin.hpp"
+
+#include <span>
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+/// A linear-blend skin: `influences` slots per input vertex.
+struct SkinWeights {
+  int influences = 4;
+  std::vector<std::string> joints; ///< joint names; `joint` indexes them
+  std::vector<int> joint;          ///< vertices x influences, -1 for an unused slot
+  std::vector<double> weight;      ///< vertices x influences, largest first; each vertex's sum is 1
+  [[nodiscard]] int num_vertices() const {
+    return influences > 0 ? static_cast<int>(joint.size()) / influences : 0;
+  }
+};
+
+/// The largest `max_influences` harmonic weights s_j of each input vertex,
+/// renormalised to sum to 1 (the binding's own joint order).
+/// \throw InputError when max_influences is not between 1 and 8.
+SkinWeights bake_weights(const Binding& binding, int max_influences = 4);
+
+/// Weights that bring linear blend skinning closest to the binding's own
+/// deformation over `poses` (skinning matrices per pose): per vertex, least
+/// squares over the poses, non-negative and summing to 1, on at most
+/// `max_influences` of the joints that bound the vertex's region, pulled
+/// gently towards the harmonic weights where the poses leave them free.
+/// \throw InputError when max_influences is not between 1 and 8, or a pose
+///   has the wrong number of matrices.
+SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences = 4);
+
+/// Linear blend skinning with these weights: `rest` (one position per input
+/// vertex) moved by `skinning` (one matrix per joint of the weights).
+std::vector<Vec3> skin_positions(const SkinWeights& weights, std::span<const Vec3> rest,
+                                 std::span<const Mat4> skinning);
+
+/// The weights as CSV: a header, then one row per input vertex
+/// (`vertex,joint_0,weight_0,...`), joints by name, empty where unused.
+std::string weights_csv(const SkinWeights& weights);
+
+struct GltfBakeOptions {
+  /// The source's up axis. glTF is Y-up; a Z-up source (Blender, 3ds Max)
+  /// is turned by -90 degrees about X (x, y, z) -> (x, z, -y), its skeleton
+  /// and clips with it. Units are kept (glTF reads them as metres).
+  enum class Up { Y, Z } up = Up::Y;
+  /// Clips are sampled at this rate (one key per frame, LINEAR).
+  double fps = 24;
+  /// Clip names to include from the clip file; empty for all of them.
+  std::vector<std::string> clips;
+};
+
+/// A skinned glTF 2.0 binary (GLB) of the mesh file `mesh_path`: its faces
+/// on its own vertex order (vertices whose corners carry different UVs or
+/// normals are split, the extra copies after the file's own vertices), its
+/// UVs and normals where it has them, and, for a glTF source, its materials
+/// and images; `joints` (mesh space, parents first) as a node hierarchy with
+/// inverseBindMatrices; JOINTS_0/WEIGHTS_0 (and _1 past four influences);
+/// and, when `clips` is given, its animations retargeted to the joints by name.
+/// \throw InputError when the weights do not fit the mesh or the joints, or a
+///   clip named in the options is not in the clip file.
+std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& joints, const SkinWeights& weights,
+                        const SkinnedMesh* clips = nullptr, const GltfBakeOptions& options = {});
+
+} // namespace curvenet

@@ -1,0 +1,530 @@
+// A skinned glTF 2.0 binary from a mesh file, a skeleton and baked weights
+// (tinygltf writes it). See curvenet/bake.hpp and docs/bake.md.
+
+#include "core/polygon.hpp"
+#include "curvenet/bake.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/mesh_output.hpp"
+#include "curvenet/pose.hpp"
+#include "io/gltf_scene.hpp"
+
+#include <tiny_gltf.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace curvenet {
+namespace {
+
+/// One binary buffer, with a bufferView per block, each 4-byte aligned.
+struct BinaryWriter {
+  tinygltf::Model& model;
+  std::vector<unsigned char>& bytes;
+
+  int view(const void* data, size_t size, int target) {
+    while (bytes.size() % 4 != 0)
+      bytes.push_back(0);
+    tinygltf::BufferView v;
+    v.buffer = 0;
+    v.byteOffset = bytes.size();
+    v.byteLength = size;
+    v.target = target;
+    const auto* p = static_cast<const unsigned char*>(data);
+    bytes.insert(bytes.end(), p, p + size);
+    model.bufferViews.push_back(v);
+    return static_cast<int>(model.bufferViews.size()) - 1;
+  }
+
+  template <class T>
+  int accessor(const std::vector<T>& data, int component, int type, size_t count, int target,
+               bool with_bounds = false, int ncomp = 1) {
+    tinygltf::Accessor a;
+    a.bufferView = view(data.data(), data.size() * sizeof(T), target);
+    a.componentType = component;
+    a.type = type;
+    a.count = count;
+    if (with_bounds) {
+      a.minValues.assign(ncomp, std::numeric_limits<double>::infinity());
+      a.maxValues.assign(ncomp, -std::numeric_limits<double>::infinity());
+      for (size_t i = 0; i < count; ++i)
+        for (int c = 0; c < ncomp; ++c) {
+          a.minValues[c] = std::min(a.minValues[c], static_cast<double>(data[i * ncomp + c]));
+          a.maxValues[c] = std::max(a.maxValues[c], static_cast<double>(data[i * ncomp + c]));
+        }
+    }
+    model.accessors.push_back(a);
+    return static_cast<int>(model.accessors.size()) - 1;
+  }
+};
+
+/// Translation, rotation and scale of a joint's local transform (glTF
+/// animates nodes by TRS): the rotation is the nearest one to the linear part
+/// with its column lengths taken out.
+struct Trs {
+  Eigen::Vector3d t, s;
+  Eigen::Quaterniond r;
+};
+Trs decompose(const Mat4& m) {
+  Trs x;
+  x.t = m.block<3, 1>(0, 3);
+  Eigen::Matrix3d a = m.topLeftCorner<3, 3>();
+  for (int c = 0; c < 3; ++c)
+    x.s[c] = a.col(c).norm();
+  if (a.determinant() < 0)
+    x.s[0] = -x.s[0];
+  for (int c = 0; c < 3; ++c)
+    if (x.s[c] != 0)
+      a.col(c) /= x.s[c];
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  if (r.determinant() < 0)
+    r = -r;
+  x.r = Eigen::Quaterniond(r).normalized();
+  return x;
+}
+Mat4 compose(const Trs& x) {
+  Eigen::Affine3d a = Eigen::Affine3d::Identity();
+  a.translate(x.t);
+  a.rotate(x.r);
+  a.scale(x.s);
+  return a.matrix();
+}
+
+std::string mime_of(const std::string& uri) {
+  std::string ext = std::filesystem::path(uri).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".png")
+    return "image/png";
+  if (ext == ".jpg" || ext == ".jpeg")
+    return "image/jpeg";
+  if (ext == ".ktx2")
+    return "image/ktx2";
+  if (ext == ".webp")
+    return "image/webp";
+  return "application/octet-stream";
+}
+
+std::string base64_decoded(std::string_view s) {
+  auto value = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z')
+      return c - 'A';
+    if (c >= 'a' && c <= 'z')
+      return c - 'a' + 26;
+    if (c >= '0' && c <= '9')
+      return c - '0' + 52;
+    return c == '+' ? 62 : c == '/' ? 63 : -1;
+  };
+  std::string out;
+  int acc = 0, bits = 0;
+  for (char c : s) {
+    const int v = value(c);
+    if (v < 0)
+      continue; // padding and whitespace
+    acc = (acc << 6) | v;
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<char>((acc >> bits) & 0xff));
+    }
+  }
+  return out;
+}
+
+/// The bytes of a source image: its bufferView, a data URI, or a file beside the source.
+std::string image_bytes(const tinygltf::Model& src, const tinygltf::Image& img, const std::string& source) {
+  if (img.bufferView >= 0) {
+    const auto& v = src.bufferViews.at(img.bufferView);
+    const auto& b = src.buffers.at(v.buffer);
+    if (v.byteOffset + v.byteLength > b.data.size())
+      throw InputError(source, "image '" + img.name + "'", "its bufferView runs past its buffer");
+    return std::string(reinterpret_cast<const char*>(b.data.data() + v.byteOffset), v.byteLength);
+  }
+  const std::string& uri = img.uri;
+  if (uri.rfind("data:", 0) == 0) {
+    const auto comma = uri.find(',');
+    if (comma == std::string::npos || uri.substr(0, comma).find(";base64") == std::string::npos)
+      throw InputError(source, "image '" + img.name + "'", "a data URI that is not base64");
+    return base64_decoded(std::string_view(uri).substr(comma + 1));
+  }
+  const auto path = std::filesystem::path(source).parent_path() / uri;
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError(source, "image '" + uri + "'", "cannot read the image file " + path.string());
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+} // namespace
+
+std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& joints, const SkinWeights& weights,
+                        const SkinnedMesh* clips, const GltfBakeOptions& options) {
+  const InputTopology topo = read_input_topology(mesh_path);
+  const RawMesh& faces = topo.faces;
+  const int nv = static_cast<int>(faces.positions.size());
+  const int k = weights.influences;
+  if (weights.num_vertices() != nv)
+    throw InputError(mesh_path, "", "the weights are for " + std::to_string(weights.num_vertices()) +
+                                        " vertices, the file has " + std::to_string(nv));
+  if (joints.size() != weights.joints.size() || joints.empty())
+    throw InputError(mesh_path, "skeleton", "the weights name " + std::to_string(weights.joints.size()) +
+                                                " joints, the skeleton has " + std::to_string(joints.size()));
+  std::map<std::string, int> joint_index;
+  for (size_t j = 0; j < joints.size(); ++j) {
+    if (joints[j].name != weights.joints[j])
+      throw InputError(mesh_path, "joint " + std::to_string(j), "the weights and the skeleton list different joints");
+    if (joints[j].parent && !joint_index.count(*joints[j].parent))
+      throw InputError(mesh_path, "joint '" + joints[j].name + "'", "its parent is not listed before it");
+    joint_index[joints[j].name] = static_cast<int>(j);
+  }
+  if (!(options.fps > 0 && options.fps <= 1000))
+    throw InputError("fps", std::to_string(options.fps), "must be in (0, 1000]");
+
+  // The source's axes to glTF's: Y-up as it is, Z-up turned about X.
+  Mat4 C = Mat4::Identity();
+  if (options.up == GltfBakeOptions::Up::Z)
+    C.topLeftCorner<3, 3>() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  const Eigen::Matrix3d C3 = C.topLeftCorner<3, 3>();
+
+  // Normals per slot: the file's where it has them, else from the surface.
+  std::vector<Vec3> normals(static_cast<size_t>(topo.num_normals), Vec3::Zero());
+  for (size_t f = 0; f + 1 < faces.face_offsets.size(); ++f) {
+    Vec3 n = Vec3::Zero();
+    const int b = faces.face_offsets[f], e = faces.face_offsets[f + 1];
+    for (int c = b; c < e; ++c)
+      n += faces.positions[faces.face_vertices[c]].cross(faces.positions[faces.face_vertices[c + 1 < e ? c + 1 : b]]);
+    for (int c = b; c < e; ++c)
+      normals[topo.corner_normal[c]] += n;
+  }
+  for (size_t s = 0; s < normals.size(); ++s) {
+    if (s < topo.normals.size() && topo.normals[s].allFinite() && topo.normals[s].norm() > 0)
+      normals[s] = topo.normals[s];
+    normals[s] = normals[s].norm() > 0 ? Vec3(normals[s].normalized()) : Vec3(0, 1, 0);
+  }
+
+  // Output vertices: the file's, in its order, then a copy for each other
+  // (UV, normal) pair a vertex's corners carry.
+  struct Key {
+    int uv, normal;
+  };
+  std::vector<std::vector<std::pair<Key, int>>> combos(nv);
+  std::vector<int> out_vertex_of;             // output vertex -> input vertex
+  std::vector<Key> out_key;                   // output vertex -> its corner attributes
+  std::vector<int> corner_out(faces.face_vertices.size());
+  out_vertex_of.resize(nv);
+  out_key.assign(nv, Key{-1, -1});
+  std::vector<bool> seen(nv, false);
+  for (size_t c = 0; c < faces.face_vertices.size(); ++c) {
+    const int v = faces.face_vertices[c];
+    const Key key{topo.corner_uv[c], topo.corner_normal[c]};
+    int out = -1;
+    if (!seen[v]) {
+      seen[v] = true;
+      out = v;
+      out_key[v] = key;
+      combos[v].push_back({key, v});
+    } else {
+      for (const auto& [kk, o] : combos[v])
+        if (kk.uv == key.uv && kk.normal == key.normal)
+          out = o;
+      if (out < 0) {
+        out = static_cast<int>(out_vertex_of.size());
+        out_vertex_of.push_back(v);
+        out_key.push_back(key);
+        combos[v].push_back({key, out});
+      }
+    }
+    corner_out[c] = out;
+  }
+  for (int v = 0; v < nv; ++v)
+    out_vertex_of[v] = v;
+  const size_t no = out_vertex_of.size();
+  const bool has_uv = !topo.uv.empty();
+
+  tinygltf::Model model;
+  model.asset.version = "2.0";
+  model.asset.generator = "curvenet bake";
+  model.buffers.resize(1);
+  BinaryWriter bin{model, model.buffers[0].data};
+
+  std::vector<float> pos, nrm, uv;
+  for (size_t o = 0; o < no; ++o) {
+    const Vec3 p = C3 * faces.positions[out_vertex_of[o]];
+    const Key key = out_key[o];
+    const Vec3 n = C3 * (key.normal >= 0 ? normals[key.normal] : Vec3(0, 0, 1));
+    for (int c = 0; c < 3; ++c) {
+      pos.push_back(static_cast<float>(p[c]));
+      nrm.push_back(static_cast<float>(n[c]));
+    }
+    if (has_uv) {
+      const Eigen::Vector2d t = key.uv >= 0 && key.uv < static_cast<int>(topo.uv.size()) ? topo.uv[key.uv]
+                                                                                        : Eigen::Vector2d::Zero();
+      uv.push_back(static_cast<float>(t.x()));
+      uv.push_back(static_cast<float>(1.0 - t.y())); // glTF's v runs down
+    }
+  }
+  for (float x : pos)
+    if (!std::isfinite(x))
+      throw InputError(mesh_path, "", "a vertex is out of the range of single precision");
+  tinygltf::Primitive base;
+  base.mode = TINYGLTF_MODE_TRIANGLES;
+  base.attributes["POSITION"] =
+      bin.accessor(pos, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, no, TINYGLTF_TARGET_ARRAY_BUFFER, true, 3);
+  base.attributes["NORMAL"] =
+      bin.accessor(nrm, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, no, TINYGLTF_TARGET_ARRAY_BUFFER);
+  if (has_uv)
+    base.attributes["TEXCOORD_0"] =
+        bin.accessor(uv, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, no, TINYGLTF_TARGET_ARRAY_BUFFER);
+  // Joints and weights: sets of four slots; unused slots are joint 0 with
+  // weight 0. The largest weight takes the single-precision rounding, so that
+  // each vertex's weights sum to 1 as stored.
+  const int sets = (k + 3) / 4;
+  const int slots = 4 * sets;
+  std::vector<int> jall(no * slots, 0);
+  std::vector<float> wall(no * slots, 0.0f);
+  for (size_t o = 0; o < no; ++o) {
+    const size_t v = static_cast<size_t>(out_vertex_of[o]);
+    double sum = 0;
+    for (int i = 0; i < k; ++i) {
+      const int j = weights.joint[v * k + i];
+      if (j < 0)
+        continue;
+      jall[o * slots + i] = j;
+      wall[o * slots + i] = static_cast<float>(weights.weight[v * k + i]);
+      sum += wall[o * slots + i];
+    }
+    wall[o * slots] = static_cast<float>(wall[o * slots] + (1.0 - sum));
+  }
+  const bool wide = joints.size() > 255;
+  for (int set = 0; set < sets; ++set) {
+    std::vector<unsigned char> j8;
+    std::vector<unsigned short> j16;
+    std::vector<float> w;
+    for (size_t o = 0; o < no; ++o)
+      for (int i = 4 * set; i < 4 * set + 4; ++i) {
+        if (wide)
+          j16.push_back(static_cast<unsigned short>(jall[o * slots + i]));
+        else
+          j8.push_back(static_cast<unsigned char>(jall[o * slots + i]));
+        w.push_back(wall[o * slots + i]);
+      }
+    const std::string suffix = "_" + std::to_string(set);
+    base.attributes["JOINTS" + suffix] =
+        wide ? bin.accessor(j16, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4, no,
+                            TINYGLTF_TARGET_ARRAY_BUFFER)
+             : bin.accessor(j8, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_TYPE_VEC4, no,
+                            TINYGLTF_TARGET_ARRAY_BUFFER);
+    base.attributes["WEIGHTS" + suffix] =
+        bin.accessor(w, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC4, no, TINYGLTF_TARGET_ARRAY_BUFFER);
+  }
+
+  // Triangles, one primitive per material.
+  std::map<int, std::vector<uint32_t>> by_material;
+  std::vector<Vec3> corners;
+  for (size_t f = 0; f + 1 < faces.face_offsets.size(); ++f) {
+    const int b = faces.face_offsets[f], e = faces.face_offsets[f + 1];
+    const int mat = f < topo.face_material.size() ? topo.face_material[f] : -1;
+    auto& idx = by_material[mat];
+    corners.clear();
+    for (int c = b; c < e; ++c)
+      corners.push_back(faces.positions[faces.face_vertices[c]]);
+    for (const auto& t : detail::triangulate_polygon(corners))
+      for (int c : t)
+        idx.push_back(static_cast<uint32_t>(corner_out[b + c]));
+  }
+
+  // Materials, textures and images of a glTF source.
+  std::shared_ptr<const tinygltf::Model> src;
+  {
+    std::string ext = std::filesystem::path(mesh_path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".gltf" || ext == ".glb")
+      src = detail::read_gltf_scene(mesh_path).model;
+  }
+  if (src) {
+    model.materials = src->materials;
+    model.textures = src->textures;
+    model.samplers = src->samplers;
+    for (const auto& img : src->images) {
+      tinygltf::Image out;
+      out.name = img.name;
+      const std::string data = image_bytes(*src, img, mesh_path);
+      out.bufferView = bin.view(data.data(), data.size(), 0);
+      out.mimeType = !img.mimeType.empty() ? img.mimeType : mime_of(img.uri);
+      model.images.push_back(out);
+    }
+    const std::set<std::string> geometry_only{"KHR_draco_mesh_compression", "EXT_meshopt_compression",
+                                              "KHR_mesh_quantization", "EXT_mesh_gpu_instancing"};
+    for (const auto& e : src->extensionsUsed)
+      if (!geometry_only.count(e))
+        model.extensionsUsed.push_back(e);
+    for (const auto& e : src->extensionsRequired)
+      if (!geometry_only.count(e))
+        model.extensionsRequired.push_back(e);
+  }
+  tinygltf::Mesh mesh;
+  mesh.name = std::filesystem::path(mesh_path).stem().string();
+  for (auto& [mat, idx] : by_material) {
+    if (idx.empty())
+      continue;
+    tinygltf::Primitive p = base;
+    p.indices = bin.accessor(idx, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, idx.size(),
+                             TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+    p.material = mat >= 0 && mat < static_cast<int>(model.materials.size()) ? mat : -1;
+    mesh.primitives.push_back(p);
+  }
+  model.meshes.push_back(mesh);
+
+  // The skeleton: node 0 is the skinned mesh, nodes 1.. the joints.
+  const int nj = static_cast<int>(joints.size());
+  std::vector<Mat4> bind(nj), rest_local(nj), world(nj);
+  for (int j = 0; j < nj; ++j) {
+    bind[j] = C * joints[j].bind;
+    const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
+    rest_local[j] = p >= 0 ? Mat4(bind[p].inverse() * bind[j]) : bind[j];
+  }
+  tinygltf::Node mesh_node;
+  mesh_node.name = mesh.name;
+  mesh_node.mesh = 0;
+  mesh_node.skin = 0;
+  model.nodes.push_back(mesh_node);
+  tinygltf::Skin skin;
+  skin.name = "curvenet";
+  std::vector<int> roots;
+  for (int j = 0; j < nj; ++j) {
+    const Trs x = decompose(rest_local[j]);
+    // The inverse bind matrices are the inverse of the nodes' own rest worlds,
+    // so the skin is exactly at rest in its rest pose.
+    const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
+    world[j] = p >= 0 ? Mat4(world[p] * compose(x)) : compose(x);
+    tinygltf::Node n;
+    n.name = joints[j].name;
+    n.translation = {x.t.x(), x.t.y(), x.t.z()};
+    n.rotation = {x.r.x(), x.r.y(), x.r.z(), x.r.w()};
+    n.scale = {x.s.x(), x.s.y(), x.s.z()};
+    model.nodes.push_back(n);
+    skin.joints.push_back(1 + j);
+    if (p >= 0)
+      model.nodes[1 + p].children.push_back(1 + j);
+    else
+      roots.push_back(1 + j);
+  }
+  std::vector<float> ibm;
+  for (int j = 0; j < nj; ++j) {
+    const Mat4 inv = world[j].inverse();
+    if (!inv.allFinite())
+      throw InputError(mesh_path, "joint '" + joints[j].name + "'", "its rest transform is singular");
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r)
+        ibm.push_back(static_cast<float>(inv(r, c))); // column-major
+  }
+  skin.inverseBindMatrices = bin.accessor(ibm, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, nj, 0);
+  if (roots.size() == 1)
+    skin.skeleton = roots[0];
+  model.skins.push_back(skin);
+  tinygltf::Scene scene;
+  scene.name = "curvenet bake";
+  scene.nodes.push_back(0);
+  scene.nodes.insert(scene.nodes.end(), roots.begin(), roots.end());
+  model.scenes.push_back(scene);
+  model.defaultScene = 0;
+
+  // Clips, retargeted by joint name: each joint's rest local times its pose
+  // entry, one key per frame.
+  if (clips) {
+    std::set<std::string> wanted(options.clips.begin(), options.clips.end());
+    for (const auto& name : options.clips)
+      if (clips->find_clip(name) < 0)
+        throw InputError(clips->source, "clip '" + name + "'", "no clip has this name");
+    int matched = 0;
+    for (const auto& j : clips->joints)
+      matched += joint_index.count(j.name) > 0;
+    if (clips->num_clips() > 0 && matched == 0)
+      throw InputError(clips->source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
+    for (int c = 0; c < clips->num_clips(); ++c) {
+      if (!wanted.empty() && !wanted.count(clips->clip_names[c]))
+        continue;
+      const auto [t0, t1] = clips->clip_range(c);
+      const int keys = std::max(2, static_cast<int>(std::ceil((t1 - t0) * options.fps - 1e-9)) + 1);
+      std::vector<float> times;
+      for (int i = 0; i < keys; ++i)
+        times.push_back(static_cast<float>(std::min(t1, t0 + i / options.fps)));
+      if (times.size() >= 2 && times[times.size() - 1] <= times[times.size() - 2])
+        times.back() = std::nextafter(times[times.size() - 2], std::numeric_limits<float>::infinity());
+      std::vector<std::vector<float>> tr(nj), rot(nj), sc(nj);
+      std::vector<bool> animated(nj, false);
+      for (int i = 0; i < keys; ++i) {
+        const Pose pose = pose_from_clip(*clips, c, times[i]);
+        for (int j = 0; j < nj; ++j) {
+          const auto it = pose.find(joints[j].name);
+          if (it == pose.end())
+            continue;
+          animated[j] = true;
+          const Mat4 L = it->second.matrix();
+          const Trs x = decompose(rest_local[j] * L);
+          Eigen::Quaterniond q = x.r;
+          if (!rot[j].empty()) {
+            const size_t b = rot[j].size() - 4;
+            const Eigen::Quaterniond prev(rot[j][b + 3], rot[j][b], rot[j][b + 1], rot[j][b + 2]);
+            if (prev.dot(q) < 0)
+              q.coeffs() = -q.coeffs(); // the short way round
+          }
+          for (int d = 0; d < 3; ++d) {
+            tr[j].push_back(static_cast<float>(x.t[d]));
+            sc[j].push_back(static_cast<float>(x.s[d]));
+          }
+          for (double v : {q.x(), q.y(), q.z(), q.w()})
+            rot[j].push_back(static_cast<float>(v));
+        }
+      }
+      tinygltf::Animation anim;
+      anim.name = clips->clip_names[c];
+      const int input =
+          bin.accessor(times, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, times.size(), 0, true, 1);
+      auto channel = [&](int j, const std::vector<float>& values, int type, const char* path) {
+        tinygltf::AnimationSampler s;
+        s.input = input;
+        s.output = bin.accessor(values, TINYGLTF_COMPONENT_TYPE_FLOAT, type, times.size(), 0);
+        s.interpolation = "LINEAR";
+        anim.samplers.push_back(s);
+        tinygltf::AnimationChannel ch;
+        ch.sampler = static_cast<int>(anim.samplers.size()) - 1;
+        ch.target_node = 1 + j;
+        ch.target_path = path;
+        anim.channels.push_back(ch);
+      };
+      for (int j = 0; j < nj; ++j) {
+        if (!animated[j])
+          continue;
+        for (float x : tr[j])
+          if (!std::isfinite(x))
+            throw InputError(clips->source, "clip '" + anim.name + "' joint '" + joints[j].name + "'",
+                             "moves out of the range of single precision");
+        channel(j, tr[j], TINYGLTF_TYPE_VEC3, "translation");
+        channel(j, rot[j], TINYGLTF_TYPE_VEC4, "rotation");
+        channel(j, sc[j], TINYGLTF_TYPE_VEC3, "scale");
+      }
+      if (!anim.channels.empty())
+        model.animations.push_back(anim);
+    }
+  }
+
+  model.buffers[0].name = "curvenet";
+  std::ostringstream out;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&model, out, false, true))
+    throw Error("bake: the glTF writer failed");
+  return out.str();
+}
+
+} // namespace curvenet
