@@ -1,0 +1,226 @@
+// Baking a binding to a linear-blend skin: the weights, fitted weights, LBS
+// with them, the CSV, and the skinned glTF read back by our own reader.
+
+#include "curvenet/bake.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/mesh_output.hpp"
+#include "curvenet/pose.hpp"
+#include "generate/tube.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+using namespace curvenet;
+
+namespace {
+
+Pose bend(double degrees) {
+  Pose p;
+  JointPose j;
+  j.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitX()));
+  p["mid"] = j;
+  return p;
+}
+
+std::vector<Vec3> rest_of(const Binding& b) {
+  std::vector<Vec3> rest(b.num_input_vertices());
+  b.deform(std::vector<Mat4>(b.joints().size(), Mat4::Identity()), rest);
+  return rest;
+}
+
+double max_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double d = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::path(::testing::TempDir()) / name).string();
+}
+
+} // namespace
+
+TEST(Bake, TopKHarmonicWeightsAreSortedNormalisedAndExactForRigidPoses) {
+  const SurfaceMesh m = test::tube(24, 16, 4, true);
+  const Binding b = bind(m, make_tube_net());
+  for (int k : {1, 2, 4, 8}) {
+    const SkinWeights w = bake_weights(b, k);
+    ASSERT_EQ(w.num_vertices(), b.num_input_vertices());
+    ASSERT_EQ(w.joints.size(), b.joints().size());
+    std::vector<std::pair<int, double>> s;
+    for (int v = 0; v < w.num_vertices(); ++v) {
+      double sum = 0, last = 2;
+      for (int i = 0; i < k; ++i) {
+        const int j = w.joint[v * k + i];
+        const double x = w.weight[v * k + i];
+        if (j < 0) {
+          EXPECT_EQ(x, 0);
+          continue;
+        }
+        EXPECT_GT(x, 0);
+        EXPECT_LE(x, last); // largest first
+        last = x;
+        sum += x;
+      }
+      EXPECT_NEAR(sum, 1, 1e-12) << v;
+      // All of a vertex's harmonic weights, when they fit in k.
+      b.harmonic_weights(v, s);
+      if (static_cast<int>(s.size()) <= k)
+        EXPECT_EQ(w.joint[v * k + static_cast<int>(s.size()) - 1] >= 0, true);
+    }
+    // A rigid pose of the whole skeleton moves every vertex rigidly under LBS.
+    Pose all;
+    JointPose r;
+    r.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+    r.translation = {0.5, -1, 2};
+    all["root"] = r;
+    const auto M = skinning_matrices(b.joints(), all);
+    const auto rest = rest_of(b);
+    const auto posed = skin_positions(w, rest, M);
+    for (size_t v = 0; v < rest.size(); ++v)
+      ASSERT_LT((posed[v] - (M[0] * rest[v].homogeneous()).head<3>()).norm(), 1e-9 * m.bbox_diagonal());
+  }
+  EXPECT_THROW(bake_weights(b, 0), InputError);
+  EXPECT_THROW(bake_weights(b, 9), InputError);
+}
+
+TEST(Bake, FittedWeightsComeCloserToTheDeformationThanTheHarmonicOnes) {
+  const SurfaceMesh m = test::tube(24, 20, 4, true);
+  const Binding b = bind(m, make_tube_net());
+  std::vector<std::vector<Mat4>> train, test;
+  for (double a : {-80.0, -40.0, 20.0, 60.0, 90.0})
+    train.push_back(skinning_matrices(b.joints(), bend(a)));
+  for (double a : {-60.0, 45.0, 75.0})
+    test.push_back(skinning_matrices(b.joints(), bend(a)));
+  const auto rest = rest_of(b);
+  const SkinWeights harmonic = bake_weights(b, 4), fitted = fit_weights(b, train, 4);
+  double err_h = 0, err_f = 0;
+  for (const auto& M : test) {
+    std::vector<Vec3> full(rest.size());
+    b.deform(M, full);
+    err_h = std::max(err_h, max_distance(skin_positions(harmonic, rest, M), full));
+    err_f = std::max(err_f, max_distance(skin_positions(fitted, rest, M), full));
+  }
+  EXPECT_LT(err_f, err_h) << "poses it was not fitted on";
+  for (int v = 0; v < fitted.num_vertices(); ++v) {
+    double sum = 0;
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_GE(fitted.weight[v * 4 + i], 0);
+      sum += fitted.weight[v * 4 + i];
+    }
+    EXPECT_NEAR(sum, 1, 1e-9);
+  }
+  // No poses: the harmonic weights.
+  EXPECT_EQ(fit_weights(b, {}, 4).weight, harmonic.weight);
+  std::vector<std::vector<Mat4>> short_pose{std::vector<Mat4>(1, Mat4::Identity())};
+  EXPECT_THROW(fit_weights(b, short_pose, 4), InputError);
+}
+
+TEST(Bake, TheCsvHasOneRowPerVertexWithJointNames) {
+  const SurfaceMesh m = test::tube(12, 8, 3, true);
+  const Binding b = bind(m, make_tube_net());
+  const SkinWeights w = bake_weights(b, 2);
+  std::istringstream in(weights_csv(w));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "vertex,joint_0,weight_0,joint_1,weight_1");
+  int rows = 0;
+  while (std::getline(in, line)) {
+    std::stringstream cells(line);
+    std::string vertex, j0, w0;
+    std::getline(cells, vertex, ',');
+    std::getline(cells, j0, ',');
+    std::getline(cells, w0, ',');
+    EXPECT_EQ(std::stoi(vertex), rows);
+    EXPECT_EQ(j0, w.joints[w.joint[rows * 2]]);
+    EXPECT_EQ(std::stod(w0), w.weight[rows * 2]); // 17 digits read back exactly
+    ++rows;
+  }
+  EXPECT_EQ(rows, w.num_vertices());
+}
+
+TEST(Bake, TheGlbReadsBackWithTheSkeletonWeightsAndClipsItWasGiven) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string mesh_file = test::data("xr_tools_hand/hand_l.gltf");
+  const SurfaceMesh m = load_mesh(mesh_file);
+  const Rig rig = read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
+  const Binding b = bind(m, rig);
+  const SkinnedMesh clips = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  GltfBakeOptions opt;
+  opt.clips = {"Grip", "Cup"};
+  const SkinWeights w = bake_weights(b, 4);
+  const std::string path = temp("hand_baked.glb");
+  write_file_atomic(path, skinned_glb(mesh_file, b.joints(), w, &clips, opt));
+  const SkinnedMesh back = load_skinned_mesh(path);
+  // The skeleton: same joints, same parents, same rest transforms.
+  ASSERT_EQ(back.joints.size(), b.joints().size());
+  for (size_t j = 0; j < back.joints.size(); ++j) {
+    EXPECT_EQ(back.joints[j].name, b.joints()[j].name);
+    EXPECT_EQ(back.joints[j].parent, b.joints()[j].parent);
+    EXPECT_LT((back.joints[j].bind - b.joints()[j].bind).cwiseAbs().maxCoeff(), 1e-5) << back.joints[j].name;
+  }
+  // The weights, per vertex, in the file's own vertex order (a glTF source has no splits).
+  const InputTopology topo = read_input_topology(mesh_file);
+  ASSERT_EQ(back.vertex_weight.size(), topo.faces.positions.size());
+  for (size_t v = 0; v < back.vertex_weight.size(); ++v)
+    for (int i = 0; i < 4; ++i) {
+      const int j = w.joint[v * 4 + i];
+      EXPECT_EQ(back.vertex_joint[v][i], j) << v;
+      EXPECT_NEAR(back.vertex_weight[v][i], j >= 0 ? w.weight[v * 4 + i] : 0.0, 2e-7) << v;
+    }
+  // The clips, by name; posed by the file's own skin they match our LBS of
+  // the same weights with the source clip's pose, at every key.
+  ASSERT_EQ(back.clip_names, (std::vector<std::string>{"Cup", "Grip"}));
+  const int grip = back.find_clip("Grip"), src_grip = clips.find_clip("Grip");
+  const auto [t0, t1] = back.clip_range(grip);
+  for (double t : {t0, 0.5 * (t0 + t1), t1}) {
+    const auto key = std::round((t - t0) * opt.fps) / opt.fps + t0; // a key of the baked clip
+    const auto ours = skin_positions(w, topo.faces.positions, clip_skinning_matrices(b.joints(), clips, src_grip, key));
+    const auto theirs = skin_positions(back, topo.faces.positions, back.skinning_matrices(grip, key));
+    EXPECT_LT(max_distance(ours, theirs), 1e-5 * m.bbox_diagonal()) << "t = " << key;
+  }
+  // Wrong sizes are refused.
+  SkinWeights fewer = w;
+  fewer.joint.resize(fewer.joint.size() - 4);
+  fewer.weight.resize(fewer.weight.size() - 4);
+  EXPECT_THROW(skinned_glb(mesh_file, b.joints(), fewer), InputError);
+  opt.clips = {"NoSuchClip"};
+  EXPECT_THROW(skinned_glb(mesh_file, b.joints(), w, &clips, opt), InputError);
+}
+
+TEST(Bake, AnObjKeepsItsVertexOrderAndSplitsOnlyWhereItsCornersDiffer) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string mesh_file = test::data("xr_tools_hand/hand_l_quads.obj");
+  const SurfaceMesh m = load_mesh(mesh_file);
+  const Binding b = bind(m, read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json")));
+  const SkinWeights w = bake_weights(b, 4);
+  for (auto up : {GltfBakeOptions::Up::Y, GltfBakeOptions::Up::Z}) {
+    GltfBakeOptions opt;
+    opt.up = up;
+    const std::string path = temp("quads.glb");
+    write_file_atomic(path, skinned_glb(mesh_file, b.joints(), w, nullptr, opt));
+    const RawMesh raw = read_raw_mesh(path);
+    const InputTopology topo = read_input_topology(mesh_file);
+    ASSERT_GE(raw.positions.size(), topo.faces.positions.size());
+    for (size_t v = 0; v < topo.faces.positions.size(); ++v) {
+      const Vec3 p = topo.faces.positions[v];
+      const Vec3 want = up == GltfBakeOptions::Up::Y ? p : Vec3(p.x(), p.z(), -p.y());
+      ASSERT_LT((raw.positions[v] - want).norm(), 1e-6 * m.bbox_diagonal()) << v;
+    }
+    // A polygon of n corners becomes n - 2 triangles.
+    int triangles = 0;
+    for (size_t f = 0; f + 1 < topo.faces.face_offsets.size(); ++f)
+      triangles += topo.faces.face_offsets[f + 1] - topo.faces.face_offsets[f] - 2;
+    EXPECT_EQ(static_cast<int>(raw.face_offsets.size()) - 1, triangles);
+  }
+}
