@@ -9,7 +9,7 @@ packages=(
   libtinygltf-dev libtinyobjloader-dev libassimp-dev libembree-dev
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev libosd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  blender pybind11-dev python3-dev python3-numpy python3-pytest zip
+  blender pybind11-dev python3-dev python3-numpy python3-pytest
 )
 
 missing=()
@@ -18,6 +18,16 @@ for p in "${packages[@]}"; do
     missing+=("$p")
   fi
 done
+
+# Node.js and npm run the glTF validator in the tests. A machine that has
+# them from elsewhere (NodeSource) keeps them; otherwise Debian's.
+if ! command -v npm >/dev/null 2>&1; then
+  for p in nodejs npm; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+      missing+=("$p")
+    fi
+  done
+fi
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#packages[@]} packages present"

@@ -5,6 +5,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 jobs=$(nproc)
+# The Khronos glTF-Validator, for the baked skins (from the npm registry).
+validator=2.0.0-dev.3.10
+if ! grep -qs "\"version\": \"$validator\"" build-tools/node_modules/gltf-validator/package.json; then
+  npm install --no-audit --no-fund --silent --prefix build-tools "gltf-validator@$validator"
+fi
 
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j "$jobs"

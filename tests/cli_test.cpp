@@ -1,6 +1,7 @@
 // End-to-end: the curvenet command on real data and on bad input.
 
 #include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -597,4 +598,36 @@ TEST(Cli, AnimateRefusesMoreFramesThanItsCap) {
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "curvenet: error: --frames: 0:200000000: 200000001 frames is more than --max-frames (100000)\n");
   EXPECT_FALSE(fs::exists(dir / "x.pc2"));
+}
+
+TEST(Cli, BakeWritesASkinnedGlbAndTheWeightsOrNothing) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const fs::path dir = fs::path(::testing::TempDir()) / "cli_bake";
+  fs::create_directories(dir);
+  const std::string mesh = test::data("xr_tools_hand/hand_l.gltf"), rig = test::data("xr_tools_hand/example/hand_l.cnrig.json");
+  const std::string clips = test::data("xr_tools_hand/hand_l_poses.glb");
+  const fs::path glb = dir / "hand.glb", csv = dir / "hand.csv";
+  CliRun r = run("bake " + mesh + " " + rig + " -o " + glb.string() + " --weights-csv " + csv.string() + " --clip " +
+                     clips + " --clip-name Grip --max-influences 8",
+                 dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("Curvenet bake: SUCCESS"), std::string::npos);
+  EXPECT_TRUE(fs::file_size(glb) > 1000 && fs::file_size(csv) > 1000);
+  const SkinnedMesh back = load_skinned_mesh(glb.string());
+  EXPECT_EQ(back.clip_names, std::vector<std::string>{"Grip"});
+  // Fitted over the clips' frames.
+  r = run("bake " + mesh + " " + rig + " --weights-csv " + (dir / "fit.csv").string() + " --fit " + clips, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("fitted"), std::string::npos);
+  // Refusals: one line, exit 2, nothing written.
+  for (const std::string& bad :
+       {std::string(" -o ") + (dir / "x.glb").string() + " --clip " + clips + " --clip-name NoSuchClip",
+        std::string(" -o ") + (dir / "x.glb").string() + " --max-influences 9",
+        std::string(" --clip-name Grip -o ") + (dir / "x.glb").string(), std::string("")}) {
+    r = run("bake " + mesh + " " + rig + bad, dir);
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "x.glb")) << bad;
+  }
 }
