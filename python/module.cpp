@@ -3,6 +3,7 @@
 // curvenet.Error, InputError (with .file and .element), EmbedError and
 // TopologyError. Long calls release the GIL.
 
+#include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/embed.hpp"
@@ -913,6 +914,110 @@ PYBIND11_MODULE(_curvenet, m) {
         return clip_frames(clips, clip, fps);
       },
       py::arg("clips"), py::arg("clip"), py::arg("fps") = 24.0);
+
+  // Baking to a linear-blend skin.
+  py::class_<SkinWeights>(m, "SkinWeights", "A linear-blend skin: `influences` (joint, weight) slots per input vertex")
+      .def(py::init([](const std::vector<std::string>& joints, const py::object& joint, const py::object& weight) {
+             const Indices j = Indices::ensure(joint);
+             const Points w = Points::ensure(weight);
+             if (!j || !w || j.ndim() != 2 || w.ndim() != 2 || j.shape(0) != w.shape(0) || j.shape(1) != w.shape(1) ||
+                 j.shape(1) < 1 || j.shape(1) > 8)
+               throw py::value_error("joint and weight: expected two (n, k) arrays, k from 1 to 8");
+             SkinWeights s;
+             s.influences = static_cast<int>(j.shape(1));
+             s.joints = joints;
+             s.joint.assign(j.data(), j.data() + j.size());
+             s.weight.assign(w.data(), w.data() + w.size());
+             for (size_t i = 0; i < s.joint.size(); ++i) {
+               if (s.joint[i] < -1 || s.joint[i] >= static_cast<int>(joints.size()))
+                 throw InputError("weights", "slot " + std::to_string(i), "names no joint");
+               if (!std::isfinite(s.weight[i]) || s.weight[i] < 0)
+                 throw InputError("weights", "slot " + std::to_string(i), "is not a finite non-negative weight");
+             }
+             return s;
+           }),
+           py::arg("joints"), py::arg("joint"), py::arg("weight"))
+      .def_readonly("influences", &SkinWeights::influences)
+      .def_readonly("joints", &SkinWeights::joints)
+      .def_property_readonly("num_vertices", &SkinWeights::num_vertices)
+      .def_property_readonly("joint",
+                             [](const SkinWeights& s) {
+                               py::array_t<int> a({static_cast<py::ssize_t>(s.num_vertices()),
+                                                   static_cast<py::ssize_t>(s.influences)});
+                               std::copy(s.joint.begin(), s.joint.end(), a.mutable_data());
+                               return a;
+                             })
+      .def_property_readonly("weight", [](const SkinWeights& s) {
+        py::array_t<double> a({static_cast<py::ssize_t>(s.num_vertices()), static_cast<py::ssize_t>(s.influences)});
+        std::copy(s.weight.begin(), s.weight.end(), a.mutable_data());
+        return a;
+      });
+  m.def(
+      "bake_weights",
+      [](const PyBinding& b, int max_influences) {
+        py::gil_scoped_release release;
+        return bake_weights(b.binding, max_influences);
+      },
+      py::arg("binding"), py::arg("max_influences") = 4);
+  m.def(
+      "fit_weights",
+      [](const PyBinding& b, const py::array_t<double, py::array::c_style | py::array::forcecast>& poses,
+         int max_influences) {
+        const size_t nj = b.binding.joints().size();
+        if (poses.ndim() != 4 || static_cast<size_t>(poses.shape(1)) != nj || poses.shape(2) != 4 ||
+            poses.shape(3) != 4)
+          throw py::value_error("poses: expected a (P, " + std::to_string(nj) + ", 4, 4) array");
+        std::vector<Mat4> all;
+        matrices_into(poses, all);
+        std::vector<std::vector<Mat4>> per(static_cast<size_t>(poses.shape(0)));
+        for (size_t p = 0; p < per.size(); ++p)
+          per[p].assign(all.begin() + static_cast<std::ptrdiff_t>(p * nj),
+                        all.begin() + static_cast<std::ptrdiff_t>((p + 1) * nj));
+        py::gil_scoped_release release;
+        return fit_weights(b.binding, per, max_influences);
+      },
+      py::arg("binding"), py::arg("poses"), py::arg("max_influences") = 4);
+  m.def(
+      "skin_positions",
+      [](const SkinWeights& w, const py::object& rest,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning) {
+        if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != w.joints.size() ||
+            skinning.shape(1) != 4 || skinning.shape(2) != 4)
+          throw py::value_error("skinning: expected a (" + std::to_string(w.joints.size()) + ", 4, 4) array");
+        std::vector<Mat4> M;
+        matrices_into(skinning, M);
+        const std::vector<Vec3> X = points_from(rest, "rest");
+        if (static_cast<int>(X.size()) != w.num_vertices())
+          throw py::value_error("rest: expected " + std::to_string(w.num_vertices()) + " positions");
+        return points_array(skin_positions(w, X, M));
+      },
+      py::arg("weights"), py::arg("rest"), py::arg("skinning"), "Linear blend skinning with baked weights");
+  m.def("weights_csv", &weights_csv, py::arg("weights"));
+  m.def(
+      "skinned_glb",
+      [](const std::string& mesh_path, const py::object& skeleton, const SkinWeights& w, const SkinnedMesh* clips,
+         const std::string& up, double fps, std::vector<std::string> clip_names) {
+        GltfBakeOptions o;
+        if (up != "y" && up != "z")
+          throw py::value_error("up: expected 'y' or 'z'");
+        o.up = up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
+        o.fps = fps;
+        o.clips = std::move(clip_names);
+        const std::vector<Joint> joints = joints_from(skeleton);
+        std::string bytes;
+        {
+          py::gil_scoped_release release;
+          bytes = skinned_glb(mesh_path, joints, w, clips, o);
+        }
+        return py::bytes(bytes);
+      },
+      py::arg("mesh_path"), py::arg("skeleton"), py::arg("weights"), py::arg("clips") = nullptr, py::kw_only(),
+      py::arg("up") = "y", py::arg("fps") = 24.0, py::arg("clip_names") = std::vector<std::string>{},
+      "A skinned glTF 2.0 binary (bytes) of the mesh file, with the skeleton, the weights and the clips");
+  m.def(
+      "write_file",
+      [](const std::string& path, const py::bytes& data) { write_file_atomic(path, std::string(data)); },
+      py::arg("path"), py::arg("data"), "Writes bytes to a file atomically (all or nothing)");
 
   // Output.
   m.def(

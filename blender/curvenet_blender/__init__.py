@@ -41,4 +41,5 @@ def unregister():
     live.unregister()
     ui.unregister()
     for cls in reversed(ui.CLASSES + operators.CLASSES):
-        bpy.utils.unregister_class(cls)
+        if getattr(cls, "is_registered", False):
+            bpy.utils.unregister_class(cls)

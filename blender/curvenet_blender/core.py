@@ -575,6 +575,45 @@ def live_objects():
     return [o for o in bpy.data.objects if o.type == "MESH" and ARMATURE_KEY in o and has_rig(o)]
 
 
+def bake_vertex_groups(obj, arm, max_influences=4):
+    """Bakes the binding to an ordinary skin: the top-k harmonic weights of
+    each vertex as vertex groups named after the bones, and an Armature
+    modifier on the armature. Live deformation stops; the mesh then plays
+    with stock Blender, without the add-on. Returns the curvenet.SkinWeights."""
+    binding = ensure_binding(obj)
+    if binding is None or bound_armature(obj) != arm:
+        bind(obj, arm)
+        binding = state(obj).binding
+    w = curvenet.bake_weights(binding, max_influences)
+    unbind(obj)
+    # Groups named after bones deform with them: those of another skin go.
+    bones = {b.name for b in arm.data.bones}
+    for vg in list(obj.vertex_groups):
+        if vg.name in bones:
+            obj.vertex_groups.remove(vg)
+    groups = {}
+    J, Wt = w.joint, w.weight
+    for v in range(w.num_vertices):
+        for i in range(w.influences):
+            j = int(J[v, i])
+            if j < 0:
+                continue
+            name = w.joints[j]
+            vg = groups.get(name)
+            if vg is None:
+                vg = groups[name] = obj.vertex_groups.new(name=name)
+            vg.add([v], float(Wt[v, i]), "REPLACE")
+    mod = next((m for m in obj.modifiers if m.type == "ARMATURE"), None)
+    if mod is None:
+        mod = obj.modifiers.new("Armature", "ARMATURE")
+    mod.object = arm
+    mod.use_vertex_groups = True
+    mod.use_bone_envelopes = False
+    mod.use_deform_preserve_volume = False
+    mod.show_viewport = mod.show_render = True
+    return w
+
+
 # --- node weights -----------------------------------------------------------
 
 
@@ -662,12 +701,64 @@ def transfer(obj, target):
     return result
 
 
-def export_rig(obj, path):
-    curvenet.write_rig(get_rig(obj), path)
+# Blender's glTF importer turns a Y-up file to Z-up in the mesh data: file
+# (x, y, z) -> Blender (x, -z, y). OBJ's importer keeps the data and turns the object.
+Y_UP_TO_BLENDER = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
 
 
-def import_rig(obj, path):
+def apply_frame(rig, F):
+    """The rig with the similarity F applied to its coordinates (nodes, curve
+    points, joints), and its frame the identity: the rig in F's target space."""
+    F = np.asarray(F, dtype=np.float64)
+    out = rig.copy()
+    out.frame = np.eye(4)
+
+    def move(p):
+        return F[:3, :3] @ np.asarray(p) + F[:3, 3]
+
+    for n in out.nodes:
+        n.position = move(n.position)
+    for p in out.profiles:
+        pts = p.curve.points
+        if len(pts):
+            c = p.curve
+            c.points = pts @ F[:3, :3].T + F[:3, 3]
+            p.curve = c
+    for j in out.joints:
+        j.bind = F @ np.asarray(j.bind)
+    return out
+
+
+def _off_surface(obj, rig):
+    """How far the rig's nodes lie from the rest surface, on average (object space)."""
+    bvh = surface_bvh(obj)
+    F = np.asarray(rig.frame)
+    d = [bvh.find_nearest(Vector(tuple(F[:3, :3] @ np.asarray(n.position) + F[:3, 3])))[3] for n in rig.nodes]
+    d = [x for x in d if x is not None]
+    return float(np.mean(d)) if d else 0.0
+
+
+def export_rig(obj, path, up="Z"):
+    """Writes the rig. up 'Z': in the object's own (Blender) space; 'Y': in the
+    space of the Y-up file it was imported from (glTF), for the CLI."""
+    rig = get_rig(obj)
+    if up == "Y":
+        rig = apply_frame(rig, np.linalg.inv(Y_UP_TO_BLENDER) @ np.asarray(rig.frame))
+    curvenet.write_rig(rig, path)
+
+
+def import_rig(obj, path, up="AUTO"):
+    """Reads a rig onto the object, in its object space. up 'Z': the rig is in
+    Blender's space; 'Y': in a Y-up file's (a rig made with the CLI on the
+    glTF Blender imported); 'AUTO': whichever puts the nodes nearer the surface."""
     rig = curvenet.read_rig(path)
+    frame = np.asarray(rig.frame)
+    if up == "AUTO" and len(rig.nodes):
+        turned = rig.copy()
+        turned.frame = Y_UP_TO_BLENDER @ frame
+        up = "Y" if _off_surface(obj, turned) < _off_surface(obj, rig) else "Z"
+    F = Y_UP_TO_BLENDER @ frame if up == "Y" else frame
+    rig = apply_frame(rig, F)
     set_rig(obj, rig)
     state(obj).paths.clear()
     return rig

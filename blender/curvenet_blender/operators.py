@@ -4,7 +4,7 @@ step can be scripted (bpy.ops.curvenet.*) and tested headless."""
 import os
 
 import bpy
-from bpy.props import FloatProperty, IntProperty, StringProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras import view3d_utils
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
@@ -322,9 +322,12 @@ class CURVENET_OT_export_rig(_MeshOperator, bpy.types.Operator, ExportHelper):
     bl_label = "Export Rig"
     filename_ext = ".cnrig.json"
     filter_glob: StringProperty(default="*.cnrig.json", options={"HIDDEN"})
+    up: EnumProperty(name="Space", items=(("Z", "Blender (Z-up)", "The object's own space"),
+                                          ("Y", "Y-up file (glTF)", "The space of the glTF file the mesh came from")),
+                     default="Z")
 
     def execute(self, context):
-        ok, _ = _attempt(self, context, "Export rig", lambda: core.export_rig(_mesh(context), self.filepath))
+        ok, _ = _attempt(self, context, "Export rig", lambda: core.export_rig(_mesh(context), self.filepath, self.up))
         return _done(self, context, "Rig written: " + self.filepath) if ok else {"CANCELLED"}
 
 
@@ -336,9 +339,13 @@ class CURVENET_OT_import_rig(_MeshOperator, bpy.types.Operator, ImportHelper):
     bl_options = {"REGISTER", "UNDO"}
     filename_ext = ".cnrig.json"
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+    up: EnumProperty(name="Space", items=(("AUTO", "Auto", "Whichever puts the nodes nearer the surface"),
+                                          ("Z", "Blender (Z-up)", "The rig is in the object's own space"),
+                                          ("Y", "Y-up file (glTF)", "The rig was made on the glTF file")),
+                     default="AUTO")
 
     def execute(self, context):
-        ok, rig = _attempt(self, context, "Import rig", lambda: core.import_rig(_mesh(context), self.filepath))
+        ok, rig = _attempt(self, context, "Import rig", lambda: core.import_rig(_mesh(context), self.filepath, self.up))
         if not ok:
             return {"CANCELLED"}
         return _done(self, context, "Rig read: %d nodes, %d profiles" % (len(rig.nodes), len(rig.profiles)))
@@ -365,6 +372,29 @@ class CURVENET_OT_bake_cache(_MeshOperator, bpy.types.Operator, ExportHelper):
         if not ok:
             return {"CANCELLED"}
         return _done(self, context, "Cache written: %s (frames %d-%d)" % (os.path.basename(path), start, end))
+
+
+class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
+    """Bake the binding to vertex groups with an Armature modifier: an ordinary skin that plays with stock Blender"""
+
+    bl_idname = "curvenet.bake_vertex_groups"
+    bl_label = "Bake to Vertex Groups"
+    bl_options = {"REGISTER", "UNDO"}
+
+    max_influences: IntProperty(name="Influences", default=4, min=1, max=8)
+
+    def execute(self, context):
+        obj = _mesh(context)
+        arm = _armature(context) or core.bound_armature(obj)
+        if arm is None:
+            self.report({"ERROR"}, "Select an armature (or set one in the panel)")
+            return {"CANCELLED"}
+        ok, w = _attempt(self, context, "Bake to vertex groups", lambda: core.bake_vertex_groups(obj, arm, self.max_influences))
+        if not ok:
+            return {"CANCELLED"}
+        used = int((w.joint >= 0).sum())
+        return _done(self, context, "Vertex groups: %d vertices, %.2f joints each, Armature modifier on %s" % (
+            w.num_vertices, used / max(1, w.num_vertices), arm.name))
 
 
 class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):
@@ -395,5 +425,6 @@ CLASSES = (
     CURVENET_OT_export_rig,
     CURVENET_OT_import_rig,
     CURVENET_OT_bake_cache,
+    CURVENET_OT_bake_vertex_groups,
     CURVENET_OT_clear,
 )

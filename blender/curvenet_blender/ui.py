@@ -87,6 +87,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box.prop(props, "target")
         box.operator("curvenet.transfer")
         box.operator("curvenet.bake_cache")
+        box.operator("curvenet.bake_vertex_groups")
         if props.status:
             layout.label(text=props.status)
         err = core.state(obj).error
@@ -102,4 +103,5 @@ def register():
 
 
 def unregister():
-    del bpy.types.Scene.curvenet
+    if hasattr(bpy.types.Scene, "curvenet"):
+        del bpy.types.Scene.curvenet

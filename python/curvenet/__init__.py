@@ -20,15 +20,18 @@ from ._curvenet import (  # noqa: F401
     Profile,
     Rig,
     SkinnedMesh,
+    SkinWeights,
     StarterResult,
     TopologyError,
     TransferResult,
+    bake_weights,
     bind,
     clip_frames,
     clip_skinning_matrices,
     compare,
     complete_weights,
     embed,
+    fit_weights,
     load_mesh,
     load_skeleton,
     load_skinned_mesh,
@@ -37,18 +40,31 @@ from ._curvenet import (  # noqa: F401
     read_pose,
     read_rig,
     rig_to_json,
+    skin_positions,
+    skinned_glb,
     skinning_matrices,
     starter,
     subdivide,
     trace_profiles,
     validate_rig,
     transfer,
+    weights_csv,
     with_skeleton,
+    write_file,
     write_pc2,
     write_rig,
 )
 
 __version__ = "0.1.0"
+
+
+def write_weights_npz(path, weights):
+    """Writes baked weights as a numpy .npz: `joint` (n, k) int (-1 unused),
+    `weight` (n, k) float, `joints` (the joint names), for pipelines that
+    paint on top. Read back with numpy.load(path)."""
+    import numpy as np
+
+    np.savez(path, joint=weights.joint, weight=weights.weight, joints=np.array(weights.joints))
 
 # The exceptions carry the file and element at fault (empty when none).
 for _cls in (Error, EmbedError, TopologyError, InputError):

@@ -380,3 +380,52 @@ def validate_rig(rig: Rig, source: str = "rig") -> None:
     """Checks a rig built in memory by read_rig's rules. Every call that takes a rig does it first.
 
     Raises InputError naming `source` and the JSON path of the fault, e.g. `/profiles/2/from`."""
+
+class SkinWeights:
+    """A linear-blend skin: `influences` (joint, weight) slots per input vertex, largest first."""
+
+    def __init__(self, joints: Sequence[str], joint: npt.ArrayLike, weight: npt.ArrayLike) -> None:
+        """joint: (n, k) indices into `joints` (-1 unused); weight: (n, k), non-negative."""
+    influences: int
+    joints: list[str]
+    @property
+    def num_vertices(self) -> int: ...
+    @property
+    def joint(self) -> IntArray:
+        """(n, k), -1 for an unused slot."""
+    @property
+    def weight(self) -> FloatArray:
+        """(n, k); each row sums to 1."""
+
+def bake_weights(binding: Binding, max_influences: int = 4) -> SkinWeights:
+    """The k largest harmonic weights s_j of each input vertex, renormalised (docs/bake.md)."""
+
+def fit_weights(binding: Binding, poses: npt.ArrayLike, max_influences: int = 4) -> SkinWeights:
+    """Weights fitted to the binding's own deformation over poses (P, J, 4, 4): least squares per vertex,
+    non-negative, summing to 1, on the joints that bound the vertex's region."""
+
+def skin_positions(weights: SkinWeights, rest: npt.ArrayLike, skinning: npt.ArrayLike) -> FloatArray:
+    """Linear blend skinning: rest (n, 3) moved by skinning (J, 4, 4) with the weights."""
+
+def weights_csv(weights: SkinWeights) -> str:
+    """The weights as CSV: `vertex,joint_0,weight_0,...`, joints by name."""
+
+def skinned_glb(
+    mesh_path: str,
+    skeleton: Skeleton,
+    weights: SkinWeights,
+    clips: Optional[SkinnedMesh] = None,
+    *,
+    up: str = "y",
+    fps: float = 24.0,
+    clip_names: Sequence[str] = (),
+) -> bytes:
+    """A skinned glTF 2.0 binary of the mesh file: its topology, UVs, normals (and a glTF source's materials),
+    the skeleton with inverse bind matrices, JOINTS/WEIGHTS, and the clips retargeted by joint name.
+    up: the source's up axis ('z' is turned to glTF's Y-up)."""
+
+def write_file(path: str, data: bytes) -> None:
+    """Writes bytes atomically (all or nothing)."""
+
+def write_weights_npz(path: str, weights: SkinWeights) -> None:
+    """Writes `joint`, `weight` and `joints` arrays to a numpy .npz."""

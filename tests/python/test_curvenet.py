@@ -415,3 +415,53 @@ def test_bad_values_from_python_are_refused_not_crashed_on(tmp_path):
     assert not (tmp_path / "nan.pc2").exists()
     with pytest.raises(curvenet.InputError):
         curvenet.starter(m, [])
+
+
+# --- baking to a skin ---------------------------------------------------------
+
+
+@needs_data
+def test_baked_weights_and_glb_are_exactly_the_clis(tmp_path):
+    glb, csv = tmp_path / "hand.glb", tmp_path / "hand.csv"
+    clips_file = hand("hand_l_poses.glb")
+    cli("bake", hand(), example("hand_l.cnrig.json"), "-o", str(glb), "--weights-csv", str(csv),
+        "--clip", clips_file, "--clip-name", "Grip")
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    w = curvenet.bake_weights(b, 4)
+    assert w.joint.shape == w.weight.shape == (b.num_input_vertices, 4)
+    np.testing.assert_allclose(w.weight.sum(axis=1), 1, atol=1e-12)
+    assert (w.weight[w.joint < 0] == 0).all()
+    assert curvenet.weights_csv(w) == csv.read_text()
+    clips = curvenet.load_skinned_mesh(clips_file)
+    assert curvenet.skinned_glb(hand(), b, w, clips, clip_names=["Grip"]) == glb.read_bytes()
+    # LBS with the baked weights, at rest, is the rest mesh.
+    rest = b.deform(np.stack([np.eye(4)] * len(b.joints)))
+    M = curvenet.skinning_matrices(b, example("fist.pose.json"))
+    assert np.allclose(curvenet.skin_positions(w, rest, np.stack([np.eye(4)] * len(b.joints))), rest, atol=1e-12)
+    # ... and in a pose it lands near the full deformation (the detail term is what it lacks).
+    diag = curvenet.load_mesh(hand()).bbox_diagonal()
+    gap = np.linalg.norm(curvenet.skin_positions(w, rest, M) - b.deform(M), axis=1)
+    assert gap.mean() < 0.02 * diag
+    # Weights from arrays, and the npz for painting on top.
+    again = curvenet.SkinWeights(w.joints, w.joint, w.weight)
+    assert curvenet.weights_csv(again) == csv.read_text()
+    curvenet.write_weights_npz(str(tmp_path / "w.npz"), w)
+    z = np.load(tmp_path / "w.npz")
+    assert (z["joint"] == w.joint).all() and list(z["joints"]) == w.joints
+    with pytest.raises(curvenet.InputError):
+        curvenet.SkinWeights(w.joints, w.joint + 100, w.weight)
+    with pytest.raises(curvenet.InputError):
+        curvenet.bake_weights(b, 9)
+
+
+@needs_data
+def test_fitted_weights_over_poses():
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    clips = curvenet.load_skinned_mesh(hand("hand_l_poses.glb"))
+    poses = np.stack([curvenet.clip_skinning_matrices(b, clips, c, clips.clip_range(c)[1])
+                      for c in range(0, clips.num_clips, 2)])
+    w = curvenet.fit_weights(b, poses, 4)
+    np.testing.assert_allclose(w.weight.sum(axis=1), 1, atol=1e-9)
+    assert (w.weight >= 0).all()
+    with pytest.raises(ValueError):
+        curvenet.fit_weights(b, poses[:, :3], 4)

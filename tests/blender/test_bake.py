@@ -1,0 +1,134 @@
+"""Baked skins in stock Blender, headless:
+
+1. the skinned glTF that `curvenet bake` writes, read by Blender's own glTF
+   importer and posed by its armature through a clip, lands where our own
+   linear blend skinning of the baked weights puts it;
+2. "Bake to Vertex Groups" on a bound hand gives vertex groups and an
+   Armature modifier that, with the add-on switched off, pose the mesh as our
+   LBS of the same weights does;
+and a Workbench picture of the baked glTF opened in Blender.
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+
+import addon_support as t  # noqa: E402
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from mathutils import Quaternion  # noqa: E402
+
+t.empty_scene()
+t.enable_addon()
+import curvenet  # noqa: E402
+import curvenet_blender  # noqa: E402
+from curvenet_blender import core  # noqa: E402
+
+HAND = os.path.join(t.DATA, "xr_tools_hand")
+source = os.path.join(HAND, "hand_l.gltf")
+clips_file = os.path.join(HAND, "hand_l_poses.glb")
+
+# --- 1. the glTF, through Blender's importer ------------------------------
+binding = curvenet.bind(curvenet.load_mesh(source), curvenet.read_rig(os.path.join(HAND, "example", "hand_l.cnrig.json")))
+weights = curvenet.bake_weights(binding, 4)
+clips = curvenet.load_skinned_mesh(clips_file)
+glb = os.path.join(t.OUT, "hand_baked.glb")
+curvenet.write_file(glb, curvenet.skinned_glb(source, binding, weights, clips, clip_names=["Grip", "Pistol"]))
+rest = binding.deform(np.stack([np.eye(4)] * len(binding.joints)))  # the file's own rest positions
+
+meshes, arms = t.import_gltf(glb)
+t.check(len(meshes) == 1 and len(arms) == 1, "the baked glTF imports as one mesh and one armature")
+obj, arm = meshes[0], arms[0]
+t.check(len(obj.data.vertices) == len(rest), "with the file's %d vertices" % len(rest))
+t.check(obj.modifiers[0].type == "ARMATURE", "skinned by an Armature modifier")
+groups = {g.name for g in obj.vertex_groups}
+t.check(groups <= set(weights.joints), "its vertex groups are the skeleton's joints")
+
+
+def blender_world(obj):
+    """Evaluated positions in world space, turned back from Blender's Z-up to glTF's Y-up."""
+    P = t.evaluated_positions(obj)
+    W = np.array(obj.matrix_world)
+    P = P @ W[:3, :3].T + W[:3, 3]
+    return np.stack([P[:, 0], P[:, 2], -P[:, 1]], axis=1)
+
+
+diag = curvenet.load_mesh(source).bbox_diagonal()
+arm.animation_data.action = None  # the importer makes the first clip active
+for pb in arm.pose.bones:
+    pb.matrix_basis.identity()
+at_rest = blender_world(obj)
+t.check(np.abs(at_rest - rest).max() < 1e-5 * diag, "at rest it is the source mesh, vertex for vertex")
+actions = {a.name.split("_")[0]: a for a in bpy.data.actions}
+scene = bpy.context.scene
+fps = scene.render.fps / scene.render.fps_base
+for name in ("Grip", "Pistol"):
+    action = next(a for a in bpy.data.actions if a.name.startswith(name))
+    arm.animation_data.action = action
+    c = clips.find_clip(name)
+    t0, t1 = clips.clip_range(c)
+    for key in range(0, int(round((t1 - t0) * 24)) + 1):
+        time = t0 + key / 24.0  # the keys the bake wrote
+        frame = time * fps + 1  # the importer puts time 0 at frame 1
+        scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
+        got = blender_world(obj)
+        want = curvenet.skin_positions(weights, rest, curvenet.clip_skinning_matrices(binding, clips, c, time))
+        err = np.abs(got - want).max()
+        t.check(err < 1e-4 * diag, "%s at %.3f s: Blender poses it as our LBS does (max %.2e of the diagonal)" % (
+            name, time, err / diag))
+t.render_workbench([obj], os.path.join(t.OUT, "hand_baked_glb.png"), colour="SINGLE", size=(640, 480))
+
+# --- 2. bake to vertex groups on a bound hand -------------------------------
+t.empty_scene()
+t.enable_addon()
+import curvenet_blender  # noqa: E402,F811
+from curvenet_blender import core  # noqa: E402,F811
+
+meshes, arms = t.import_gltf(source)
+obj, arm = meshes[0], arms[0]
+t.select(obj, arm)
+bpy.ops.curvenet.import_rig(filepath=os.path.join(HAND, "example", "hand_l.cnrig.json"))
+rig_file = curvenet.read_rig(os.path.join(HAND, "example", "hand_l.cnrig.json"))
+ours = core.get_rig(obj)
+t.check(np.allclose(ours.nodes[0].position, core.Y_UP_TO_BLENDER[:3, :3] @ rig_file.nodes[0].position),
+        "a rig made on the glTF file is turned into the object's Z-up space on import")
+back = os.path.join(t.OUT, "hand_yup.cnrig.json")
+t.check(bpy.ops.curvenet.export_rig(filepath=back, up="Y") == {"FINISHED"}, "export in the glTF file's space")
+again = curvenet.read_rig(back)
+t.check(max(np.abs(a.position - b.position).max() for a, b in zip(again.nodes, rig_file.nodes)) < 1e-12,
+        "and it comes back as the file was")
+t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "bound")
+t.check(bpy.ops.curvenet.bake_vertex_groups(max_influences=4) == {"FINISHED"}, bpy.context.scene.curvenet.status)
+t.check(obj.data.shape_keys is None or obj.data.shape_keys.key_blocks.get(core.SHAPE_KEY) is None,
+        "live deformation is off")
+mod = [m for m in obj.modifiers if m.type == "ARMATURE"]
+t.check(len(mod) == 1 and mod[0].object == arm and mod[0].show_viewport, "one Armature modifier, on the armature")
+rest_b = np.array([v.co[:] for v in obj.data.vertices])
+baked = curvenet.SkinWeights  # the weights the operator wrote, read back from the groups
+names = [b.name for b in arm.data.bones]
+curvenet_blender.unregister()  # stock Blender from here
+for name, angle in (("Index_Proximal_L", 70), ("Thumb_Proximal_L", -40), ("Wrist_L", 25)):
+    pb = arm.pose.bones[name]
+    pb.rotation_mode = "QUATERNION"
+    pb.rotation_quaternion = Quaternion((1, 0, 0.3), np.radians(angle))
+bpy.context.view_layer.update()
+got = t.evaluated_positions(obj)
+# Our LBS of the same weights, with the matrices the Armature modifier uses.
+O, A = obj.matrix_world, arm.matrix_world
+index = {n: i for i, n in enumerate(names)}
+J = np.full((len(rest_b), 8), -1)
+Wt = np.zeros((len(rest_b), 8))
+for v in obj.data.vertices:
+    for i, g in enumerate(v.groups):
+        J[v.index, i] = index[obj.vertex_groups[g.group].name]
+        Wt[v.index, i] = g.weight
+w = curvenet.SkinWeights(names, J, Wt)
+M = np.array([np.array(O.inverted() @ A @ arm.pose.bones[n].matrix @ arm.pose.bones[n].bone.matrix_local.inverted()
+                       @ A.inverted() @ O) for n in names])
+want = curvenet.skin_positions(w, rest_b, M)
+err = np.abs(got - want).max()
+t.check(np.abs(got - rest_b).max() > 0.005, "the bones move the mesh")
+t.check(err < 1e-5 * diag, "the Armature modifier poses it as our LBS of the baked weights (max %.2e)" % err)
+t.check(np.allclose(Wt.sum(axis=1), 1, atol=1e-6), "each vertex's group weights sum to 1")
+print("CURVENET_TEST all passed")
