@@ -1,0 +1,510 @@
+// Baked skins, measured (docs/bake.md).
+//
+//   build/bin/bake_bench fidelity   the shared hand's 35 clips: LBS with the baked weights (k = 4, 8, all) and
+//                                   with fitted weights, against the full curvenet deformation and against the
+//                                   hand's own artist skin
+//   build/bin/bake_bench transfer   topology independence: curvenet baked on every tessellation of the hand, spot
+//                                   and CesiumMan, against Robust Skin Weight Transfer (Abdrashitov et al. 2023)
+//                                   of the source's skin to each of them; every result posed by the same poses
+//                                   and compared with the posed source (surface distance, % of the diagonal)
+//
+// One run on one machine; no timing is reported, only distances.
+
+#include "core/polygon.hpp"
+#include "curvenet/bake.hpp"
+#include "curvenet/compare.hpp"
+#include "curvenet/deform.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
+#include "curvenet/transfer.hpp"
+#include "cut/cut_mesh.hpp"
+#include "trace/trace_mesh.hpp"
+#include "transfer_check.hpp"
+
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numbers>
+#include <string>
+#include <vector>
+
+using namespace curvenet;
+
+namespace {
+
+const std::string kData = CURVENET_DATA_DIR;
+
+/// Dense per-vertex weights (rows: welded vertices of a mesh; columns: joints).
+using Dense = Eigen::MatrixXd;
+
+std::vector<Vec3> rest_of(const Binding& b) {
+  std::vector<Vec3> rest(b.num_input_vertices());
+  b.deform(std::vector<Mat4>(b.joints().size(), Mat4::Identity()), rest);
+  return rest;
+}
+
+/// Per-vertex distances between two position sets on one topology: mean and max.
+std::pair<double, double> vertex_gap(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double sum = 0, mx = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const double d = (a[i] - b[i]).norm();
+    sum += d;
+    mx = std::max(mx, d);
+  }
+  return {sum / std::max<size_t>(1, a.size()), mx};
+}
+
+/// LBS with all of each vertex's harmonic weights (no top-k).
+std::vector<Vec3> lbs_all(const Binding& b, const std::vector<Vec3>& rest, const std::vector<Mat4>& M) {
+  std::vector<Vec3> out(rest.size());
+  std::vector<std::pair<int, double>> s;
+  for (size_t v = 0; v < rest.size(); ++v) {
+    b.harmonic_weights(static_cast<int>(v), s);
+    Eigen::Vector4d x = Eigen::Vector4d::Zero();
+    for (const auto& [j, w] : s)
+      x += w * (M[j] * rest[v].homogeneous());
+    out[v] = x.head<3>();
+  }
+  return out;
+}
+
+struct Stat {
+  double mean = 0, max = 0;
+  int n = 0;
+  void add(std::pair<double, double> g) {
+    mean += g.first;
+    max = std::max(max, g.second);
+    ++n;
+  }
+  [[nodiscard]] double mean_of() const { return n ? mean / n : 0; }
+};
+
+double influences(const SkinWeights& w, int* most = nullptr) {
+  int used = 0, mx = 0;
+  for (int v = 0; v < w.num_vertices(); ++v) {
+    int c = 0;
+    for (int i = 0; i < w.influences; ++i)
+      c += w.joint[static_cast<size_t>(v) * w.influences + i] >= 0;
+    used += c;
+    mx = std::max(mx, c);
+  }
+  if (most)
+    *most = mx;
+  return static_cast<double>(used) / std::max(1, w.num_vertices());
+}
+
+void fidelity() {
+  const std::string d = kData + "/xr_tools_hand/";
+  const std::string mesh_file = d + "hand_l.gltf";
+  const SurfaceMesh mesh = load_mesh(mesh_file);
+  const SkinnedMesh file_skin = load_skinned_mesh(mesh_file);
+  const SkinnedMesh clips = load_skinned_mesh(d + "hand_l_poses.glb");
+  const double diag = mesh.bbox_diagonal();
+  const RawMesh raw = read_raw_mesh(mesh_file);
+  std::printf("Fidelity of the bake: hand_l.gltf (%d faces), %d clips (each clip's last key), distances per vertex as %% "
+              "of the diagonal; mean is the mean over clips of the mean over vertices, max the largest\n\n",
+              mesh.num_faces(), clips.num_clips());
+  struct RigCase {
+    const char* name;
+    Rig rig;
+  };
+  std::vector<RigCase> rigs = {{"example rig", read_rig(d + "example/hand_l.cnrig.json")},
+                               {"starter net", make_starter(mesh, file_skin.joints).rig}};
+  for (auto& rc : rigs) {
+    const Binding b = bind(mesh, rc.rig);
+    const auto rest = rest_of(b);
+    std::vector<std::vector<Mat4>> poses, even;
+    std::vector<int> odd_index;
+    for (int c = 0; c < clips.num_clips(); ++c) {
+      poses.push_back(clip_skinning_matrices(b.joints(), clips, c, clips.clip_range(c).second));
+      (c % 2 == 0 ? static_cast<void>(even.push_back(poses.back())) : static_cast<void>(odd_index.push_back(c)));
+    }
+    const SkinWeights w4 = bake_weights(b, 4), w8 = bake_weights(b, 8);
+    const SkinWeights fit_all = fit_weights(b, poses, 4), fit_even = fit_weights(b, even, 4);
+    std::printf("%s (%zu nodes, %zu profiles): harmonic influences per vertex %.2f\n", rc.name, rc.rig.nodes.size(),
+                rc.rig.profiles.size(), b.report().mean_influences);
+    std::printf("| skin | joints per vertex (mean / max) | vs full curvenet: mean | max | vs artist skin: mean | max |\n"
+                "|---|---|---|---|---|---|\n");
+    auto row = [&](const char* label, auto&& positions, double infl, int most, const std::vector<int>* only) {
+      Stat full, artist;
+      for (int c = 0; c < clips.num_clips(); ++c) {
+        if (only && std::find(only->begin(), only->end(), c) == only->end())
+          continue;
+        std::vector<Vec3> cn(rest.size());
+        b.deform(poses[c], cn);
+        const auto p = positions(c);
+        full.add(vertex_gap(p, cn));
+        // The artist skin in the same pose: the file's joints, the clip's pose by name.
+        const auto art = skin_positions(file_skin, raw.positions,
+                                        clip_skinning_matrices(file_skin.joints, clips, c, clips.clip_range(c).second));
+        artist.add(vertex_gap(p, art));
+      }
+      std::printf("| %s | %.2f / %d | %.3f%% | %.3f%% | %.3f%% | %.3f%% |\n", label, infl, most,
+                  100 * full.mean_of() / diag, 100 * full.max / diag, 100 * artist.mean_of() / diag,
+                  100 * artist.max / diag);
+    };
+    int most = 0;
+    row("full curvenet deformation", [&](int c) {
+      std::vector<Vec3> cn(rest.size());
+      b.deform(poses[c], cn);
+      return cn;
+    }, b.report().mean_influences, 0, nullptr);
+    row("LBS, all harmonic weights", [&](int c) { return lbs_all(b, rest, poses[c]); }, b.report().mean_influences, 0,
+        nullptr);
+    double i8 = influences(w8, &most);
+    row("LBS, baked k = 8", [&](int c) { return skin_positions(w8, rest, poses[c]); }, i8, most, nullptr);
+    double i4 = influences(w4, &most);
+    row("LBS, baked k = 4", [&](int c) { return skin_positions(w4, rest, poses[c]); }, i4, most, nullptr);
+    double ia = influences(fit_all, &most);
+    row("LBS, fitted k = 4, on all clips (in sample)", [&](int c) { return skin_positions(fit_all, rest, poses[c]); },
+        ia, most, nullptr);
+    double ie = influences(fit_even, &most);
+    row("LBS, fitted k = 4 on the even clips, on the odd ones", [&](int c) {
+      return skin_positions(fit_even, rest, poses[c]);
+    }, ie, most, &odd_index);
+    row("LBS, baked k = 4, on the odd clips", [&](int c) { return skin_positions(w4, rest, poses[c]); }, i4, most,
+        &odd_index);
+    {
+      // The artist skin itself, against the full deformation.
+      Stat full;
+      for (int c = 0; c < clips.num_clips(); ++c) {
+        std::vector<Vec3> cn(rest.size());
+        b.deform(poses[c], cn);
+        full.add(vertex_gap(skin_positions(file_skin, raw.positions,
+                                           clip_skinning_matrices(file_skin.joints, clips, c, clips.clip_range(c).second)),
+                            cn));
+      }
+      std::printf("| the file's artist skin | %.2f / 4 | %.3f%% | %.3f%% | 0 | 0 |\n\n", 4.0,
+                  100 * full.mean_of() / diag, 100 * full.max / diag);
+    }
+  }
+}
+
+// --- Robust Skin Weight Transfer (Abdrashitov, Raichstat, Monsen, Hill: SIGGRAPH Asia 2023) ---
+
+struct Tri {
+  std::vector<std::array<int, 3>> t;
+};
+
+Tri triangles(const SurfaceMesh& m) {
+  Tri out;
+  std::vector<Vec3> corners;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto face = m.face(f);
+    corners.clear();
+    for (int v : face)
+      corners.push_back(m.positions[v]);
+    for (const auto& t : detail::triangulate_polygon(corners))
+      out.t.push_back({face[t[0]], face[t[1]], face[t[2]]});
+  }
+  return out;
+}
+
+std::vector<Vec3> vertex_normals(const SurfaceMesh& m, const Tri& tri) {
+  std::vector<Vec3> n(m.num_vertices(), Vec3::Zero());
+  for (const auto& t : tri.t) {
+    const Vec3 fn = (m.positions[t[1]] - m.positions[t[0]]).cross(m.positions[t[2]] - m.positions[t[0]]);
+    for (int v : t)
+      n[v] += fn;
+  }
+  for (auto& x : n)
+    if (x.norm() > 0)
+      x.normalize();
+  return n;
+}
+
+/// RSWT: closest-point matching (distance and normal-angle thresholds), then
+/// inpainting the unmatched vertices by minimising trace(W^T Q W) with
+/// Q = -L + L M^-1 L (cotangent Laplacian L, lumped mass M), matched rows fixed.
+/// Returns per target welded vertex weights, and the matched fraction.
+Dense rswt(const SurfaceMesh& source, const Dense& source_w, const SurfaceMesh& target, double* matched_fraction) {
+  const double dist_max = 0.05 * target.bbox_diagonal();
+  const double cos_max = std::cos(30.0 * std::numbers::pi / 180);
+  const detail::CutMesh cut = detail::CutMesh::from_surface(source);
+  const detail::TraceMesh tm(source, cut);
+  const Tri stri = triangles(source), ttri = triangles(target);
+  const auto sn = vertex_normals(source, stri), tn = vertex_normals(target, ttri);
+  const int n = target.num_vertices(), J = static_cast<int>(source_w.cols());
+  Dense W = Dense::Zero(n, J);
+  std::vector<bool> known(n, false);
+  int matched = 0;
+  for (int v = 0; v < n; ++v) {
+    const auto near = tm.nearest(target.positions[v]);
+    const auto& t = tm.tri(near.tri);
+    Vec3 normal = Vec3::Zero();
+    Eigen::RowVectorXd w = Eigen::RowVectorXd::Zero(J);
+    for (int c = 0; c < 3; ++c) {
+      normal += near.bary[c] * sn[t[c]];
+      w += near.bary[c] * source_w.row(t[c]);
+    }
+    if (near.distance(target.positions[v]) <= dist_max && normal.norm() > 0 &&
+        normal.normalized().dot(tn[v]) >= cos_max) {
+      W.row(v) = w;
+      known[v] = true;
+      ++matched;
+    } else {
+      W.row(v) = w; // the fallback where no matched vertex reaches
+    }
+  }
+  *matched_fraction = static_cast<double>(matched) / std::max(1, n);
+  if (matched == n || matched == 0)
+    return W;
+  // Cotangent Laplacian and lumped mass of the target.
+  std::vector<Eigen::Triplet<double>> lt;
+  Eigen::VectorXd mass = Eigen::VectorXd::Zero(n);
+  for (const auto& t : ttri.t) {
+    const Vec3 &a = target.positions[t[0]], &b = target.positions[t[1]], &c = target.positions[t[2]];
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    for (int k = 0; k < 3; ++k) {
+      const int i = t[k], j = t[(k + 1) % 3], o = t[(k + 2) % 3];
+      const Vec3 u = target.positions[i] - target.positions[o], w = target.positions[j] - target.positions[o];
+      const double cr = u.cross(w).norm();
+      const double cot = cr > 0 ? u.dot(w) / cr : 0;
+      lt.emplace_back(i, j, 0.5 * cot);
+      lt.emplace_back(j, i, 0.5 * cot);
+      lt.emplace_back(i, i, -0.5 * cot);
+      lt.emplace_back(j, j, -0.5 * cot);
+      mass[t[k]] += area / 3;
+    }
+  }
+  Eigen::SparseMatrix<double> L(n, n);
+  L.setFromTriplets(lt.begin(), lt.end());
+  Eigen::SparseMatrix<double> Minv(n, n);
+  for (int i = 0; i < n; ++i)
+    Minv.insert(i, i) = 1.0 / std::max(mass[i], 1e-300);
+  const Eigen::SparseMatrix<double> Q = -L + L * Minv * L;
+  std::vector<int> unknown_index(n, -1), unknowns;
+  for (int v = 0; v < n; ++v)
+    if (!known[v]) {
+      unknown_index[v] = static_cast<int>(unknowns.size());
+      unknowns.push_back(v);
+    }
+  const int u = static_cast<int>(unknowns.size());
+  std::vector<Eigen::Triplet<double>> qt;
+  Dense rhs = Dense::Zero(u, J);
+  for (int k = 0; k < Q.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(Q, k); it; ++it) {
+      const int r = static_cast<int>(it.row()), c = static_cast<int>(it.col());
+      if (unknown_index[r] < 0)
+        continue;
+      if (unknown_index[c] >= 0)
+        qt.emplace_back(unknown_index[r], unknown_index[c], it.value());
+      else
+        rhs.row(unknown_index[r]) -= it.value() * W.row(c);
+    }
+  Eigen::SparseMatrix<double> Quu(u, u);
+  Quu.setFromTriplets(qt.begin(), qt.end());
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(Quu);
+  if (solver.info() == Eigen::Success) {
+    const Dense sol = solver.solve(rhs);
+    if (solver.info() == Eigen::Success && sol.allFinite())
+      for (int i = 0; i < u; ++i)
+        W.row(unknowns[i]) = sol.row(i);
+  }
+  // Clamp to [0, 1] and normalise, as the paper does before use.
+  for (int v = 0; v < n; ++v) {
+    for (int j = 0; j < J; ++j)
+      W(v, j) = std::clamp(W(v, j), 0.0, 1.0);
+    const double s = W.row(v).sum();
+    if (s > 0)
+      W.row(v) /= s;
+  }
+  return W;
+}
+
+/// Top-4 of dense weights, renormalised, as SkinWeights per input vertex.
+SkinWeights top4(const Dense& W, const SurfaceMesh& m, const std::vector<std::string>& names) {
+  SkinWeights s;
+  s.influences = 4;
+  s.joints = names;
+  const size_t n = m.input_to_welded.size();
+  s.joint.assign(n * 4, -1);
+  s.weight.assign(n * 4, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const int v = m.input_to_welded[i];
+    std::vector<std::pair<double, int>> row;
+    for (int j = 0; j < W.cols(); ++j)
+      if (W(v, j) > 0)
+        row.emplace_back(W(v, j), j);
+    std::sort(row.rbegin(), row.rend());
+    if (row.size() > 4)
+      row.resize(4);
+    double sum = 0;
+    for (const auto& [w, j] : row)
+      sum += w;
+    for (size_t k = 0; k < row.size(); ++k) {
+      s.joint[i * 4 + k] = row[k].second;
+      s.weight[i * 4 + k] = row[k].first / sum;
+    }
+  }
+  return s;
+}
+
+Dense dense_of(const SkinWeights& w, const SurfaceMesh& m) {
+  Dense D = Dense::Zero(m.num_vertices(), static_cast<int>(w.joints.size()));
+  for (size_t i = 0; i < m.input_to_welded.size(); ++i)
+    for (int k = 0; k < w.influences; ++k) {
+      const int j = w.joint[i * w.influences + k];
+      if (j >= 0)
+        D(m.input_to_welded[i], j) = w.weight[i * w.influences + k];
+    }
+  return D;
+}
+
+SurfaceMesh posed(const SurfaceMesh& m, const SkinWeights& w, const std::vector<Vec3>& rest,
+                  const std::vector<Mat4>& M) {
+  const auto p = skin_positions(w, rest, M);
+  SurfaceMesh out = m;
+  for (size_t i = 0; i < p.size(); ++i)
+    out.positions[m.input_to_welded[i]] = p[i];
+  return out;
+}
+
+std::vector<Vec3> input_rest(const SurfaceMesh& m) {
+  std::vector<Vec3> r(m.input_to_welded.size());
+  for (size_t i = 0; i < r.size(); ++i)
+    r[i] = m.positions[m.input_to_welded[i]];
+  return r;
+}
+
+/// How far each posed target vertex lies from the posed source at the point
+/// that corresponds to it at rest (its closest point on the source): the
+/// gap a surface distance cannot see when the two slide along each other.
+struct Correspondence {
+  std::vector<int> tri;
+  std::vector<std::array<double, 3>> bary;
+  std::vector<std::array<int, 3>> verts;
+};
+Correspondence correspond(const SurfaceMesh& source, const SurfaceMesh& target) {
+  const detail::CutMesh cut = detail::CutMesh::from_surface(source);
+  const detail::TraceMesh tm(source, cut);
+  Correspondence c;
+  for (int v = 0; v < target.num_vertices(); ++v) {
+    const auto near = tm.nearest(target.positions[v]);
+    c.bary.push_back(near.bary);
+    c.verts.push_back(tm.tri(near.tri));
+  }
+  return c;
+}
+double corresponding_gap(const Correspondence& c, const SurfaceMesh& posed_source, const SurfaceMesh& posed_target) {
+  double sum = 0;
+  for (int v = 0; v < posed_target.num_vertices(); ++v) {
+    Vec3 q = Vec3::Zero();
+    for (int k = 0; k < 3; ++k)
+      q += c.bary[v][k] * posed_source.positions[c.verts[v][k]];
+    sum += (posed_target.positions[v] - q).norm();
+  }
+  return sum / std::max(1, posed_target.num_vertices());
+}
+
+void transfer_table() {
+  std::printf("Topology independence of baked skins: curvenet (the rig transferred and baked on every mesh, k = 4) "
+              "against RSWT (the source's baked skin transferred to every mesh: closest points within 5%% of the "
+              "diagonal and 30 degrees, the rest inpainted, top 4). Each target posed by the family's poses and "
+              "compared with the posed source: surface distance as %% of the source's diagonal, mean over poses of "
+              "the mean, and the largest max.\n\n");
+  std::printf("| family | target | faces | rest mean | curvenet mean | RSWT mean | rest max | curvenet max | RSWT max | "
+              "curvenet corr. | RSWT corr. | RSWT matched |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  struct Fam {
+    std::string name;
+    check::Family f;
+  };
+  std::vector<Fam> fams;
+  fams.push_back({"hand", check::make_family("hand", kData, {})});
+  {
+    check::Family spot = check::make_family("spot", kData, {});
+    spot.targets.resize(2); // the triangulated and low-resolution spot (the bare cage is not a surface to skin)
+    fams.push_back({"spot", spot});
+  }
+  {
+    check::Family c;
+    const std::string d = kData + "/cesium_man/";
+    c.source = d + "variants/cesium_man_a_welded.obj";
+    for (const char* v : {"cesium_man_b_remesh.obj", "cesium_man_d_loop.obj", "cesium_man_c_decimated.obj",
+                          "cesium_man_e_decimated_326.obj"})
+      c.targets.push_back({d + "variants/" + v});
+    const SkinnedMesh glb = load_skinned_mesh(d + "CesiumMan.glb");
+    c.joints = glb.joints;
+    const auto [t0, t1] = glb.clip_range(0);
+    for (int k = 0; k < 6; ++k) {
+      const double t = t0 + (t1 - t0) * k / 5.0;
+      c.poses.emplace_back("walk " + std::to_string(k), pose_from_clip(glb, 0, t));
+    }
+    fams.push_back({"CesiumMan", c});
+  }
+  for (const auto& [name, f] : fams) {
+    const SurfaceMesh source = load_mesh(f.source);
+    const Rig rig = make_starter(source, f.joints, f.starter).rig;
+    const Binding sb = bind(source, rig);
+    const SkinWeights sw = bake_weights(sb, 4);
+    const auto srest = input_rest(source);
+    std::vector<std::vector<Mat4>> M;
+    for (const auto& [pn, p] : f.poses)
+      M.push_back(skinning_matrices(sb.joints(), p));
+    std::vector<SurfaceMesh> sposed;
+    for (const auto& m : M)
+      sposed.push_back(posed(source, sw, srest, m));
+    const Dense sdense = dense_of(sw, source);
+    for (const auto& t : f.targets) {
+      const SurfaceMesh target = load_mesh(t.path);
+      const auto trest = input_rest(target);
+      const SurfaceDistance rest = surface_distance(source, target);
+      std::string cn_mean = "refused", cn_max = "refused", cn_corr = "refused";
+      const Correspondence corr = correspond(source, target);
+      try {
+        const TransferResult tr = transfer(rig, source, target);
+        if (tr.report.ok) {
+          const SkinWeights tw = bake_weights(bind(target, tr.rig), 4);
+          Stat s;
+          double cg = 0;
+          for (size_t k = 0; k < M.size(); ++k) {
+            const SurfaceMesh pt = posed(target, tw, trest, M[k]);
+            const SurfaceDistance d = surface_distance(sposed[k], pt);
+            s.add({d.mean, d.max});
+            cg += corresponding_gap(corr, sposed[k], pt) / M.size();
+          }
+          char a[32], b[32], g[32];
+          std::snprintf(a, sizeof a, "%.3f%%", rest.percent(s.mean_of()));
+          std::snprintf(b, sizeof b, "%.3f%%", rest.percent(s.max));
+          std::snprintf(g, sizeof g, "%.3f%%", rest.percent(cg));
+          cn_mean = a;
+          cn_max = b;
+          cn_corr = g;
+        }
+      } catch (const Error& e) {
+        std::fprintf(stderr, "%s: %s\n", t.path.c_str(), e.what());
+      }
+      double matched = 0;
+      const SkinWeights rw = top4(rswt(source, sdense, target, &matched), target, sw.joints);
+      Stat r;
+      double rg = 0;
+      for (size_t k = 0; k < M.size(); ++k) {
+        const SurfaceMesh pt = posed(target, rw, trest, M[k]);
+        const SurfaceDistance d = surface_distance(sposed[k], pt);
+        r.add({d.mean, d.max});
+        rg += corresponding_gap(corr, sposed[k], pt) / M.size();
+      }
+      std::printf("| %s | %s | %d | %.3f%% | %s | %.3f%% | %.3f%% | %s | %.3f%% | %s | %.3f%% | %.1f%% |\n", name.c_str(),
+                  check::short_name(t.path).c_str(), target.num_faces(), rest.percent(rest.mean), cn_mean.c_str(),
+                  rest.percent(r.mean_of()), rest.percent(rest.max), cn_max.c_str(), rest.percent(r.max),
+                  cn_corr.c_str(), rest.percent(rg), 100 * matched);
+    }
+  }
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  const std::string what = argc > 1 ? argv[1] : "all";
+  if (what == "fidelity" || what == "all")
+    fidelity();
+  if (what == "transfer" || what == "all")
+    transfer_table();
+  return 0;
+}
