@@ -149,14 +149,21 @@ void fidelity() {
                   100 * full.mean_of() / diag, 100 * full.max / diag, 100 * artist.mean_of() / diag,
                   100 * artist.max / diag);
     };
-    int most = 0;
+    int most = 0, hmax = 0;
+    {
+      std::vector<std::pair<int, double>> sv;
+      for (int v = 0; v < b.num_input_vertices(); ++v) {
+        b.harmonic_weights(v, sv);
+        hmax = std::max(hmax, static_cast<int>(sv.size()));
+      }
+    }
     row("full curvenet deformation", [&](int c) {
       std::vector<Vec3> cn(rest.size());
       b.deform(poses[c], cn);
       return cn;
-    }, b.report().mean_influences, 0, nullptr);
-    row("LBS, all harmonic weights", [&](int c) { return lbs_all(b, rest, poses[c]); }, b.report().mean_influences, 0,
-        nullptr);
+    }, b.report().mean_influences, hmax, nullptr);
+    row("LBS, all harmonic weights", [&](int c) { return lbs_all(b, rest, poses[c]); }, b.report().mean_influences,
+        hmax, nullptr);
     double i8 = influences(w8, &most);
     row("LBS, baked k = 8", [&](int c) { return skin_positions(w8, rest, poses[c]); }, i8, most, nullptr);
     double i4 = influences(w4, &most);

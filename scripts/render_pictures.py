@@ -8,6 +8,9 @@ headless (Workbench), from the shared data:
 2. blender_regions.png: the starter net made from the hand's armature, connected.
 3. blender_grip.png: the hand bound through that net, posed by the file's Grip clip.
 4. blender_cesium_walk.png: a 700-triangle CesiumMan variant, started, bound and walking.
+5. bake_glb_in_blender.png: the hand baked to an ordinary skin (`curvenet bake`,
+   here through the module), opened by Blender's own glTF importer, posed by
+   its armature in the Grip clip.
 """
 
 import os
@@ -101,4 +104,19 @@ bpy.context.scene.frame_set(12)
 bpy.context.view_layer.update()
 t.render_workbench([variant], os.path.join(t.OUT, "blender_cesium_walk.png"), colour="SINGLE", size=(480, 640),
                    view=(0.5, -1.0, 0.25), up=(0, 0, 1))
+# 5. The baked skin, in a viewer that knows nothing of curvenet.
+import tempfile  # noqa: E402
+
+import curvenet  # noqa: E402
+
+t.empty_scene()
+source = os.path.join(HAND, "hand_l.gltf")
+binding = curvenet.bind(curvenet.load_mesh(source), curvenet.read_rig(os.path.join(HAND, "example", "hand_l.cnrig.json")))
+clips = curvenet.load_skinned_mesh(os.path.join(HAND, "hand_l_poses.glb"))
+glb = os.path.join(tempfile.mkdtemp(), "hand_baked.glb")
+curvenet.write_file(glb, curvenet.skinned_glb(source, binding, curvenet.bake_weights(binding, 4), clips,
+                                              clip_names=["Grip"]))
+meshes, arms = t.import_gltf(glb)
+bpy.context.scene.frame_set(1)
+t.render_workbench(meshes, os.path.join(t.OUT, "bake_glb_in_blender.png"), colour="SINGLE", size=(640, 480))
 print("pictures in", t.OUT)
