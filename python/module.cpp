@@ -652,6 +652,9 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property_readonly("node_weights", [](const PyBinding& b) { return b.binding.node_weights(); })
       .def_property_readonly("num_input_vertices", [](const PyBinding& b) { return b.binding.num_input_vertices(); })
       .def_property_readonly("has_embedding", [](const PyBinding& b) { return b.binding.has_embedding(); })
+      .def_property_readonly("method", [](const PyBinding& b) {
+        return b.binding.method() == DeformMethod::Gradient ? "gradient" : "harmonic";
+      })
       .def_property_readonly("embedding",
                              [](const PyBinding& b) {
                                if (!b.binding.has_embedding())
@@ -721,8 +724,13 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def(
       "bind",
       [](const SurfaceMesh& mesh, const Rig& rig, const std::string& laplacian, const std::string& rigid,
-         const std::string& weight_rule, double blend, double density, std::optional<std::string> cache) {
+         const std::string& weight_rule, double blend, double density, std::optional<std::string> cache,
+         const std::string& method, bool cut_aware) {
         BindOptions o;
+        if (method != "harmonic" && method != "gradient")
+          throw py::value_error("method: expected 'harmonic' or 'gradient'");
+        o.method = method == "gradient" ? DeformMethod::Gradient : DeformMethod::Harmonic;
+        o.cut_aware = cut_aware;
         if (laplacian != "intrinsic" && laplacian != "uniform")
           throw py::value_error("laplacian: expected 'intrinsic' or 'uniform'");
         if (rigid != "per-vertex" && rigid != "horn")
@@ -737,7 +745,8 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("laplacian") = "intrinsic",
       py::arg("rigid") = "per-vertex", py::arg("weight_rule") = "blend-zone", py::arg("blend") = 0.3,
-      py::arg("density") = 5.0, py::arg("cache") = py::none());
+      py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "harmonic",
+      py::arg("cut_aware") = true);
   m.def(
       "complete_weights",
       [](const Rig& rig, const std::string& weight_rule, double blend) {

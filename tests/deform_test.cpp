@@ -1,5 +1,6 @@
 // Binding and deforming: the invariants, the maths, and the thesis's tube.
 
+#include "bind/gradient.hpp"
 #include "bind/laplacian.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/errors.hpp"
@@ -24,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <map>
 #include <random>
 
 using namespace curvenet;
@@ -347,4 +349,208 @@ TEST(Deform, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
   EXPECT_THROW(b.deform(std::span<const Mat4>(all).first(nj - 1), one), Error);
   EXPECT_THROW(b.deform_frames(std::span<const Mat4>(all).first(nj + 1), together), Error);
   EXPECT_THROW(b.deform_frames(all, std::span<Vec3>(together).first(nv)), Error);
+}
+
+// --- the gradient mode -------------------------------------------------------
+
+namespace {
+BindOptions gradient(bool cut_aware = true) {
+  BindOptions o;
+  o.method = DeformMethod::Gradient;
+  o.cut_aware = cut_aware;
+  return o;
+}
+} // namespace
+
+TEST(Gradient, TheNearestRotationOfABlendOfTwoRotationsIsTheirGeodesicMidpoint) {
+  for (double deg : {10.0, 90.0, 150.0, 179.0}) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(deg * std::numbers::pi / 180, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+    const Eigen::Matrix3d blend = 0.5 * (Eigen::Matrix3d::Identity() + R); // the linear blend shrinks
+    const Eigen::Matrix3d half = detail::nearest_rotation(blend);
+    EXPECT_NEAR(half.determinant(), 1, 1e-12) << deg;
+    EXPECT_LT((half * half.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12) << deg;
+    const Eigen::Matrix3d want =
+        Eigen::AngleAxisd(deg / 2 * std::numbers::pi / 180, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+    EXPECT_LT((half - want).norm(), 1e-9) << deg;
+  }
+}
+
+TEST(Gradient, RestAndRigidMotionsAreReproducedExactly) {
+  const SurfaceMesh m = test::tube(24, 20, 4, true);
+  const auto X = input_positions(m);
+  const double diag = m.bbox_diagonal();
+  for (auto blend : {BindOptions::RotationBlend::Polar, BindOptions::RotationBlend::Quaternion}) {
+    BindOptions o = gradient();
+    o.rotation_blend = blend;
+    const Binding b = bind(m, make_tube_net(), o);
+    EXPECT_EQ(b.method(), DeformMethod::Gradient);
+    const auto rest = deform(b, {});
+    for (size_t i = 0; i < X.size(); ++i)
+      ASSERT_LT((rest[i] - X[i]).norm(), 1e-9 * diag) << i;
+    Pose pose;
+    pose["root"] = rotation(37, {1, 2, 0.5});
+    pose["root"].translation = {0.3, -1.2, 2.5};
+    const Mat4 T = skinning_matrices(b.joints(), pose)[0];
+    const auto out = deform(b, pose);
+    for (size_t i = 0; i < X.size(); ++i)
+      ASSERT_LT((out[i] - (T * X[i].homogeneous()).head<3>()).norm(), 1e-9 * diag) << i;
+  }
+}
+
+TEST(Gradient, AConstantGradientIsReproduced) {
+  // Every joint moved by the same affine map (rotation, non-uniform scale,
+  // translation): the interpolated gradient is that map's everywhere, and
+  // the surface is the map applied to the rest surface.
+  const SurfaceMesh m = test::tube(20, 16, 4, true);
+  const Binding b = bind(m, make_tube_net(), gradient());
+  Eigen::Affine3d G = Eigen::Affine3d::Identity();
+  G.translate(Vec3(0.4, -0.2, 1.0));
+  G.rotate(Eigen::AngleAxisd(0.7, Vec3(0.3, 1, -0.2).normalized()));
+  G.scale(Vec3(1.3, 0.8, 1.1));
+  const std::vector<Mat4> M(b.joints().size(), G.matrix());
+  std::vector<Vec3> out(b.num_input_vertices());
+  b.deform(M, out);
+  const auto X = input_positions(m);
+  for (size_t i = 0; i < X.size(); ++i)
+    ASSERT_LT((out[i] - G * X[i]).norm(), 1e-9 * m.bbox_diagonal()) << i;
+}
+
+TEST(Gradient, ABentTubeKeepsItsVolumeBetterThanTheHarmonicMode) {
+  const SurfaceMesh m = test::tube(32, 40, 5, true);
+  Pose pose;
+  pose["mid"] = rotation(90, {0, 0, 1});
+  auto volume = [&](const std::vector<Vec3>& p) {
+    double v = 0;
+    for (int f = 0; f < m.num_faces(); ++f) {
+      const auto face = m.face(f);
+      std::vector<Vec3> q;
+      for (int c : face)
+        q.push_back(p[c]);
+      for (size_t k = 1; k + 1 < q.size(); ++k)
+        v += q[0].dot(q[k].cross(q[k + 1])) / 6;
+    }
+    return v;
+  };
+  auto welded = [&](const std::vector<Vec3>& in) {
+    std::vector<Vec3> p(m.num_vertices());
+    for (size_t i = 0; i < in.size(); ++i)
+      p[m.input_to_welded[i]] = in[i];
+    return p;
+  };
+  const double v0 = volume(m.positions);
+  const double harmonic = volume(welded(deform(bind(m, make_tube_net()), pose))) / v0 - 1;
+  const double grad = volume(welded(deform(bind(m, make_tube_net(), gradient()), pose))) / v0 - 1;
+  EXPECT_LT(std::abs(grad), 0.05);
+  EXPECT_LT(std::abs(grad), 0.5 * std::abs(harmonic)) << "gradient " << grad << ", harmonic " << harmonic;
+}
+
+TEST(Gradient, TwoSidesGivenDifferentScalesMakeACreaseOnlyWithTheCutAwareDiscretisation) {
+  // The middle ring's four profiles: their upper side widened, their lower side narrowed.
+  const SurfaceMesh m = test::tube(32, 48, 5, true);
+  Rig rig = make_tube_net();
+  std::string scales = "{";
+  for (const auto& p : rig.profiles)
+    if (p.id.rfind("ring1", 0) == 0)
+      scales += std::string(scales.size() > 1 ? "," : "") + "\"" + p.id + "\": [1.6, 0.6]";
+  scales += "}";
+  ASSERT_GT(scales.size(), 2u) << "the tube net names its middle ring ring1_*";
+  rig.extensions["x_side_scales"] = scales;
+  // Per row of side vertices (by rest height): the mean deformed radius.
+  auto radius_profile = [&](const BindOptions& o) {
+    const Binding b = bind(m, rig, o);
+    const auto out = deform(b, {});
+    std::map<long, std::pair<double, int>> rows;
+    const auto X = input_positions(m);
+    for (size_t i = 0; i < X.size(); ++i) {
+      const double r = std::hypot(X[i].x(), X[i].z());
+      if (std::abs(r - 1) > 1e-9 || X[i].y() <= 0.01 || X[i].y() >= 3.99)
+        continue;
+      auto& row = rows[std::lround(X[i].y() * 1e6)];
+      row.first += std::hypot(out[i].x(), out[i].z());
+      ++row.second;
+    }
+    std::vector<std::pair<double, double>> profile; // (rest height, mean deformed radius)
+    for (const auto& [y, rr] : rows)
+      profile.emplace_back(y * 1e-6, rr.first / rr.second);
+    return profile;
+  };
+  const double ring = 2.1; // the middle ring's height (TubeNetSpec)
+  // Each side's mean change of radius, between the middle ring and the next ring up, or down.
+  auto side_change = [&](const std::vector<std::pair<double, double>>& p, bool above) {
+    double sum = 0;
+    int n = 0;
+    for (const auto& [y, r] : p)
+      if (above ? (y > ring && y < 3.4) : (y < ring && y > 0.6)) {
+        sum += r - 1;
+        ++n;
+      }
+    return sum / std::max(n, 1);
+  };
+  // The crease: the largest change of the radius's slope at the ring, against elsewhere.
+  auto kinks = [&](const std::vector<std::pair<double, double>>& p) {
+    double at_ring = 0, elsewhere = 0;
+    for (size_t k = 1; k + 1 < p.size(); ++k) {
+      const double s0 = (p[k].second - p[k - 1].second) / (p[k].first - p[k - 1].first);
+      const double s1 = (p[k + 1].second - p[k].second) / (p[k + 1].first - p[k].first);
+      const double kink = std::abs(s1 - s0);
+      if (std::abs(p[k].first - ring) < 0.1)
+        at_ring = std::max(at_ring, kink);
+      else if (std::abs(p[k].first - ring) > 0.4 && std::abs(p[k].first - 0.6) > 0.4 && std::abs(p[k].first - 3.4) > 0.4)
+        elsewhere = std::max(elsewhere, kink);
+    }
+    return std::pair{at_ring, elsewhere};
+  };
+  const auto aware = radius_profile(gradient(true)), plain = radius_profile(gradient(false));
+  // The scales are 1.6 on one side and 0.6 on the other (which is which
+  // follows the ring's direction): with the cut-aware discretisation one
+  // side swells and the other narrows. Without it both see the average at
+  // the ring, and both swell alike.
+  const double aware_up = side_change(aware, true), aware_down = side_change(aware, false);
+  const double plain_up = side_change(plain, true), plain_down = side_change(plain, false);
+  EXPECT_LT(aware_up * aware_down, 0) << "opposite ways: " << aware_up << ", " << aware_down;
+  EXPECT_GT(std::min(std::abs(aware_up), std::abs(aware_down)), 0.004);
+  EXPECT_GE(plain_up, 0) << "without: " << plain_up;
+  EXPECT_GE(plain_down, 0) << "without: " << plain_down;
+  EXPECT_GT(std::abs(aware_up - aware_down), 5 * std::abs(plain_up - plain_down));
+  const auto [at_ring, elsewhere] = kinks(aware);
+  EXPECT_GT(at_ring, 3 * elsewhere) << "a crease along the ring";
+}
+
+TEST(Gradient, ABindingInTheGradientModeIsNotCached) {
+  const SurfaceMesh m = test::tube(12, 8, 3, true);
+  const Binding b = bind(m, make_tube_net(), gradient());
+  EXPECT_THROW(b.save(::testing::TempDir() + "g.cnbind"), Error);
+  EXPECT_THROW(bind_cached(m, make_tube_net(), gradient(), ::testing::TempDir() + "g.cnbind"), InputError);
+}
+
+TEST(Gradient, TheExampleFistFoldsNoTriangle) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string ex = test::data("xr_tools_hand/example/");
+  const SurfaceMesh m = load_mesh(ex + "hand_l_welded.obj");
+  const Binding b = bind(m, read_rig(ex + "hand_l.cnrig.json"), gradient());
+  const auto M = skinning_matrices(b.joints(), read_pose(ex + "fist.pose.json"));
+  std::vector<Vec3> out(b.num_input_vertices());
+  b.deform(M, out);
+  std::vector<Vec3> p(m.num_vertices());
+  for (size_t i = 0; i < out.size(); ++i)
+    p[m.input_to_welded[i]] = out[i];
+  // Each triangle against its rest normal carried by its first vertex's strongest joint.
+  std::vector<std::pair<int, double>> s;
+  int folded = 0, shrunk = 0;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto t = m.face(f);
+    const Vec3 n = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
+    const Vec3 r = (m.positions[t[1]] - m.positions[t[0]]).cross(m.positions[t[2]] - m.positions[t[0]]);
+    int vi = 0;
+    while (m.input_to_welded[vi] != t[0])
+      ++vi;
+    b.harmonic_weights(vi, s);
+    const auto strongest = *std::max_element(s.begin(), s.end(), [](auto& a, auto& c) { return a.second < c.second; });
+    const Vec3 expect = M[strongest.first].topLeftCorner<3, 3>() * r;
+    folded += n.normalized().dot(expect.normalized()) < std::cos(120 * std::numbers::pi / 180);
+    shrunk += n.norm() < 0.1 * r.norm();
+  }
+  EXPECT_EQ(folded, 0);
+  EXPECT_EQ(shrunk, 0);
 }

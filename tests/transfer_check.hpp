@@ -160,11 +160,11 @@ inline std::string short_name(const std::string& path) { return path.substr(path
 /// Rows for every target and pose; targets the transfer refuses get a row
 /// with the refusal in `clip` and no distances.
 inline std::vector<Row> run_family(const std::string& name, const std::string& data, const std::vector<std::string>& clips,
-                                   std::vector<std::string>* refusals = nullptr) {
+                                   std::vector<std::string>* refusals = nullptr, const BindOptions& bind_options = {}) {
   const Family f = make_family(name, data, clips);
   const SurfaceMesh source = f.source_levels > 0 ? catmull_clark(load_mesh(f.source), f.source_levels) : load_mesh(f.source);
   const Rig rig = make_starter(source, f.joints, f.starter).rig;
-  const Binding sb = bind(source, rig);
+  const Binding sb = bind(source, rig, bind_options);
   std::vector<SurfaceMesh> posed_source;
   for (const auto& [n, p] : f.poses)
     posed_source.push_back(posed_mesh(source, sb, p));
@@ -187,7 +187,7 @@ inline std::vector<Row> run_family(const std::string& name, const std::string& d
         refusals->push_back(short_name(t) + ": " + (tr.report.problems.empty() ? "not ok" : tr.report.problems[0]));
       continue;
     }
-    const Binding tb = bind(target, tr.rig);
+    const Binding tb = bind(target, tr.rig, bind_options);
     const SurfaceDistance rest = surface_distance(source, transformed(target, frame));
     for (size_t k = 0; k < f.poses.size(); ++k) {
       Row r;

@@ -33,7 +33,27 @@ enum class RigidMode {
   Horn,
 };
 
+enum class DeformMethod {
+  /// Each vertex blends its joints' transforms with the harmonic weights
+  /// (linear in the joint matrices; docs/deform.md).
+  Harmonic,
+  /// Pixar's route: a deformation gradient per cut face, interpolated from
+  /// the net with the cut-aware harmonic weights and kept a rotation (the
+  /// polar factor of the blend) times a stretch, applied to the face's rest
+  /// edges; then a Poisson solve for the positions with the CutChains pinned.
+  Gradient,
+};
+
 struct BindOptions {
+  DeformMethod method = DeformMethod::Harmonic;
+  /// Gradient mode: values per face corner, so the two sides of a curve may
+  /// differ. Off, each vertex on a curve takes the average of its sides
+  /// (only for showing what the cut-aware discretisation does).
+  bool cut_aware = true;
+  /// Gradient mode: a face's rotation from its joints' rotations, as the
+  /// nearest rotation to their harmonic blend (polar), or as the normalised
+  /// blend of their quaternions (docs/deform.md measures both).
+  enum class RotationBlend { Polar, Quaternion } rotation_blend = RotationBlend::Polar;
   LaplacianChoice laplacian = LaplacianChoice::IntrinsicDelaunay;
   RigidMode rigid = RigidMode::PerVertex;
   AutoWeightOptions weights; ///< for nodes the rig gives no weights
@@ -88,7 +108,9 @@ public:
   void harmonic_weights(int input_vertex, std::vector<std::pair<int, double>>& out) const;
 
   /// Writes the binding to a cache file (atomically).
+  /// \throw Error for a binding in the gradient mode, which is not cached.
   void save(const std::string& path) const;
+  [[nodiscard]] DeformMethod method() const;
 
 private:
   friend Binding bind_cached(const SurfaceMesh&, const Rig&, const struct BindOptions&, const std::string&, bool*);

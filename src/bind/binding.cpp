@@ -4,6 +4,7 @@
 
 #include "curvenet/deform.hpp"
 
+#include "bind/gradient.hpp"
 #include "bind/laplacian.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
@@ -49,6 +50,8 @@ struct Binding::Impl {
   std::vector<Eigen::Vector3d> c_rest;
   std::vector<int> c_offset, c_joint;
   std::vector<double> c_weight;
+  // The gradient mode's tables (DeformMethod::Gradient).
+  std::shared_ptr<const GradientBind> gradient;
 };
 
 Binding::Binding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
@@ -121,7 +124,8 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   const std::string text = rig_to_json(rig);
   eat(text.data(), text.size());
   const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid),
-                         static_cast<int>(opt.weights.rule)};
+                         static_cast<int>(opt.weights.rule), static_cast<int>(opt.method), opt.cut_aware ? 1 : 0,
+                         static_cast<int>(opt.rotation_blend)};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -203,8 +207,14 @@ bool consistent(const Binding::Impl& b, const SurfaceMesh& mesh, size_t joints) 
 
 } // namespace
 
+DeformMethod Binding::method() const {
+  return impl_->gradient ? DeformMethod::Gradient : DeformMethod::Harmonic;
+}
+
 void Binding::save(const std::string& path) const {
   const Impl& b = *impl_;
+  if (b.gradient)
+    throw Error("binding cache " + path + ": a binding in the gradient mode is not cached (bind it again instead)");
   std::string out(kMagic, sizeof(kMagic));
   out.append(reinterpret_cast<const char*>(&b.fingerprint), sizeof(b.fingerprint));
   const int mode = static_cast<int>(b.mode);
@@ -233,6 +243,8 @@ void Binding::save(const std::string& path) const {
 
 Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt, const std::string& path,
                     bool* reused) {
+  if (opt.method == DeformMethod::Gradient)
+    throw InputError(path, "", "the gradient mode keeps no binding cache: bind without one");
   const std::uint64_t fp = fingerprint(mesh, rig, opt);
   std::string note;
   if (std::ifstream in{path, std::ios::binary}) {
@@ -550,6 +562,38 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
       impl->c_offset.push_back(static_cast<int>(impl->c_joint.size()));
     }
   lap("tables");
+  if (opt.method == DeformMethod::Gradient) {
+    std::vector<int> rigid_joint(nc, -1);
+    for (int v = 0; v < nc; ++v)
+      if (!constrained[v] && free_index[v] < 0 && comp[v] >= 0)
+        rigid_joint[v] = rigid_joint_of_comp.at(comp[v]);
+    std::vector<std::vector<Vertex>> chain_vertices;
+    std::vector<std::vector<Halfedge>> chain_halfedges;
+    for (const auto& c : emb.result.chains) {
+      chain_vertices.push_back(c.vertices);
+      chain_halfedges.push_back(c.halfedges);
+    }
+    GradientInput gi;
+    gi.cut = &cut;
+    gi.face_region = &emb.regions.face_region;
+    gi.chain_vertices = &chain_vertices;
+    gi.chain_halfedges = &chain_halfedges;
+    gi.profile_ids = &emb.input.profile_ids;
+    gi.constrained = &constrained;
+    gi.constraint_weights = &cw;
+    gi.free_index = &free_index;
+    gi.rigid_joint = &rigid_joint;
+    gi.harmonic = &sj;
+    gi.harmonic_solver = &solver;
+    gi.harmonic_fc = &fc;
+    gi.free_vertices = &free_vertices;
+    gi.side_scales = side_scales_of(rig);
+    gi.cut_aware = opt.cut_aware;
+    gi.rotation = opt.rotation_blend == BindOptions::RotationBlend::Quaternion ? RotationBlend::Quaternion
+                                                                               : RotationBlend::Polar;
+    impl->gradient = build_gradient(gi);
+    lap("gradient");
+  }
   return Binding(impl);
 }
 
@@ -579,6 +623,14 @@ void Binding::deform(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) co
     throw Error("deform: expected " + std::to_string(b.joints.size()) + " skinning matrices and room for " +
                 std::to_string(b.input_to_welded.size()) + " positions, got " + std::to_string(M.size()) + " and " +
                 std::to_string(out.size()));
+  if (b.gradient) {
+    thread_local std::vector<Eigen::Vector3d> cut_positions;
+    cut_positions.resize(static_cast<size_t>(b.gradient->num_cut_vertices));
+    deform_gradient(*b.gradient, M, cut_positions);
+    for (size_t i = 0; i < out.size(); ++i)
+      out[i] = cut_positions[b.input_to_welded[i]];
+    return;
+  }
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   if (b.mode == RigidMode::Horn && !b.c_rest.empty()) {
     // Fit one rotation to the whole net (Horn / Kabsch), rest -> posed.

@@ -1,0 +1,92 @@
+#pragma once
+// The gradient mode (docs/deform.md): per cut face a deformation gradient,
+// interpolated over the surface from the net's constraints with the
+// cut-aware harmonic weights and kept a rotation (polar projection of the
+// blend), times a stretch; applied to the face's rest edges, then a Poisson
+// solve for the positions, with the CutChains pinned where the net puts them.
+
+#include "curvenet/rig.hpp"
+#include "cut/cut_mesh.hpp"
+
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace curvenet::detail {
+
+/// How a face's rotation is taken from the blend of its joints' rotations.
+enum class RotationBlend {
+  Polar,      ///< the nearest rotation to the blended matrix (its polar factor)
+  Quaternion, ///< the normalised blend of the joints' quaternions (hemisphere-aligned)
+};
+
+struct GradientBind {
+  int num_cut_vertices = 0;
+  RotationBlend rotation = RotationBlend::Polar;
+  // Per cut face: the joints and weights its gradient blends (CSR), and a
+  // rest stretch U (identity unless the rig gives its profiles' sides scales).
+  std::vector<int> face_offset, face_joint;
+  std::vector<double> face_weight;
+  std::vector<Eigen::Matrix3d> face_stretch;
+  bool stretched = false;
+  // The Poisson energy: sum over triangle edges of w |(x_j - x_i) - F_f e|^2.
+  struct Edge {
+    int i, j, face;
+    double w;
+    Eigen::Vector3d e; ///< rest X_j - X_i
+  };
+  std::vector<Edge> edges;
+  // Unknowns: every cut vertex that is neither on a CutChain nor in a rigid part.
+  std::vector<int> unknown; ///< per cut vertex, its unknown index or -1
+  int num_unknowns = 0;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  // Pinned vertices (CutChains): LBS of their constraint weights (CSR); rigid ones: one joint.
+  std::vector<int> pin_offset, pin_joint;
+  std::vector<double> pin_weight;
+  std::vector<Eigen::Vector3d> rest; ///< per cut vertex
+};
+
+/// What the binding has computed that the gradient mode builds on.
+struct GradientInput {
+  const CutMesh* cut = nullptr;
+  const std::vector<int>* face_region = nullptr;           ///< per cut face
+  const std::vector<std::vector<Vertex>>* chain_vertices = nullptr;
+  const std::vector<std::vector<Halfedge>>* chain_halfedges = nullptr;
+  const std::vector<std::string>* profile_ids = nullptr;
+  const std::vector<char>* constrained = nullptr;          ///< per cut vertex
+  const std::vector<std::map<int, double>>* constraint_weights = nullptr; ///< per cut vertex
+  const std::vector<int>* free_index = nullptr;            ///< per cut vertex, harmonic unknowns
+  const std::vector<int>* rigid_joint = nullptr;           ///< per cut vertex, -1 unless in a rigid part
+  const std::vector<Eigen::VectorXd>* harmonic = nullptr;  ///< per joint, s_j per free index (may be empty)
+  /// The harmonic solve's factorisation and its constraint entries, for
+  /// interpolating the sides' stretch.
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>* harmonic_solver = nullptr;
+  const std::vector<std::vector<std::pair<int, double>>>* harmonic_fc = nullptr;
+  const std::vector<int>* free_vertices = nullptr;
+  /// Profile id -> width scale of its left and right side (rig extension x_side_scales).
+  std::map<std::string, std::pair<double, double>> side_scales;
+  /// Values per face corner, so the two sides of a curve may differ (false:
+  /// one value per vertex, the average of its sides: for comparison only).
+  bool cut_aware = true;
+  RotationBlend rotation = RotationBlend::Polar;
+};
+
+std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in);
+
+/// Positions of every cut vertex for the skinning matrices. Allocates only
+/// the first time a thread deforms this binding.
+void deform_gradient(const GradientBind& g, std::span<const Mat4> skinning, std::span<Eigen::Vector3d> cut_out);
+
+/// The nearest rotation to a 3x3 matrix (its polar factor; the rotation of
+/// its SVD, when the matrix is far from one).
+Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& a);
+
+/// Reads the rig extension x_side_scales: {"profile id": [left, right], ...}.
+std::map<std::string, std::pair<double, double>> side_scales_of(const Rig& rig);
+
+} // namespace curvenet::detail
