@@ -161,6 +161,9 @@ BindOptions bind_options(const DeformArgs& a) {
   BindOptions o;
   o.laplacian = a.laplacian == "uniform" ? LaplacianChoice::Uniform : LaplacianChoice::IntrinsicDelaunay;
   o.rigid = a.rigid == "horn" ? RigidMode::Horn : RigidMode::PerVertex;
+  o.method = a.method == "gradient" ? DeformMethod::Gradient : DeformMethod::Harmonic;
+  o.rotation_blend =
+      a.rotation == "quaternion" ? BindOptions::RotationBlend::Quaternion : BindOptions::RotationBlend::Polar;
   return o;
 }
 

@@ -25,6 +25,7 @@ int run_starter(const StarterArgs& args);
 
 struct DeformArgs {
   std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex", binding_cache;
+  std::string method = "harmonic", rotation = "polar";
 };
 
 struct BindArgs : DeformArgs {

@@ -95,6 +95,13 @@ int main(int argc, char** argv) {
     cmd->add_option("--rigid", a.rigid, "How each vertex's detail follows the joints")
         ->capture_default_str()
         ->check(CLI::IsMember({"per-vertex", "horn"}));
+    cmd->add_option("--method", a.method,
+                    "harmonic: blend the joints per vertex; gradient: per-face gradients and a Poisson solve")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"harmonic", "gradient"}));
+    cmd->add_option("--rotation", a.rotation, "Gradient mode: a face's rotation from its joints'")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"polar", "quaternion"}));
   };
   curvenet::cli::BindArgs bind_args;
   auto* bind = app.add_subcommand("bind", "Bind a rig to a mesh and write the rig with every node's weights filled in");

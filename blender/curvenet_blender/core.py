@@ -452,14 +452,20 @@ def starter(obj, arm, **options):
 # --- binding and live deformation -------------------------------------------
 
 
-def bind(obj, arm):
+METHOD_KEY = "curvenet_method"
+
+
+def bind(obj, arm, method=None):
     """Binds the object's rig to the armature (its bones replace the rig's
-    skeleton, matched by name), and starts live deformation."""
+    skeleton, matched by name), and starts live deformation. method:
+    'harmonic' or 'gradient' (docs/deform.md); by default the object's last."""
     rig = get_rig(obj)
     rig = curvenet.with_skeleton(rig, armature_joints(obj, arm), arm.name)
     set_rig(obj, rig)
     st = state(obj)
-    st.binding = curvenet.bind(engine_mesh(obj), rig)
+    method = method or obj.get(METHOD_KEY, "harmonic")
+    st.binding = curvenet.bind(engine_mesh(obj), rig, method=method)
+    obj[METHOD_KEY] = method
     names = {b.name for b in arm.data.bones}
     st.bone_names = [n if n in names else None for n in st.binding.joint_names]
     st.matrices = np.empty((len(st.bone_names), 4, 4), dtype=np.float64)

@@ -200,17 +200,25 @@ class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
     bl_label = "Bind"
     bl_options = {"REGISTER", "UNDO"}
 
+    method: EnumProperty(
+        name="Method",
+        items=(("SCENE", "Panel's", "The method set in the panel"),
+               ("harmonic", "Harmonic", "Blend the joints per vertex with harmonic weights"),
+               ("gradient", "Gradient", "Per-face deformation gradients, rotation-aware, and a Poisson solve")),
+        default="SCENE")
+
     def execute(self, context):
         obj, arm = _mesh(context), _armature(context)
         if arm is None:
             self.report({"ERROR"}, "Select an armature (or set one in the panel)")
             return {"CANCELLED"}
-        ok, b = _attempt(self, context, "Bind", lambda: core.bind(obj, arm))
+        method = context.scene.curvenet.method if self.method == "SCENE" else self.method
+        ok, b = _attempt(self, context, "Bind", lambda: core.bind(obj, arm, method))
         if not ok:
             return {"CANCELLED"}
         context.scene.curvenet.armature = arm
-        return _done(self, context, "Bind: %d vertices, %.2f influences per vertex" % (
-            b.report["vertices"], b.report["mean_influences"]))
+        return _done(self, context, "Bind (%s): %d vertices, %.2f influences per vertex" % (
+            b.method, b.report["vertices"], b.report["mean_influences"]))
 
 
 class CURVENET_OT_unbind(_MeshOperator, bpy.types.Operator):

@@ -1,7 +1,7 @@
 """The sidebar panel (3D view, N panel, tab "Curvenet"): the thesis's workflow, top to bottom."""
 
 import bpy
-from bpy.props import FloatProperty, PointerProperty, StringProperty
+from bpy.props import EnumProperty, FloatProperty, PointerProperty, StringProperty
 
 from . import core
 
@@ -20,6 +20,11 @@ class CurvenetSceneProps(bpy.types.PropertyGroup):
     selected_nodes: StringProperty(name="Nodes", description="Nodes for the weight editor, comma-separated")
     selected_profile: StringProperty(name="Profile", description="The profile the last failure named")
     weight: FloatProperty(name="Weight", default=1.0, min=0.0, max=1.0)
+    method: EnumProperty(
+        name="Method",
+        items=(("harmonic", "Harmonic", "Blend the joints per vertex with harmonic weights"),
+               ("gradient", "Gradient", "Per-face deformation gradients, rotation-aware, and a Poisson solve")),
+        default="harmonic")
     status: StringProperty(name="Status")
 
 
@@ -65,6 +70,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box = layout.box()
         box.label(text="3. Bind", icon="ARMATURE_DATA")
         box.prop(props, "armature")
+        box.prop(props, "method")
         if rig is not None and rig.has_skeleton and props.armature is None:
             box.operator("curvenet.make_armature")
         row = box.row(align=True)

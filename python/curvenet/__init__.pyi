@@ -239,6 +239,9 @@ class Binding:
     @property
     def has_embedding(self) -> bool: ...
     @property
+    def method(self) -> str:
+        """'harmonic' or 'gradient'."""
+    @property
     def embedding(self) -> Embedding: ...
     def save(self, path: str) -> None:
         """Writes a binding cache file (atomically)."""
@@ -261,10 +264,16 @@ def bind(
     blend: float = 0.3,
     density: float = 5.0,
     cache: Optional[str] = None,
+    method: str = "harmonic",
+    cut_aware: bool = True,
+    rotation: str = "polar",
 ) -> Binding:
     """Binds the rig (which needs a skeleton). laplacian: 'intrinsic' or 'uniform'; rigid: 'per-vertex' or 'horn';
     weight_rule for nodes without weights: 'blend-zone' or 'segment'. With `cache`, a binding file is reused when it
-    was made for this mesh, rig and options, and written otherwise. Raises EmbedError, InputError."""
+    was made for this mesh, rig and options, and written otherwise (not in the gradient mode).
+    method: 'harmonic' (joints blended per vertex) or 'gradient' (per-face gradients, rotation-aware, and a Poisson
+    solve; docs/deform.md); rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); cut_aware=False
+    only for comparison. Raises EmbedError, InputError."""
 
 def complete_weights(rig: Rig, *, weight_rule: str = "blend-zone", blend: float = 0.3) -> Rig:
     """The rig with every node's weights filled in (automatic where none are given), normalised."""

@@ -205,6 +205,13 @@ check_pose("scrubbing to frame 11")
 scene.frame_set(21)
 check_pose("scrubbing to frame 21")
 
+# The gradient mode, through the same operator: the evaluated mesh is its deformation.
+t.select(obj, arm)
+t.check(bpy.ops.curvenet.bind(method="gradient") == {"FINISHED"}, "Bind (gradient): " + scene.curvenet.status)
+t.check(core.state(obj).binding.method == "gradient", "the binding is in the gradient mode")
+check_pose("the gradient mode at frame 21")
+t.check(bpy.ops.curvenet.bind(method="harmonic") == {"FINISHED"}, "and back to the harmonic mode")
+
 # --- 6. renders: a posed frame, and the region preview ---------------------
 t.render_workbench([obj], os.path.join(t.OUT, "hand_posed.png"), colour="SINGLE")
 t.select(obj)

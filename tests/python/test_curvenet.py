@@ -465,3 +465,18 @@ def test_fitted_weights_over_poses():
     assert (w.weight >= 0).all()
     with pytest.raises(ValueError):
         curvenet.fit_weights(b, poses[:, :3], 4)
+
+
+@needs_data
+def test_the_gradient_mode_gives_exactly_the_clis_output(tmp_path):
+    out = tmp_path / "fist_gradient.obj"
+    cli("pose", example("hand_l_welded.obj"), example("hand_l.cnrig.json"), example("fist.pose.json"),
+        "-o", str(out), "--method", "gradient")
+    b = curvenet.bind(curvenet.load_mesh(example("hand_l_welded.obj")), curvenet.read_rig(example("hand_l.cnrig.json")),
+                      method="gradient")
+    assert b.method == "gradient"
+    P = b.deform(curvenet.skinning_matrices(b, example("fist.pose.json")))
+    assert np.array_equal(P, read_obj_vertices(out))
+    with pytest.raises(ValueError):
+        curvenet.bind(curvenet.load_mesh(example("hand_l_welded.obj")), curvenet.read_rig(example("hand_l.cnrig.json")),
+                      method="spline")
