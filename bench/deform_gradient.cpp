@@ -262,11 +262,20 @@ void quality() {
                   100 * detail_change(t, rest, p, far));
     };
     row(c.lbs_name, c.lbs);
-    for (const auto m : {DeformMethod::Harmonic, DeformMethod::Gradient}) {
-      const Binding b = m == DeformMethod::Harmonic ? hb : bind(c.mesh, c.rig, with(m));
+    for (const int variant : {0, 1, 2, 3}) {
+      BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
+      if (variant == 2)
+        o.rotation_blend = BindOptions::RotationBlend::Quaternion;
+      if (variant == 3)
+        o.cut_aware = false;
+      const Binding b = variant == 0 ? hb : bind(c.mesh, c.rig, o);
       std::vector<Vec3> out(b.num_input_vertices());
       b.deform(skinning_matrices(b.joints(), c.pose), out);
-      row(m == DeformMethod::Harmonic ? "harmonic" : "gradient", welded(c.mesh, out));
+      row(variant == 0   ? "harmonic"
+          : variant == 1 ? "gradient (polar)"
+          : variant == 2 ? "gradient (quaternion blend)"
+                         : "gradient, not cut-aware",
+          welded(c.mesh, out));
     }
   }
 }
@@ -305,9 +314,12 @@ void speed() {
     const Rig rig = make_tube_net();
     Pose pose;
     pose["mid"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(1.2, Vec3::UnitZ()));
-    for (const auto m : {DeformMethod::Harmonic, DeformMethod::Gradient}) {
+    for (const int variant : {0, 1, 2}) {
+      BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
+      if (variant == 2)
+        o.rotation_blend = BindOptions::RotationBlend::Quaternion;
       const double t0 = now_ms();
-      const Binding b = bind(mesh, rig, with(m));
+      const Binding b = bind(mesh, rig, o);
       const double tb = now_ms() - t0;
       const auto M = skinning_matrices(b.joints(), pose);
       std::vector<Vec3> out(b.num_input_vertices());
@@ -318,8 +330,9 @@ void speed() {
         times.push_back(now_ms() - s);
       }
       std::sort(times.begin(), times.end());
-      std::printf("| %d | %s | %.0f | %.2f |\n", mesh.num_vertices(), m == DeformMethod::Harmonic ? "harmonic" : "gradient",
-                  tb, times[times.size() / 2]);
+      std::printf("| %d | %s | %.0f | %.2f |\n", mesh.num_vertices(),
+                  variant == 0 ? "harmonic" : variant == 1 ? "gradient (polar)" : "gradient (quaternion blend)", tb,
+                  times[times.size() / 2]);
     }
   }
 }

@@ -15,16 +15,22 @@
 namespace curvenet::detail {
 
 Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& a) {
-  // Newton's iteration for the polar factor, X <- (X + X^-T) / 2, converges
-  // fast from a blend of rotations; a matrix far from one goes through the SVD.
+  // Newton's iteration for the polar factor, X <- (X + X^-T) / 2, with X^-T
+  // the cofactor matrix over the determinant. It converges fast from a blend
+  // of rotations; a matrix far from one goes through the SVD.
   const double scale = a.norm() / std::sqrt(3.0);
   if (scale > 0 && a.determinant() > 1e-3 * scale * scale * scale) {
     Eigen::Matrix3d x = a / scale;
     for (int k = 0; k < 30; ++k) {
-      const Eigen::Matrix3d next = 0.5 * (x + x.inverse().transpose());
+      Eigen::Matrix3d cof;
+      cof.col(0) = x.col(1).cross(x.col(2));
+      cof.col(1) = x.col(2).cross(x.col(0));
+      cof.col(2) = x.col(0).cross(x.col(1));
+      const double det = x.col(0).dot(cof.col(0));
+      const Eigen::Matrix3d next = 0.5 * (x + cof / det);
       const double change = (next - x).cwiseAbs().maxCoeff();
       x = next;
-      if (change < 1e-15)
+      if (change < 1e-13)
         break;
     }
     return x;
@@ -383,7 +389,8 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
         Eigen::Matrix3d r = Eigen::Matrix3d::Zero();
         for (int k = k0; k < k1; ++k)
           r += g.face_weight[k] * s.rotation[g.face_joint[k]];
-        rot = nearest_rotation(r);
+        // Joints that turn alike blend to a rotation already.
+        rot = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-13 ? r : nearest_rotation(r);
       }
       s.face[f] = g.stretched ? Eigen::Matrix3d(rot * st * g.face_stretch[f]) : Eigen::Matrix3d(rot * st);
     }
