@@ -631,3 +631,33 @@ TEST(Cli, BakeWritesASkinnedGlbAndTheWeightsOrNothing) {
     EXPECT_FALSE(fs::exists(dir / "x.glb")) << bad;
   }
 }
+
+TEST(Cli, TheGradientModeIsAnOptionOfEveryDeformingCommand) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const fs::path dir = fs::path(::testing::TempDir()) / "cli_gradient";
+  fs::create_directories(dir);
+  const std::string mesh = test::data("xr_tools_hand/example/hand_l_welded.obj");
+  const std::string rig = test::data("xr_tools_hand/example/hand_l.cnrig.json");
+  const std::string pose = test::data("xr_tools_hand/example/fist.pose.json");
+  for (const std::string rot : {"polar", "quaternion"}) {
+    const CliRun r = run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / ("fist_" + rot + ".obj")).string() +
+                             " --method gradient --rotation " + rot,
+                         dir);
+    EXPECT_EQ(r.code, 0) << r.err;
+  }
+  // The two modes give different fists; the gradient one keeps more volume (docs/deform.md).
+  EXPECT_EQ(run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / "fist_h.obj").string(), dir).code, 0);
+  const RawMesh a = read_raw_mesh((dir / "fist_polar.obj").string()), h = read_raw_mesh((dir / "fist_h.obj").string());
+  double diff = 0;
+  for (size_t i = 0; i < a.positions.size(); ++i)
+    diff = std::max(diff, (a.positions[i] - h.positions[i]).norm());
+  EXPECT_GT(diff, 1e-4);
+  const CliRun bad = run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / "x.obj").string() +
+                             " --method gradient --binding-cache " + (dir / "c.bin").string(),
+                         dir);
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_FALSE(fs::exists(dir / "x.obj"));
+  EXPECT_EQ(run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / "x.obj").string() + " --method splines", dir).code,
+            2);
+}
