@@ -262,19 +262,22 @@ void quality() {
                   100 * detail_change(t, rest, p, far));
     };
     row(c.lbs_name, c.lbs);
-    for (const int variant : {0, 1, 2, 3}) {
+    for (const int variant : {0, 1, 2, 3, 4}) {
       BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
       if (variant == 2)
         o.rotation_blend = BindOptions::RotationBlend::Quaternion;
       if (variant == 3)
         o.cut_aware = false;
+      if (variant == 4)
+        o.curve_frames = true;
       const Binding b = variant == 0 ? hb : bind(c.mesh, c.rig, o);
       std::vector<Vec3> out(b.num_input_vertices());
       b.deform(skinning_matrices(b.joints(), c.pose), out);
       row(variant == 0   ? "harmonic"
           : variant == 1 ? "gradient (polar)"
           : variant == 2 ? "gradient (quaternion blend)"
-                         : "gradient, not cut-aware",
+          : variant == 3 ? "gradient, not cut-aware"
+                         : "gradient with curve frames",
           welded(c.mesh, out));
     }
   }
@@ -284,8 +287,10 @@ void families() {
   std::printf("| family | mode | rows | mean posed mean | max posed mean | max posed max | rows within bound |\n"
               "|---|---|---|---|---|---|---|\n");
   for (const char* fam : {"hand", "spot", "penguin"}) {
-    for (const auto m : {DeformMethod::Harmonic, DeformMethod::Gradient}) {
-      const auto rows = check::run_family(fam, kData, {}, nullptr, with(m));
+    for (const int variant : {0, 1, 2}) {
+      BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
+      o.curve_frames = variant == 2;
+      const auto rows = check::run_family(fam, kData, {}, nullptr, o);
       double sum = 0, worst_mean = 0, worst_max = 0;
       int pass = 0;
       for (const auto& r : rows) {
@@ -295,7 +300,7 @@ void families() {
         pass += r.pass_mean() && r.pass_max();
       }
       std::printf("| %s | %s | %zu | %.3f%% | %.3f%% | %.3f%% | %d |\n", fam,
-                  m == DeformMethod::Harmonic ? "harmonic" : "gradient", rows.size(),
+                  variant == 0 ? "harmonic" : variant == 1 ? "gradient" : "gradient with curve frames", rows.size(),
                   rows.empty() ? 0.0 : sum / rows.size(), worst_mean, worst_max, pass);
     }
   }
@@ -314,10 +319,12 @@ void speed() {
     const Rig rig = make_tube_net();
     Pose pose;
     pose["mid"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(1.2, Vec3::UnitZ()));
-    for (const int variant : {0, 1, 2}) {
+    for (const int variant : {0, 1, 2, 3}) {
       BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
       if (variant == 2)
         o.rotation_blend = BindOptions::RotationBlend::Quaternion;
+      if (variant == 3)
+        o.curve_frames = true;
       const double t0 = now_ms();
       const Binding b = bind(mesh, rig, o);
       const double tb = now_ms() - t0;
@@ -331,7 +338,11 @@ void speed() {
       }
       std::sort(times.begin(), times.end());
       std::printf("| %d | %s | %.0f | %.2f |\n", mesh.num_vertices(),
-                  variant == 0 ? "harmonic" : variant == 1 ? "gradient (polar)" : "gradient (quaternion blend)", tb,
+                  variant == 0   ? "harmonic"
+                  : variant == 1 ? "gradient (polar)"
+                  : variant == 2 ? "gradient (quaternion blend)"
+                                 : "gradient (polar) with curve frames",
+                  tb,
                   times[times.size() / 2]);
     }
   }

@@ -725,8 +725,9 @@ PYBIND11_MODULE(_curvenet, m) {
       "bind",
       [](const SurfaceMesh& mesh, const Rig& rig, const std::string& laplacian, const std::string& rigid,
          const std::string& weight_rule, double blend, double density, std::optional<std::string> cache,
-         const std::string& method, bool cut_aware, const std::string& rotation) {
+         const std::string& method, bool cut_aware, const std::string& rotation, bool curve_frames) {
         BindOptions o;
+        o.curve_frames = curve_frames;
         if (rotation != "polar" && rotation != "quaternion")
           throw py::value_error("rotation: expected 'polar' or 'quaternion'");
         o.rotation_blend =
@@ -750,7 +751,7 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("laplacian") = "intrinsic",
       py::arg("rigid") = "per-vertex", py::arg("weight_rule") = "blend-zone", py::arg("blend") = 0.3,
       py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "harmonic",
-      py::arg("cut_aware") = true, py::arg("rotation") = "polar");
+      py::arg("cut_aware") = true, py::arg("rotation") = "polar", py::arg("curve_frames") = false);
   m.def(
       "complete_weights",
       [](const Rig& rig, const std::string& weight_rule, double blend) {

@@ -554,3 +554,32 @@ TEST(Gradient, TheExampleFistFoldsNoTriangle) {
   EXPECT_EQ(folded, 0);
   EXPECT_EQ(shrunk, 0);
 }
+
+TEST(Gradient, CurveFramesKeepTheExactCasesAndFollowAPosedCurve) {
+  const SurfaceMesh m = test::tube(24, 20, 4, true);
+  BindOptions o = gradient();
+  o.curve_frames = true;
+  const Binding b = bind(m, make_tube_net(), o);
+  const auto X = input_positions(m);
+  const double diag = m.bbox_diagonal();
+  const auto rest = deform(b, {});
+  for (size_t i = 0; i < X.size(); ++i)
+    ASSERT_LT((rest[i] - X[i]).norm(), 1e-9 * diag) << i;
+  Eigen::Affine3d G = Eigen::Affine3d::Identity();
+  G.rotate(Eigen::AngleAxisd(0.4, Vec3(0, 1, 0)));
+  G.scale(Vec3(1.2, 0.9, 1.0));
+  std::vector<Vec3> out(b.num_input_vertices());
+  b.deform(std::vector<Mat4>(b.joints().size(), G.matrix()), out);
+  for (size_t i = 0; i < X.size(); ++i)
+    ASSERT_LT((out[i] - G * X[i]).norm(), 1e-9 * diag) << i;
+  // In a bend the curves turn past their joints: the frames follow, and the result differs from joints' frames only.
+  Pose pose;
+  pose["mid"] = rotation(80, {0, 0, 1});
+  const auto with_frames = deform(b, pose), joints_only = deform(bind(m, make_tube_net(), gradient()), pose);
+  double diff = 0;
+  for (size_t i = 0; i < X.size(); ++i) {
+    ASSERT_TRUE(with_frames[i].allFinite());
+    diff = std::max(diff, (with_frames[i] - joints_only[i]).norm());
+  }
+  EXPECT_GT(diff, 1e-4 * diag);
+}

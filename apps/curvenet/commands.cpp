@@ -164,6 +164,7 @@ BindOptions bind_options(const DeformArgs& a) {
   o.method = a.method == "gradient" ? DeformMethod::Gradient : DeformMethod::Harmonic;
   o.rotation_blend =
       a.rotation == "quaternion" ? BindOptions::RotationBlend::Quaternion : BindOptions::RotationBlend::Polar;
+  o.curve_frames = a.curve_frames;
   return o;
 }
 

@@ -102,6 +102,8 @@ int main(int argc, char** argv) {
     cmd->add_option("--rotation", a.rotation, "Gradient mode: a face's rotation from its joints'")
         ->capture_default_str()
         ->check(CLI::IsMember({"polar", "quaternion"}));
+    cmd->add_flag("--curve-frames", a.curve_frames,
+                  "Gradient mode: turn each curve side's frame to follow its posed curve (about twice the frame time)");
   };
   curvenet::cli::BindArgs bind_args;
   auto* bind = app.add_subcommand("bind", "Bind a rig to a mesh and write the rig with every node's weights filled in");

@@ -54,6 +54,11 @@ struct BindOptions {
   /// nearest rotation to their harmonic blend (polar), or as the normalised
   /// blend of their quaternions (docs/deform.md measures both).
   enum class RotationBlend { Polar, Quaternion } rotation_blend = RotationBlend::Polar;
+  /// Gradient mode: also turn each curve side's frame to follow its posed
+  /// curve (the smallest rotation from the joints' tangent to the curve's),
+  /// interpolated over the surface per frame (3 more right-hand sides, about
+  /// twice the frame time; docs/deform.md measures both).
+  bool curve_frames = false;
   LaplacianChoice laplacian = LaplacianChoice::IntrinsicDelaunay;
   RigidMode rigid = RigidMode::PerVertex;
   AutoWeightOptions weights; ///< for nodes the rig gives no weights

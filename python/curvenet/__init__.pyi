@@ -267,13 +267,14 @@ def bind(
     method: str = "harmonic",
     cut_aware: bool = True,
     rotation: str = "polar",
+    curve_frames: bool = False,
 ) -> Binding:
     """Binds the rig (which needs a skeleton). laplacian: 'intrinsic' or 'uniform'; rigid: 'per-vertex' or 'horn';
     weight_rule for nodes without weights: 'blend-zone' or 'segment'. With `cache`, a binding file is reused when it
     was made for this mesh, rig and options, and written otherwise (not in the gradient mode).
     method: 'harmonic' (joints blended per vertex) or 'gradient' (per-face gradients, rotation-aware, and a Poisson
-    solve; docs/deform.md); rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); cut_aware=False
-    only for comparison. Raises EmbedError, InputError."""
+    solve; docs/deform.md); rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); curve_frames: the
+    gradient mode's side frames also follow the posed curves; cut_aware=False only for comparison. Raises EmbedError, InputError."""
 
 def complete_weights(rig: Rig, *, weight_rule: str = "blend-zone", blend: float = 0.3) -> Rig:
     """The rig with every node's weights filled in (automatic where none are given), normalised."""

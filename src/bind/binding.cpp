@@ -125,7 +125,7 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   eat(text.data(), text.size());
   const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid),
                          static_cast<int>(opt.weights.rule), static_cast<int>(opt.method), opt.cut_aware ? 1 : 0,
-                         static_cast<int>(opt.rotation_blend)};
+                         static_cast<int>(opt.rotation_blend), opt.curve_frames ? 1 : 0};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -467,7 +467,9 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   }
   Eigen::SparseMatrix<double> Lff(nf, nf);
   Lff.setFromTriplets(ff.begin(), ff.end());
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  // Shared, so that the gradient mode can solve with it per frame.
+  auto solver_ptr = std::make_shared<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>>();
+  auto& solver = *solver_ptr;
   if (nf > 0) {
     solver.compute(Lff);
     if (solver.info() != Eigen::Success)
@@ -584,11 +586,12 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
     gi.free_index = &free_index;
     gi.rigid_joint = &rigid_joint;
     gi.harmonic = &sj;
-    gi.harmonic_solver = &solver;
+    gi.harmonic_solver = solver_ptr;
     gi.harmonic_fc = &fc;
     gi.free_vertices = &free_vertices;
     gi.side_scales = side_scales_of(rig);
     gi.cut_aware = opt.cut_aware;
+    gi.curve_frames = opt.curve_frames;
     gi.rotation = opt.rotation_blend == BindOptions::RotationBlend::Quaternion ? RotationBlend::Quaternion
                                                                                : RotationBlend::Polar;
     impl->gradient = build_gradient(gi);

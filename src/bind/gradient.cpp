@@ -138,7 +138,13 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
     g.pin_offset.push_back(static_cast<int>(g.pin_joint.size()));
   }
 
-  // Per face: the average of its corners' weights.
+  // Per face: its corners, and the average of their weights.
+  g.face_corner_offset.push_back(0);
+  for (int f = 0; f < nfaces; ++f) {
+    for (Halfedge h : cut.face_loop(Face(f)))
+      g.face_corner.push_back(cut.from(h).idx);
+    g.face_corner_offset.push_back(static_cast<int>(g.face_corner.size()));
+  }
   g.face_offset.push_back(0);
   std::map<int, double> acc;
   for (int f = 0; f < nfaces; ++f) {
@@ -255,6 +261,26 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
     }
   }
 
+  // Curve frames: the chain vertices between two others, and the harmonic
+  // system that spreads their turn.
+  g.sample_of.assign(nc, -1);
+  if (in.curve_frames && in.harmonic_solver && !in.free_vertices->empty()) {
+    for (const auto& cv : *in.chain_vertices)
+      for (size_t i = 1; i + 1 < cv.size(); ++i) {
+        const int c = cv[i].idx;
+        if (g.sample_of[c] >= 0)
+          continue;
+        const Eigen::Vector3d t = g.rest[cv[i + 1].idx] - g.rest[cv[i - 1].idx];
+        if (!(t.norm() > 0))
+          continue;
+        g.sample_of[c] = static_cast<int>(g.frames.size());
+        g.frames.push_back({c, cv[i - 1].idx, cv[i + 1].idx, t.normalized()});
+      }
+    g.harmonic = in.harmonic_solver;
+    g.harmonic_index = *in.free_index;
+    g.harmonic_fc = *in.harmonic_fc;
+  }
+
   // The Poisson system: cotangent weights of each face's triangles (ear
   // clipping), per edge, with the face it belongs to.
   std::vector<Eigen::Triplet<double>> kt;
@@ -302,6 +328,8 @@ struct Scratch {
   const GradientBind* owner = nullptr;
   std::vector<Eigen::Matrix3d> rotation, stretch, face;
   std::vector<Eigen::Quaterniond> real, dual; ///< each joint's rigid part as a dual quaternion
+  std::vector<Eigen::Vector3d> turn;          ///< per frame sample: the curve frame's turn (axis times angle)
+  Eigen::MatrixXd hx, hy;                     ///< the turn's harmonic solve
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rhs;
   Eigen::MatrixXd x, y;
 };
@@ -366,6 +394,58 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
     const Eigen::Quaterniond tq = q1 * q0.conjugate();
     out[v] = q0 * x + 2 * Eigen::Vector3d(tq.x(), tq.y(), tq.z());
   }
+  // Curve frames: how far each posed curve turns from where its joints would
+  // carry its tangent (the smallest rotation between the two), spread over
+  // the surface harmonically.
+  const bool frames = !g.frames.empty();
+  if (frames) {
+    s.turn.resize(g.frames.size());
+    for (size_t i = 0; i < g.frames.size(); ++i) {
+      const auto& fs = g.frames[i];
+      Eigen::Vector4d b0 = Eigen::Vector4d::Zero();
+      Eigen::Matrix3d stretch = Eigen::Matrix3d::Zero();
+      const int k0 = g.pin_offset[fs.vertex], k1 = g.pin_offset[fs.vertex + 1];
+      for (int k = k0; k < k1; ++k) {
+        const Eigen::Quaterniond& q = s.real[g.pin_joint[k]];
+        b0 += (s.real[g.pin_joint[k0]].dot(q) < 0 ? -g.pin_weight[k] : g.pin_weight[k]) * q.coeffs();
+        stretch += g.pin_weight[k] * s.stretch[g.pin_joint[k]];
+      }
+      Eigen::Quaterniond q;
+      q.coeffs() = b0;
+      // Where the joints carry the rest tangent: their blended stretch, then rotation.
+      const Eigen::Vector3d carried =
+          ((b0.norm() > 1e-12 ? q.normalized() : Eigen::Quaterniond::Identity()) * (stretch * fs.tangent)).normalized();
+      Eigen::Vector3d posed = out[fs.next] - out[fs.prev];
+      s.turn[i].setZero();
+      if (posed.norm() > 0) {
+        posed.normalize();
+        const Eigen::Vector3d axis = carried.cross(posed);
+        const double sn = axis.norm();
+        if (sn > 1e-15)
+          s.turn[i] = axis / sn * std::atan2(sn, carried.dot(posed));
+      }
+    }
+    const int nf = static_cast<int>(g.harmonic_fc.size());
+    s.hx.resize(nf, 3);
+    s.hy.resize(nf, 3);
+    s.hy.setZero();
+    for (int k = 0; k < nf; ++k)
+      for (const auto& [c, l] : g.harmonic_fc[k])
+        if (g.sample_of[c] >= 0)
+          s.hy.row(k) -= l * s.turn[g.sample_of[c]].transpose();
+    const auto& h = *g.harmonic;
+    s.hx = h.permutationP() * s.hy;
+    h.matrixL().solveInPlace(s.hx);
+    s.hx.array().colwise() /= h.vectorD().array();
+    h.matrixU().solveInPlace(s.hx);
+    s.hy = h.permutationPinv() * s.hx;
+  }
+  auto turn_at = [&](int v) -> Eigen::Vector3d {
+    if (g.sample_of[v] >= 0)
+      return s.turn[g.sample_of[v]];
+    const int k = g.harmonic_index[v];
+    return k >= 0 ? Eigen::Vector3d(s.hy.row(k).transpose()) : Eigen::Vector3d::Zero();
+  };
   // Per face: the rotation of the blend, times the blended stretch, times the sides' stretch.
   tbb::parallel_for(tbb::blocked_range<int>(0, nfaces, 4096), [&](const tbb::blocked_range<int>& range) {
     for (int f = range.begin(); f < range.end(); ++f) {
@@ -391,6 +471,16 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
           r += g.face_weight[k] * s.rotation[g.face_joint[k]];
         // Joints that turn alike blend to a rotation already.
         rot = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-13 ? r : nearest_rotation(r);
+      }
+      if (frames) {
+        Eigen::Vector3d w = Eigen::Vector3d::Zero();
+        int corners = 0;
+        for (int c = g.face_corner_offset[f]; c < g.face_corner_offset[f + 1]; ++c, ++corners)
+          w += turn_at(g.face_corner[c]);
+        w /= std::max(corners, 1);
+        const double angle = w.norm();
+        if (angle > 1e-15)
+          rot = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() * rot;
       }
       s.face[f] = g.stretched ? Eigen::Matrix3d(rot * st * g.face_stretch[f]) : Eigen::Matrix3d(rot * st);
     }

@@ -30,6 +30,7 @@ struct GradientBind {
   RotationBlend rotation = RotationBlend::Polar;
   // Per cut face: the joints and weights its gradient blends (CSR), and a
   // rest stretch U (identity unless the rig gives its profiles' sides scales).
+  std::vector<int> face_corner_offset, face_corner; ///< per cut face, its corners' vertices (CSR)
   std::vector<int> face_offset, face_joint;
   std::vector<double> face_weight;
   std::vector<Eigen::Matrix3d> face_stretch;
@@ -49,6 +50,18 @@ struct GradientBind {
   std::vector<int> pin_offset, pin_joint;
   std::vector<double> pin_weight;
   std::vector<Eigen::Vector3d> rest; ///< per cut vertex
+  // Curve frames: per CutChain vertex between two others of one chain, its
+  // neighbours along the chain and its rest tangent; the harmonic system that
+  // carries their turn over the surface (free unknowns, constraint entries).
+  struct FrameSample {
+    int vertex, prev, next;
+    Eigen::Vector3d tangent; ///< rest, unit
+  };
+  std::vector<FrameSample> frames;
+  std::vector<int> sample_of; ///< per cut vertex, its frame sample or -1
+  std::shared_ptr<const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> harmonic;
+  std::vector<int> harmonic_index;                         ///< per cut vertex, free unknown or -1
+  std::vector<std::vector<std::pair<int, double>>> harmonic_fc; ///< free unknown -> (cut vertex, L entry)
 };
 
 /// What the binding has computed that the gradient mode builds on.
@@ -65,7 +78,7 @@ struct GradientInput {
   const std::vector<Eigen::VectorXd>* harmonic = nullptr;  ///< per joint, s_j per free index (may be empty)
   /// The harmonic solve's factorisation and its constraint entries, for
   /// interpolating the sides' stretch.
-  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>* harmonic_solver = nullptr;
+  std::shared_ptr<const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> harmonic_solver;
   const std::vector<std::vector<std::pair<int, double>>>* harmonic_fc = nullptr;
   const std::vector<int>* free_vertices = nullptr;
   /// Profile id -> width scale of its left and right side (rig extension x_side_scales).
@@ -74,6 +87,7 @@ struct GradientInput {
   /// one value per vertex, the average of its sides: for comparison only).
   bool cut_aware = true;
   RotationBlend rotation = RotationBlend::Polar;
+  bool curve_frames = true;
 };
 
 std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in);
