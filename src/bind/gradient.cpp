@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <Eigen/SVD>
 
@@ -447,6 +448,9 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
     return k >= 0 ? Eigen::Vector3d(s.hy.row(k).transpose()) : Eigen::Vector3d::Zero();
   };
   // Per face: the rotation of the blend, times the blended stretch, times the sides' stretch.
+  // Isolated: while it waits, this thread must not pick up another frame of
+  // deform_frames, which would reuse this thread's scratch mid-frame.
+  tbb::this_task_arena::isolate([&] {
   tbb::parallel_for(tbb::blocked_range<int>(0, nfaces, 4096), [&](const tbb::blocked_range<int>& range) {
     for (int f = range.begin(); f < range.end(); ++f) {
       const int k0 = g.face_offset[f], k1 = g.face_offset[f + 1];
@@ -484,6 +488,7 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
       }
       s.face[f] = g.stretched ? Eigen::Matrix3d(rot * st * g.face_stretch[f]) : Eigen::Matrix3d(rot * st);
     }
+  });
   });
   if (g.num_unknowns == 0)
     return;
