@@ -604,3 +604,26 @@ TEST(Gradient, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
       ASSERT_EQ(together[f * nv + i], one[i]) << "frame " << f << " vertex " << i;
   }
 }
+
+TEST(Gradient, MalformedSideScalesAreRefusedNamingTheirPath) {
+  const SurfaceMesh m = test::tube(12, 8, 3, true);
+  const Rig base = make_tube_net();
+  const std::string first = base.profiles.front().id;
+  for (const auto& [text, path] : std::vector<std::pair<std::string, std::string>>{
+           {"[1, 2]", "/x_side_scales"},
+           {"{\"" + first + "\": [1]}", "/x_side_scales/" + first},
+           {"{\"" + first + "\": [1, -2]}", "/x_side_scales/" + first},
+           {"{\"" + first + "\": [1, 1e9]}", "/x_side_scales/" + first},
+           {"{\"no_such_profile\": [1, 1]}", "/x_side_scales/no_such_profile"}}) {
+    Rig rig = base;
+    rig.extensions["x_side_scales"] = text;
+    try {
+      (void)bind(m, rig, gradient());
+      ADD_FAILURE() << text << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.element(), path) << text;
+    }
+    // The harmonic mode does not read them.
+    EXPECT_NO_THROW((void)bind(m, rig));
+  }
+}
