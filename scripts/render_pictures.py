@@ -11,6 +11,8 @@ headless (Workbench), from the shared data:
 5. bake_glb_in_blender.png: the hand baked to an ordinary skin (`curvenet bake`,
    here through the module), opened by Blender's own glTF importer, posed by
    its armature in the Grip clip.
+6. deform_fist_harmonic.png, deform_fist_gradient.png: the example rig's fist
+   in the harmonic and the gradient mode (docs/deform.md).
 """
 
 import os
@@ -119,4 +121,18 @@ curvenet.write_file(glb, curvenet.skinned_glb(source, binding, curvenet.bake_wei
 meshes, arms = t.import_gltf(glb)
 bpy.context.scene.frame_set(1)
 t.render_workbench(meshes, os.path.join(t.OUT, "bake_glb_in_blender.png"), colour="SINGLE", size=(640, 480))
+# 6. The example fist, in both modes.
+example = os.path.join(HAND, "example")
+mesh = curvenet.load_mesh(os.path.join(example, "hand_l_welded.obj"))
+rig = curvenet.read_rig(os.path.join(example, "hand_l.cnrig.json"))
+for method in ("harmonic", "gradient"):
+    t.empty_scene()
+    bpy.ops.wm.obj_import(filepath=os.path.join(example, "hand_l_welded.obj"))
+    obj = bpy.context.selected_objects[0]
+    b = curvenet.bind(mesh, rig, method=method)
+    P = b.deform(curvenet.skinning_matrices(b, os.path.join(example, "fist.pose.json")))
+    obj.data.vertices.foreach_set("co", P.astype(np.float32).ravel())  # the OBJ importer keeps the file's order
+    obj.data.polygons.foreach_set("use_smooth", [True] * len(obj.data.polygons))
+    obj.data.update()
+    t.render_workbench([obj], os.path.join(t.OUT, "deform_fist_%s.png" % method), colour="SINGLE", size=(480, 360))
 print("pictures in", t.OUT)
