@@ -1,0 +1,167 @@
+// Starter nets, measured by how they pose (issue 14's yardstick): for each
+// skinned character, the starter net made from its own skeleton, bound in
+// the harmonic and the gradient mode, posed by every clip, against the
+// file's own skin posed by the same clip.
+//
+//   build/bin/starter_pose [MESH.glb [CLIPS.glb]]...
+//     default: the shared hand (its 35 clips), its low-resolution version
+//     (the same clips), CesiumMan (its walk, 6 frames) and RiggedSimple
+//
+// Per character: the net's counts (rings, bending joints, components,
+// joins, messages), then per mode the mean and max distance to the skin
+// (% of the diagonal; mean over clips of the mean over vertices), the worst
+// volume change against the skin's (points), and the most triangles turned
+// more than 120 degrees against the skin in any clip.
+
+#include "curvenet/deform.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <vector>
+
+using namespace curvenet;
+
+namespace {
+
+const std::string kData = CURVENET_DATA_DIR;
+
+struct Character {
+  std::string mesh, clips;
+  int samples_per_clip = 1; ///< 1: each clip's last key; more: evenly over the clip
+};
+
+std::vector<Vec3> welded(const SurfaceMesh& m, const std::vector<Vec3>& per_input) {
+  std::vector<Vec3> p(m.num_vertices());
+  for (size_t i = 0; i < per_input.size(); ++i)
+    p[m.input_to_welded[i]] = per_input[i];
+  return p;
+}
+
+std::vector<std::array<int, 3>> triangles(const SurfaceMesh& m) {
+  std::vector<std::array<int, 3>> t;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto face = m.face(f);
+    for (size_t k = 1; k + 1 < face.size(); ++k)
+      t.push_back({face[0], face[k], face[k + 1]});
+  }
+  return t;
+}
+
+double volume(const std::vector<std::array<int, 3>>& t, const std::vector<Vec3>& p) {
+  double v = 0;
+  for (const auto& f : t)
+    v += p[f[0]].dot(p[f[1]].cross(p[f[2]])) / 6;
+  return v;
+}
+
+int turned(const std::vector<std::array<int, 3>>& t, const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  int n = 0;
+  const double c120 = std::cos(120 * std::numbers::pi / 180);
+  for (const auto& f : t) {
+    const Vec3 na = (a[f[1]] - a[f[0]]).cross(a[f[2]] - a[f[0]]), nb = (b[f[1]] - b[f[0]]).cross(b[f[2]] - b[f[0]]);
+    if (na.norm() > 0 && nb.norm() > 0 && na.normalized().dot(nb.normalized()) < c120)
+      ++n;
+  }
+  return n;
+}
+
+void measure(const Character& ch) {
+  const SurfaceMesh mesh = load_mesh(ch.mesh);
+  const SkinnedMesh skin = load_skinned_mesh(ch.mesh);
+  const SkinnedMesh clips = load_skinned_mesh(ch.clips);
+  const RawMesh raw = read_raw_mesh(ch.mesh);
+  const double diag = mesh.bbox_diagonal();
+  const auto tris = triangles(mesh);
+  const double v0 = volume(tris, mesh.positions);
+  std::printf("%s (%d faces, %zu joints), clips from %s\n", ch.mesh.substr(ch.mesh.find_last_of('/') + 1).c_str(),
+              mesh.num_faces(), skin.joints.size(), ch.clips.substr(ch.clips.find_last_of('/') + 1).c_str());
+  StarterResult st;
+  try {
+    st = make_starter(mesh, skin.joints);
+  } catch (const Error& e) {
+    std::printf("  starter refused: %s\n\n", e.what());
+    return;
+  }
+  int bending = 0;
+  for (const auto& j : skin.joints)
+    for (const auto& c : skin.joints)
+      if (c.parent && *c.parent == j.name) {
+        ++bending;
+        break;
+      }
+  std::printf("  net: %d rings for %d joints with a child, %zu nodes, %zu profiles, %d components, %d joins, %d "
+              "unjoined, %zu messages\n",
+              st.rings, bending, st.rig.nodes.size(), st.rig.profiles.size(), st.net_components, st.joins, st.unjoined,
+              st.messages.size());
+  for (size_t k = 0; k < std::min<size_t>(st.messages.size(), 6); ++k)
+    std::printf("    %s\n", st.messages[k].c_str());
+  std::printf("  | mode | mean distance to the skin | max | worst volume change vs the skin's | most turned > 120 deg |\n"
+              "  |---|---|---|---|---|\n");
+  for (const auto method : {DeformMethod::Harmonic, DeformMethod::Gradient}) {
+    BindOptions o;
+    o.method = method;
+    Binding b = [&] { return bind(mesh, st.rig, o); }();
+    double sum = 0, mx = 0, worst_volume = 0;
+    int n = 0, most_turned = 0;
+    for (int c = 0; c < clips.num_clips(); ++c) {
+      const auto [t0, t1] = clips.clip_range(c);
+      for (int s = 0; s < ch.samples_per_clip; ++s) {
+        const double t = ch.samples_per_clip == 1 ? t1 : t0 + (t1 - t0) * s / (ch.samples_per_clip - 1);
+        std::vector<Vec3> ours(b.num_input_vertices());
+        b.deform(clip_skinning_matrices(b.joints(), clips, c, t), ours);
+        const auto theirs = skin_positions(skin, raw.positions, clip_skinning_matrices(skin.joints, clips, c, t));
+        double d = 0;
+        for (size_t i = 0; i < ours.size(); ++i) {
+          const double e = (ours[i] - theirs[i]).norm();
+          d += e;
+          mx = std::max(mx, e);
+        }
+        sum += d / ours.size();
+        ++n;
+        const auto wo = welded(mesh, ours), wt = welded(mesh, theirs);
+        const double dv = 100 * (volume(tris, wo) / v0 - 1) - 100 * (volume(tris, wt) / v0 - 1);
+        if (std::abs(dv) > std::abs(worst_volume))
+          worst_volume = dv;
+        most_turned = std::max(most_turned, turned(tris, wo, wt));
+      }
+    }
+    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d |\n", method == DeformMethod::Harmonic ? "harmonic" : "gradient",
+                100 * sum / std::max(n, 1) / diag, 100 * mx / diag, worst_volume, most_turned);
+  }
+  std::printf("\n");
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::vector<Character> chars;
+  for (int i = 1; i < argc; ++i) {
+    Character c;
+    c.mesh = argv[i];
+    c.clips = i + 1 < argc && std::string(argv[i + 1]).find(".glb") != std::string::npos ? argv[++i] : c.mesh;
+    chars.push_back(c);
+  }
+  if (chars.empty()) {
+    const std::string h = kData + "/xr_tools_hand/";
+    chars = {{h + "hand_l_poses.glb", h + "hand_l_poses.glb", 1},
+             {h + "Hand_low_L.gltf", h + "hand_l_poses.glb", 1},
+             {kData + "/cesium_man/CesiumMan.glb", kData + "/cesium_man/CesiumMan.glb", 6},
+             {kData + "/rigged_simple/RiggedSimple.glb", kData + "/rigged_simple/RiggedSimple.glb", 6}};
+  }
+  for (const auto& c : chars) {
+    try {
+      measure(c);
+    } catch (const Error& e) {
+      std::printf("%s: %s\n\n", c.mesh.c_str(), e.what());
+    }
+  }
+  return 0;
+}
