@@ -10,7 +10,6 @@ bl_info = {
     "location": "3D View > Sidebar > Curvenet",
     "description": "Topology-independent character deformation with curve networks",
     "category": "Rigging",
-    "doc_url": "https://github.com/curvenet/curvenet/blob/main/docs/blender.md",
 }
 
 import os
