@@ -10,7 +10,9 @@ import json
 import os
 import struct
 import subprocess
+import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -295,21 +297,42 @@ def rig_joint(b):
 
 @needs_data
 def test_deform_frames_runs_without_the_gil():
-    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    # While one thread is inside deform_frames, another runs Python: it can
+    # only if the call released the GIL. The gradient mode makes each frame
+    # long enough to see (about 1 ms on the hand).
+    b = curvenet.bind(curvenet.load_mesh(example("hand_l_welded.obj")), curvenet.read_rig(example("hand_l.cnrig.json")),
+                      method="gradient")
     clips = curvenet.load_skinned_mesh(hand("hand_l_poses.glb"))
-    M = np.stack([curvenet.clip_skinning_matrices(b, clips, c, 0.0) for c in range(clips.num_clips)])
-    results = [None] * 4
+    poses = np.stack([curvenet.clip_skinning_matrices(b, clips, c, 0.0) for c in range(clips.num_clips)])
+    M = np.concatenate([poses] * 8)  # 280 frames
+    window = {}
+    started = threading.Event()
 
-    def work(i):
-        results[i] = b.deform_frames(M)
+    def work():
+        started.set()
+        window["enter"] = time.perf_counter()
+        window["result"] = b.deform_frames(M)
+        window["exit"] = time.perf_counter()
 
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    for r in results:
-        assert np.array_equal(r, results[0])
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(0.001)
+    try:
+        worker = threading.Thread(target=work)
+        worker.start()
+        started.wait()
+        ticks = []
+        while worker.is_alive():
+            ticks.append(time.perf_counter())
+        worker.join()
+    finally:
+        sys.setswitchinterval(old)
+    t0, t1 = window["enter"], window["exit"]
+    inside = [t for t in ticks if t0 < t < t1]
+    covered = sum(min(b_ - a_, 1e-3) for a_, b_ in zip(inside, inside[1:]))
+    assert covered > 0.25 * (t1 - t0), "Python ran %.1f ms of the call's %.1f ms" % (1e3 * covered, 1e3 * (t1 - t0))
+    # And the frames are what deform gives, one by one.
+    for f in (0, 100, 279):
+        assert np.array_equal(window["result"][f], b.deform(M[f]))
 
 
 @needs_data
