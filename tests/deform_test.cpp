@@ -11,6 +11,7 @@
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 
@@ -581,8 +582,12 @@ TEST(Gradient, CurveFramesKeepTheExactCasesAndFollowAPosedCurve) {
 }
 
 TEST(Gradient, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
-  // Frames run in parallel, and each frame's faces too: no frame may see another's scratch.
-  const SurfaceMesh m = test::tube(40, 60, 5, true);
+  // Frames run in parallel, and each frame's faces too: no frame may see
+  // another's scratch (a scratch shared between threads fails this). Enough
+  // faces for many parallel chunks per frame, on four threads.
+  tbb::task_arena arena(4);
+  arena.execute([&] {
+  const SurfaceMesh m = test::tube(120, 160, 5, true);
   const Binding b = bind(m, make_tube_net(), gradient());
   const size_t nj = b.joints().size(), nv = static_cast<size_t>(b.num_input_vertices());
   std::mt19937 rng(5);
@@ -603,6 +608,7 @@ TEST(Gradient, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
     for (size_t i = 0; i < nv; ++i)
       ASSERT_EQ(together[f * nv + i], one[i]) << "frame " << f << " vertex " << i;
   }
+  });
 }
 
 TEST(Gradient, MalformedSideScalesAreRefusedNamingTheirPath) {
