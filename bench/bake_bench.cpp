@@ -462,45 +462,47 @@ void transfer_table() {
       const SurfaceMesh target = load_mesh(t.path);
       const auto trest = input_rest(target);
       const SurfaceDistance rest = surface_distance(source, target);
-      std::string cn_mean = "refused", cn_max = "refused", cn_corr = "refused";
       const Correspondence corr = correspond(source, target);
+      // A target skin posed by every pose, against the posed source: the
+      // surface distance (mean of the means, largest max) and the gap at
+      // corresponding points.
+      struct Agreement {
+        Stat surface;
+        double corresponding = 0;
+      };
+      auto agreement = [&](const SkinWeights& w) {
+        Agreement a;
+        for (size_t k = 0; k < M.size(); ++k) {
+          const SurfaceMesh pt = posed(target, w, trest, M[k]);
+          const SurfaceDistance d = surface_distance(sposed[k], pt);
+          a.surface.add({d.mean, d.max});
+          a.corresponding += corresponding_gap(corr, sposed[k], pt) / M.size();
+        }
+        return a;
+      };
+      auto percent = [&](double x) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.3f%%", rest.percent(x));
+        return std::string(text);
+      };
+      std::string cn_mean = "refused", cn_max = "refused", cn_corr = "refused";
       try {
         const TransferResult tr = transfer(rig, source, target);
         if (tr.report.ok) {
-          const SkinWeights tw = bake_weights(bind(target, tr.rig), 4);
-          Stat s;
-          double cg = 0;
-          for (size_t k = 0; k < M.size(); ++k) {
-            const SurfaceMesh pt = posed(target, tw, trest, M[k]);
-            const SurfaceDistance d = surface_distance(sposed[k], pt);
-            s.add({d.mean, d.max});
-            cg += corresponding_gap(corr, sposed[k], pt) / M.size();
-          }
-          char a[32], b[32], g[32];
-          std::snprintf(a, sizeof a, "%.3f%%", rest.percent(s.mean_of()));
-          std::snprintf(b, sizeof b, "%.3f%%", rest.percent(s.max));
-          std::snprintf(g, sizeof g, "%.3f%%", rest.percent(cg));
-          cn_mean = a;
-          cn_max = b;
-          cn_corr = g;
+          const Agreement c = agreement(bake_weights(bind(target, tr.rig), 4));
+          cn_mean = percent(c.surface.mean_of());
+          cn_max = percent(c.surface.max);
+          cn_corr = percent(c.corresponding);
         }
       } catch (const Error& e) {
         std::fprintf(stderr, "%s: %s\n", t.path.c_str(), e.what());
       }
       double matched = 0;
-      const SkinWeights rw = top4(rswt(source, sdense, target, &matched), target, sw.joints);
-      Stat r;
-      double rg = 0;
-      for (size_t k = 0; k < M.size(); ++k) {
-        const SurfaceMesh pt = posed(target, rw, trest, M[k]);
-        const SurfaceDistance d = surface_distance(sposed[k], pt);
-        r.add({d.mean, d.max});
-        rg += corresponding_gap(corr, sposed[k], pt) / M.size();
-      }
+      const Agreement r = agreement(top4(rswt(source, sdense, target, &matched), target, sw.joints));
       std::printf("| %s | %s | %d | %.3f%% | %s | %.3f%% | %.3f%% | %s | %.3f%% | %s | %.3f%% | %.1f%% |\n", name.c_str(),
                   check::short_name(t.path).c_str(), target.num_faces(), rest.percent(rest.mean), cn_mean.c_str(),
-                  rest.percent(r.mean_of()), rest.percent(rest.max), cn_max.c_str(), rest.percent(r.max),
-                  cn_corr.c_str(), rest.percent(rg), 100 * matched);
+                  rest.percent(r.surface.mean_of()), rest.percent(rest.max), cn_max.c_str(), rest.percent(r.surface.max),
+                  cn_corr.c_str(), rest.percent(r.corresponding), 100 * matched);
     }
   }
 }

@@ -74,6 +74,13 @@ template <class T> py::array_t<T> vector_array(const std::vector<T>& v) {
   return a;
 }
 
+/// An (n, k) array of the values `data` holds row after row.
+template <class T> py::array_t<T> table_array(const T* data, size_t n, size_t k) {
+  py::array_t<T> a({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(k)});
+  std::copy(data, data + n * k, a.mutable_data());
+  return a;
+}
+
 Mat4 matrix_from(const py::handle& obj, const char* what) {
   const Points a = Points::ensure(obj);
   if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
@@ -872,14 +879,10 @@ PYBIND11_MODULE(_curvenet, m) {
           py::arg("clip"), py::arg("t"), "The file's own skinning matrices (J, 4, 4) at time t of a clip")
       .def_property_readonly("vertex_joints",
                              [](const SkinnedMesh& s) {
-                               py::array_t<int> a({static_cast<py::ssize_t>(s.vertex_joint.size()), py::ssize_t{4}});
-                               std::memcpy(a.mutable_data(), s.vertex_joint.data(), s.vertex_joint.size() * 4 * sizeof(int));
-                               return a;
+                               return table_array(s.vertex_joint.data()->data(), s.vertex_joint.size(), 4);
                              })
       .def_property_readonly("vertex_weights", [](const SkinnedMesh& s) {
-        py::array_t<double> a({static_cast<py::ssize_t>(s.vertex_weight.size()), py::ssize_t{4}});
-        std::memcpy(a.mutable_data(), s.vertex_weight.data(), s.vertex_weight.size() * 4 * sizeof(double));
-        return a;
+        return table_array(s.vertex_weight.data()->data(), s.vertex_weight.size(), 4);
       });
   m.def(
       "load_skinned_mesh",
@@ -956,15 +959,11 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property_readonly("num_vertices", &SkinWeights::num_vertices)
       .def_property_readonly("joint",
                              [](const SkinWeights& s) {
-                               py::array_t<int> a({static_cast<py::ssize_t>(s.num_vertices()),
-                                                   static_cast<py::ssize_t>(s.influences)});
-                               std::copy(s.joint.begin(), s.joint.end(), a.mutable_data());
-                               return a;
+                               return table_array(s.joint.data(), static_cast<size_t>(s.num_vertices()),
+                                                  static_cast<size_t>(s.influences));
                              })
       .def_property_readonly("weight", [](const SkinWeights& s) {
-        py::array_t<double> a({static_cast<py::ssize_t>(s.num_vertices()), static_cast<py::ssize_t>(s.influences)});
-        std::copy(s.weight.begin(), s.weight.end(), a.mutable_data());
-        return a;
+        return table_array(s.weight.data(), static_cast<size_t>(s.num_vertices()), static_cast<size_t>(s.influences));
       });
   m.def(
       "bake_weights",

@@ -74,6 +74,34 @@ void expect_rigid_motion_reproduced(const Binding& b, const SurfaceMesh& m) {
     ASSERT_LT((out[i] - (T * X[i].homogeneous()).head<3>()).norm(), 1e-9 * m.bbox_diagonal()) << i;
 }
 
+/// Skinning matrices of `frames` random poses of the tube net's three joints, frame after frame.
+std::vector<Mat4> random_frames(const Binding& b, int frames, unsigned seed, double max_degrees) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> angle(-max_degrees, max_degrees), axis(-1, 1);
+  std::vector<Mat4> all;
+  for (int f = 0; f < frames; ++f) {
+    Pose pose;
+    for (const char* j : {"root", "mid", "tip"})
+      pose[j] = rotation(angle(rng), {axis(rng), axis(rng), axis(rng) + 1e-3});
+    const auto M = skinning_matrices(b.joints(), pose);
+    all.insert(all.end(), M.begin(), M.end());
+  }
+  return all;
+}
+
+/// deform_frames gives, bit for bit, each frame deform gives.
+void expect_frames_match(const Binding& b, const std::vector<Mat4>& all) {
+  const size_t nj = b.joints().size(), nv = static_cast<size_t>(b.num_input_vertices());
+  const size_t frames = all.size() / nj;
+  std::vector<Vec3> together(frames * nv), one(nv);
+  b.deform_frames(all, together);
+  for (size_t f = 0; f < frames; ++f) {
+    b.deform(std::span<const Mat4>(all).subspan(f * nj, nj), one);
+    for (size_t i = 0; i < nv; ++i)
+      ASSERT_EQ(together[f * nv + i], one[i]) << "frame " << f << " vertex " << i;
+  }
+}
+
 BindOptions options(const Variant& v) {
   BindOptions o;
   o.laplacian = v.laplacian;
@@ -327,25 +355,9 @@ TEST(Deform, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
   const SurfaceMesh m = test::tube(20, 12, 4, true);
   const Binding b = bind(m, make_tube_net());
   const size_t nj = b.joints().size(), nv = static_cast<size_t>(b.num_input_vertices());
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> angle(-120, 120), axis(-1, 1);
-  const int frames = 9;
-  std::vector<Mat4> all;
-  for (int f = 0; f < frames; ++f) {
-    Pose pose;
-    for (const char* j : {"root", "mid", "tip"})
-      pose[j] = rotation(angle(rng), {axis(rng), axis(rng), axis(rng) + 1e-3});
-    const auto M = skinning_matrices(b.joints(), pose);
-    all.insert(all.end(), M.begin(), M.end());
-  }
-  std::vector<Vec3> together(frames * nv);
-  b.deform_frames(all, together);
-  std::vector<Vec3> one(nv);
-  for (int f = 0; f < frames; ++f) {
-    b.deform(std::span<const Mat4>(all).subspan(f * nj, nj), one);
-    for (size_t i = 0; i < nv; ++i)
-      ASSERT_EQ(together[f * nv + i], one[i]) << "frame " << f << " vertex " << i; // bit for bit
-  }
+  const auto all = random_frames(b, 9, 11, 120);
+  expect_frames_match(b, all);
+  std::vector<Vec3> together(9 * nv), one(nv);
   // Sizes that do not make whole frames are refused, not read past.
   std::vector<Vec3> short_out(nv - 1);
   EXPECT_THROW(b.deform(std::span<const Mat4>(all).first(nj), short_out), Error);
@@ -586,28 +598,10 @@ TEST(Gradient, ManyFramesAtOnceAreExactlyTheFramesOneByOne) {
   // another's scratch (a scratch shared between threads fails this). Enough
   // faces for many parallel chunks per frame, on four threads.
   tbb::task_arena arena(4);
-  arena.execute([&] {
-  const SurfaceMesh m = test::tube(120, 160, 5, true);
-  const Binding b = bind(m, make_tube_net(), gradient());
-  const size_t nj = b.joints().size(), nv = static_cast<size_t>(b.num_input_vertices());
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> angle(-100, 100), axis(-1, 1);
-  const int frames = 16;
-  std::vector<Mat4> all;
-  for (int f = 0; f < frames; ++f) {
-    Pose pose;
-    for (const char* j : {"root", "mid", "tip"})
-      pose[j] = rotation(angle(rng), {axis(rng), axis(rng), axis(rng) + 1e-3});
-    const auto M = skinning_matrices(b.joints(), pose);
-    all.insert(all.end(), M.begin(), M.end());
-  }
-  std::vector<Vec3> together(frames * nv), one(nv);
-  b.deform_frames(all, together);
-  for (int f = 0; f < frames; ++f) {
-    b.deform(std::span<const Mat4>(all).subspan(f * nj, nj), one);
-    for (size_t i = 0; i < nv; ++i)
-      ASSERT_EQ(together[f * nv + i], one[i]) << "frame " << f << " vertex " << i;
-  }
+  arena.execute([] {
+    const SurfaceMesh m = test::tube(120, 160, 5, true);
+    const Binding b = bind(m, make_tube_net(), gradient());
+    expect_frames_match(b, random_frames(b, 16, 5, 100));
   });
 }
 

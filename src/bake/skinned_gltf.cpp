@@ -20,6 +20,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <set>
 #include <sstream>
 
@@ -217,37 +218,31 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   struct Key {
     int uv, normal;
   };
-  std::vector<std::vector<std::pair<Key, int>>> combos(nv);
-  std::vector<int> out_vertex_of;             // output vertex -> input vertex
-  std::vector<Key> out_key;                   // output vertex -> its corner attributes
+  std::vector<std::vector<std::pair<Key, int>>> combos(nv); // per file vertex: (attributes, output vertex)
+  std::vector<int> out_vertex_of(nv);                         // output vertex -> file vertex
+  std::iota(out_vertex_of.begin(), out_vertex_of.end(), 0);
+  std::vector<Key> out_key(nv, Key{-1, -1}); // output vertex -> its corners' attributes
   std::vector<int> corner_out(faces.face_vertices.size());
-  out_vertex_of.resize(nv);
-  out_key.assign(nv, Key{-1, -1});
-  std::vector<bool> seen(nv, false);
   for (size_t c = 0; c < faces.face_vertices.size(); ++c) {
     const int v = faces.face_vertices[c];
     const Key key{topo.corner_uv[c], topo.corner_normal[c]};
     int out = -1;
-    if (!seen[v]) {
-      seen[v] = true;
-      out = v;
-      out_key[v] = key;
-      combos[v].push_back({key, v});
-    } else {
-      for (const auto& [kk, o] : combos[v])
-        if (kk.uv == key.uv && kk.normal == key.normal)
-          out = o;
-      if (out < 0) {
-        out = static_cast<int>(out_vertex_of.size());
+    for (const auto& [kk, o] : combos[v])
+      if (kk.uv == key.uv && kk.normal == key.normal)
+        out = o;
+    if (out < 0) {
+      // The first pair a vertex carries keeps its place; others are copies.
+      out = combos[v].empty() ? v : static_cast<int>(out_vertex_of.size());
+      if (out != v) {
         out_vertex_of.push_back(v);
         out_key.push_back(key);
-        combos[v].push_back({key, out});
+      } else {
+        out_key[v] = key;
       }
+      combos[v].push_back({key, out});
     }
     corner_out[c] = out;
   }
-  for (int v = 0; v < nv; ++v)
-    out_vertex_of[v] = v;
   const size_t no = out_vertex_of.size();
   const bool has_uv = !topo.uv.empty();
 

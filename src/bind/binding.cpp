@@ -570,16 +570,13 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
       if (!constrained[v] && free_index[v] < 0 && comp[v] >= 0)
         rigid_joint[v] = rigid_joint_of_comp.at(comp[v]);
     std::vector<std::vector<Vertex>> chain_vertices;
-    std::vector<std::vector<Halfedge>> chain_halfedges;
     for (const auto& c : emb.result.chains) {
       chain_vertices.push_back(c.vertices);
-      chain_halfedges.push_back(c.halfedges);
     }
     GradientInput gi;
     gi.cut = &cut;
     gi.face_region = &emb.regions.face_region;
     gi.chain_vertices = &chain_vertices;
-    gi.chain_halfedges = &chain_halfedges;
     gi.profile_ids = &emb.input.profile_ids;
     gi.constrained = &constrained;
     gi.constraint_weights = &cw;

@@ -177,10 +177,8 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
         scale[p] = it->second;
     // A side's scale applies to its frame as a whole (Pixar's length l,
     // width w and h = sqrt(l w) alike): the stretch s I.
-    auto side_tensor = [&](int c, int p, bool left) {
-      (void)c;
-      const double s = left ? scale[p].first : scale[p].second;
-      return Eigen::Matrix3d(s * Eigen::Matrix3d::Identity());
+    auto side_tensor = [&](int p, bool left) {
+      return Eigen::Matrix3d((left ? scale[p].first : scale[p].second) * Eigen::Matrix3d::Identity());
     };
     // Per face corner at a chain vertex: its sector's side; per vertex, the
     // average of its sides (the value without the cut-aware discretisation).
@@ -194,7 +192,7 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
           continue;
         int p = -1;
         bool left = true;
-        const Eigen::Matrix3d value = sector_side(cut, Face(f), Vertex(c), p, left) ? side_tensor(c, p, left)
+        const Eigen::Matrix3d value = sector_side(cut, Face(f), Vertex(c), p, left) ? side_tensor(p, left)
                                                                                     : Eigen::Matrix3d::Identity();
         corner_value[f].emplace_back(c, value);
         const int r = (*in.face_region)[f];

@@ -69,7 +69,6 @@ struct GradientInput {
   const CutMesh* cut = nullptr;
   const std::vector<int>* face_region = nullptr;           ///< per cut face
   const std::vector<std::vector<Vertex>>* chain_vertices = nullptr;
-  const std::vector<std::vector<Halfedge>>* chain_halfedges = nullptr;
   const std::vector<std::string>* profile_ids = nullptr;
   const std::vector<char>* constrained = nullptr;          ///< per cut vertex
   const std::vector<std::map<int, double>>* constraint_weights = nullptr; ///< per cut vertex

@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <set>
 #include <fstream>
 #include <sstream>
 
@@ -149,13 +148,11 @@ Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
 
 std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
                                          double t) {
-  std::set<std::string> names;
+  // The clip's entries for the joints it shares with `joints`, by name.
+  Pose all = pose_from_clip(clips, clip, t), pose;
   for (const auto& j : joints)
-    names.insert(j.name);
-  Pose pose;
-  for (auto& [name, entry] : pose_from_clip(clips, clip, t))
-    if (names.count(name))
-      pose[name] = entry;
+    if (auto it = all.find(j.name); it != all.end())
+      pose.insert(*it);
   if (pose.empty() && !clips.joints.empty())
     throw InputError(clips.source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
   return skinning_matrices(joints, pose, clips.source);
