@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -85,7 +86,10 @@ void measure(const Character& ch) {
               mesh.num_faces(), skin.joints.size(), ch.clips.substr(ch.clips.find_last_of('/') + 1).c_str());
   StarterResult st;
   try {
-    st = make_starter(mesh, skin.joints);
+    StarterOptions so;
+    if (const char* r = std::getenv("RPB"))
+      so.rings_per_bone = std::atoi(r);
+    st = make_starter(mesh, skin.joints, so);
   } catch (const Error& e) {
     std::printf("  starter refused: %s\n\n", e.what());
     return;
@@ -101,7 +105,7 @@ void measure(const Character& ch) {
               "unjoined, %zu messages\n",
               st.rings, bending, st.rig.nodes.size(), st.rig.profiles.size(), st.net_components, st.joins, st.unjoined,
               st.messages.size());
-  for (size_t k = 0; k < std::min<size_t>(st.messages.size(), 6); ++k)
+  for (size_t k = 0; k < std::min<size_t>(st.messages.size(), getenv("ALL") ? 999 : 6); ++k)
     std::printf("    %s\n", st.messages[k].c_str());
   std::printf("  | mode | mean distance to the skin | max | worst volume change vs the skin's | most turned > 120 deg |\n"
               "  |---|---|---|---|---|\n");

@@ -1,8 +1,9 @@
 #pragma once
 /// \file starter.hpp
-/// A starter Curvenet from a skeleton: rings where planes through the joints
-/// cut the limbs, profiles along each chain between its rings, and joins
-/// where chains branch. The result is a rig file a rigger then edits.
+/// A starter Curvenet from a skeleton: a ring around the limb at every joint
+/// (a plane section local to the joint's bones, moved along the bone past a
+/// fork), profiles along each chain between its rings, and joins on both
+/// sides where chains branch. The result is a rig file a rigger then edits.
 
 #include "curvenet/rig.hpp"
 #include "curvenet/surface_mesh.hpp"
@@ -10,6 +11,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace curvenet {
@@ -24,9 +26,10 @@ struct StarterOptions {
   /// local X axis), about the bone, in degrees.
   double first_angle_deg = 0;
   AutoWeightOptions weights;
-  /// Rings closer than this (as a fraction of the bounding-box diagonal, and
-  /// at least half a mean edge length) are too close: the larger is dropped.
-  double min_ring_gap = 0.015;
+  /// Rings closer than this fraction of the smaller one's radius are too
+  /// close: the larger is moved along its bone, or dropped when it cannot
+  /// move clear. Profiles that share no node keep half of it.
+  double ring_gap = 0.25;
   std::function<void(const std::string&)> message; ///< what was moved, dropped or not joined
 };
 
@@ -37,6 +40,8 @@ struct StarterResult {
   int joins = 0;          ///< branch joins made
   int unjoined = 0;       ///< chains that could not be joined to their parent
   int net_components = 0; ///< connected components of the net
+  /// Joints with no ring of their own, each with the reason.
+  std::vector<std::pair<std::string, std::string>> ringless;
 };
 
 /// Builds a starter net on `mesh` for the skeleton `joints` (bind matrices in

@@ -6,6 +6,7 @@
 
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
+#include "core/predicates.hpp"
 #include "starter/plane_section.hpp"
 
 #include <algorithm>
@@ -15,6 +16,8 @@
 #include <numbers>
 #include <regex>
 #include <set>
+
+#include <Eigen/Eigenvalues>
 
 namespace curvenet {
 
@@ -27,6 +30,7 @@ struct Skeleton {
   std::vector<int> parent;
   std::vector<std::vector<int>> kids;
   std::vector<Eigen::Matrix3d> rotation;
+  std::vector<int> subtree; ///< joints in the subtree, the joint included
 
   explicit Skeleton(const std::vector<Joint>& joints) {
     const int n = static_cast<int>(joints.size());
@@ -43,14 +47,31 @@ struct Skeleton {
         kids[parent[j]].push_back(j);
       }
     }
+    subtree.assign(n, 1);
+    for (int j = 0; j < n; ++j) // a joint's ancestors (the hierarchy is acyclic: the rig reader checks it)
+      for (int a = parent[j], guard = 0; a >= 0 && guard < n; a = parent[a], ++guard)
+        ++subtree[a];
   }
+};
+
+/// Where a ring may sit: the plane through base + t * step, with normal
+/// `along` (or `start_axis` at t = 0), for t in [t_min, t_max]. Moving a ring
+/// along its bone raises t.
+struct Placement {
+  Vec3 base = Vec3::Zero(), step = Vec3::Zero();
+  Vec3 along = Vec3::UnitZ(), start_axis = Vec3::UnitZ();
+  double t_min = 0, t_max = 0;
+  [[nodiscard]] Vec3 point(double t) const { return base + t * step; }
+  [[nodiscard]] Vec3 axis(double t) const { return t == 0 ? start_axis : along; }
 };
 
 /// A ring: a closed section around a limb (or around several, a trunk).
 struct Ring {
   std::string id;
-  int joint = -1;  ///< the joint whose plane made it
-  double frac = 1; ///< where on the bone into `joint` (1: at the joint)
+  int joint = -1;  ///< the joint it belongs to
+  double frac = 1; ///< its order among the rings of `joint` (1: the joint's own ring)
+  Placement place;
+  double t = 0; ///< where in `place` it sits
   Vec3 centre = Vec3::Zero();
   Vec3 axis = Vec3::UnitZ(); ///< the plane's normal, along the bone
   std::vector<Vec3> loop;    ///< counter-clockwise about `axis`
@@ -58,7 +79,9 @@ struct Ring {
   double perimeter = 0;
   int replaced_by = -1; ///< dropped: the ring that stands for it
   bool active = false;
+  Vec3 ref = Vec3::Zero();        ///< direction of node 0 from the centre
   std::vector<double> base_nodes; ///< arc-length positions of nodes 0..N-1
+  [[nodiscard]] double radius() const { return perimeter / (2 * std::numbers::pi); }
 };
 
 Vec3 loop_point(const Ring& r, double s) {
@@ -190,6 +213,113 @@ std::vector<std::string> quoted(const std::string& text) {
   return out;
 }
 
+/// The smallest closed section of the plane (point, axis) that winds around
+/// `point`, as a ring: counter-clockwise about the axis, with its area
+/// centroid and arc lengths.
+std::optional<Ring> section_ring(const SectionMesh& sm, const Vec3& point, const Vec3& axis) {
+  const Section* best = nullptr;
+  const auto sections = plane_sections(sm, point, axis);
+  for (const Section& s : sections)
+    if (s.closed && s.points.size() >= 3 && winding_number(s.points, point, point, axis) != 0 &&
+        (!best || s.length() < best->length()))
+      best = &s;
+  if (!best)
+    return std::nullopt;
+  Ring r;
+  r.axis = axis.normalized();
+  r.loop = best->points;
+  const auto [u, v] = plane_basis(r.axis);
+  double area = 0;
+  Eigen::Vector2d c2 = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < r.loop.size(); ++i) {
+    const Vec3 a = r.loop[i] - point, b = r.loop[(i + 1) % r.loop.size()] - point;
+    const double cr = a.dot(u) * b.dot(v) - a.dot(v) * b.dot(u);
+    area += cr / 2;
+    c2 += cr * Eigen::Vector2d(a.dot(u) + b.dot(u), a.dot(v) + b.dot(v)) / 6;
+  }
+  if (area == 0)
+    return std::nullopt;
+  if (area < 0)
+    std::reverse(r.loop.begin(), r.loop.end());
+  r.centre = point + (c2.x() / area) * u + (c2.y() / area) * v;
+  double acc = 0;
+  for (size_t i = 0; i < r.loop.size(); ++i) {
+    r.at.push_back(acc);
+    acc += (r.loop[(i + 1) % r.loop.size()] - r.loop[i]).norm();
+  }
+  r.perimeter = acc;
+  return r;
+}
+
+/// A ring's section is local to its joint when no bone but the joint's own
+/// (those that start or end at it) passes through the plane inside the
+/// loop. Returns the first foreign bone (its child joint) inside, or -1.
+/// Which side of the plane a bone's end lies on is an exact test.
+int foreign_bone_inside(const Ring& r, const Vec3& point, int joint, const Skeleton& sk) {
+  const auto [u, v] = plane_basis(r.axis);
+  const Vec3 o1 = point + u, o2 = point + v;
+  for (int c = 0; c < static_cast<int>(sk.parent.size()); ++c) {
+    const int p = sk.parent[c];
+    if (p < 0 || p == joint || c == joint)
+      continue;
+    const Vec3 &a = sk.origin[p], &b = sk.origin[c];
+    const int sa = orient3d(point, o1, o2, a), sb = orient3d(point, o1, o2, b);
+    if (sa == 0 || sb == 0 || sa == sb)
+      continue;
+    const double da = (a - point).dot(r.axis), db = (b - point).dot(r.axis);
+    const Vec3 x = a + (da / (da - db)) * (b - a);
+    if (winding_number(r.loop, x, point, r.axis) != 0)
+      return c;
+  }
+  return -1;
+}
+
+/// Nodes at angles 2 pi k / N about the axis from r.ref, where rays from the
+/// centre meet the loop; spread by arc length when they do not meet it in
+/// order. Returns false in that case.
+bool place_nodes(Ring& r, int N, double first_angle_deg) {
+  Vec3 ref = r.ref - r.ref.dot(r.axis) * r.axis;
+  if (ref.norm() < 1e-9)
+    ref = plane_basis(r.axis)[0];
+  ref.normalize();
+  const Vec3 side = r.axis.cross(ref);
+  std::vector<double> pos;
+  for (int k = 0; k < N; ++k) {
+    const double ang = 2 * std::numbers::pi * k / N + first_angle_deg * std::numbers::pi / 180;
+    const Vec3 dir = std::cos(ang) * ref + std::sin(ang) * side;
+    const Vec3 perp = r.axis.cross(dir);
+    // Nearest crossing of the ray from the centre with the loop.
+    double best = std::numeric_limits<double>::infinity(), best_s = -1;
+    for (size_t q = 0; q < r.loop.size(); ++q) {
+      const Vec3 a = r.loop[q] - r.centre, b = r.loop[(q + 1) % r.loop.size()] - r.centre;
+      // Solve lambda * dir = a + t (b - a) in the plane (2D, basis dir / perp).
+      const double ax = a.dot(dir), ay = a.dot(perp), bx = b.dot(dir), by = b.dot(perp);
+      if ((ay > 0) == (by > 0) && ay != 0 && by != 0)
+        continue;
+      const double t = ay != by ? ay / (ay - by) : 0;
+      const double lambda = ax + t * (bx - ax);
+      if (lambda > 0 && lambda < best) {
+        best = lambda;
+        best_s = r.at[q] + t * (b - a).norm();
+      }
+    }
+    pos.push_back(best_s);
+  }
+  bool in_order = pos[0] >= 0;
+  for (int k = 1; k < N && in_order; ++k) {
+    const double prev = std::fmod(pos[k - 1] - pos[0] + r.perimeter, r.perimeter);
+    const double cur = std::fmod(pos[k] - pos[0] + r.perimeter, r.perimeter);
+    in_order = pos[k] >= 0 && cur > prev;
+  }
+  if (!in_order) {
+    const double s0 = pos[0] >= 0 ? pos[0] : 0;
+    for (int k = 0; k < N; ++k)
+      pos[k] = std::fmod(s0 + r.perimeter * k / N, r.perimeter);
+  }
+  r.base_nodes = pos;
+  return in_order;
+}
+
 } // namespace
 
 StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& joints, const StarterOptions& opt) {
@@ -197,6 +327,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     throw InputError(mesh.source, "skeleton", "has no joints");
   if (opt.nodes_per_ring < 2)
     throw Error("starter: at least 2 nodes per ring are needed");
+  if (opt.rings_per_bone < 1)
+    throw Error("starter: at least 1 ring per bone is needed");
   if (joints.size() > 1 &&
       std::all_of(joints.begin(), joints.end(), [](const Joint& j) { return !j.parent.has_value(); }))
     throw InputError(mesh.source, "skeleton",
@@ -215,68 +347,139 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   const double tol = 1e-6 * diag;
   const int N = opt.nodes_per_ring;
   const int nj = static_cast<int>(joints.size());
+  std::map<int, std::string> ringless; // joint -> why it has no ring (the latest reason)
+  auto bone_name = [&](int c) { return "'" + joints[sk.parent[c]].name + "'-'" + joints[c].name + "'"; };
+  auto percent = [](double t) { return std::to_string(static_cast<int>(std::lround(100 * t))) + "%"; };
 
-  // 1. Candidate rings: planes through each joint (and along each bone).
+  // 1. Candidate rings, local to their bones.
+  struct Probe {
+    std::optional<Ring> ring;
+    int foreign = -1;
+  };
+  auto probe = [&](int j, const Placement& pl, double t) {
+    Probe q;
+    q.ring = section_ring(sm, pl.point(t), pl.axis(t));
+    if (q.ring) {
+      q.foreign = foreign_bone_inside(*q.ring, pl.point(t), j, sk);
+      q.ring->place = pl;
+      q.ring->t = t;
+      q.ring->joint = j;
+    }
+    return q;
+  };
+  auto local = [&](const Probe& q) { return q.ring && q.foreign < 0 && static_cast<int>(q.ring->loop.size()) >= N; };
+  // The first local ring in the placement's range, moved on past where the
+  // section first becomes local.
+  auto first_local = [&](int j, const Placement& pl, std::string& why) -> std::optional<Ring> {
+    constexpr int steps = 10;
+    const bool range = pl.t_max > pl.t_min;
+    double prev = pl.t_min;
+    int foreign = -1, small = 0;
+    for (int k = 0; k <= (range ? steps : 0); ++k) {
+      const double t = pl.t_min + (pl.t_max - pl.t_min) * k / steps;
+      const Probe q = probe(j, pl, t);
+      if (local(q)) {
+        if (k == 0)
+          return q.ring;
+        double lo = prev, hi = t;
+        for (int it = 0; it < 6; ++it) {
+          const double mid = (lo + hi) / 2;
+          (local(probe(j, pl, mid)) ? hi : lo) = mid;
+        }
+        // Clear of a fork by a third of the radius, clear of the surface's
+        // rounded end (no section before) by a whole radius.
+        const double len = pl.step.norm(), clear = (foreign >= 0 ? 1.0 / 3 : 1.0) * q.ring->radius() / len;
+        // The furthest of a few steps back from there that is local.
+        for (const double back : {0.0, 0.25, 0.5, 0.75})
+          if (Probe m = probe(j, pl, std::min(pl.t_max, hi + (1 - back) * clear)); local(m))
+            return m.ring;
+        return q.ring;
+      }
+      if (q.ring && q.foreign >= 0)
+        foreign = q.foreign;
+      else if (q.ring)
+        ++small;
+      prev = t;
+    }
+    why = foreign >= 0 ? "every section across its bone" + (range ? " up to " + percent(pl.t_max) + " along it" : "") +
+                             " also encloses bone " + bone_name(foreign) + " (a shared trunk)"
+          : small ? "its section crosses fewer mesh edges than " + std::to_string(N) + " nodes need"
+                  : "no section there winds around its bone (outside the mesh)";
+    return std::nullopt;
+  };
+
   std::vector<Ring> rings;
+  const int R = opt.rings_per_bone;
+  auto suffix = [&](int i) { return R > 1 ? "_" + std::to_string(i) : std::string(); };
   for (int j = 0; j < nj; ++j) {
     const int p = sk.parent[j];
-    std::vector<std::pair<double, Vec3>> spots; // (frac, point)
-    Vec3 bone;
-    if (p >= 0) {
-      bone = sk.origin[j] - sk.origin[p];
-      for (int i = 1; i <= opt.rings_per_bone; ++i)
-        spots.emplace_back(static_cast<double>(i) / opt.rings_per_bone,
-                           sk.origin[p] + bone * (static_cast<double>(i) / opt.rings_per_bone));
-    } else if (sk.kids[j].size() == 1) {
-      bone = sk.origin[sk.kids[j][0]] - sk.origin[j];
-      spots.emplace_back(1.0, sk.origin[j]);
+    const auto& kids = sk.kids[j];
+    const std::string& name = joints[j].name;
+    Placement pl;
+    std::optional<Ring> own;
+    bool leaf_along_bone = false;
+    if (!kids.empty() && p >= 0 && kids.size() == 1) {
+      // Through the joint across the bisector of its two bones; if that
+      // section is not local, along the bone out of it.
+      const Vec3 in = sk.origin[j] - sk.origin[p], out = sk.origin[kids[0]] - sk.origin[j];
+      if (out.norm() > 0) {
+        Vec3 start = in.norm() > 0 ? in.normalized() : out.normalized();
+        if (in.norm() > 0 && (start + out.normalized()).norm() > 1e-6)
+          start = (start + out.normalized()).normalized();
+        pl = {sk.origin[j], out, out.normalized(), start, 0, 0.75};
+      }
+    } else if (!kids.empty() && p >= 0) { // several children: back up the bone into the joint
+      const Vec3 in = sk.origin[j] - sk.origin[p];
+      if (in.norm() > 0)
+        pl = {sk.origin[j], -in, in.normalized(), in.normalized(), 0, 0.6};
+    } else if (!kids.empty()) { // a root: toward its trunk, the child with the largest subtree (ties averaged)
+      int most = 0;
+      for (int c : kids)
+        most = std::max(most, sk.subtree[c]);
+      Vec3 step = Vec3::Zero();
+      for (int c : kids)
+        if (sk.subtree[c] == most)
+          step += sk.origin[c] - sk.origin[j];
+      if (step.norm() > 0)
+        pl = {sk.origin[j], step, step.normalized(), step.normalized(), 0, 0.7};
+    } else if (p >= 0) { // a leaf: at the joint if the limb goes on past it, else half-way along its bone
+      const Vec3 in = sk.origin[j] - sk.origin[p];
+      if (in.norm() > 0) {
+        pl = {sk.origin[j], in, in.normalized(), in.normalized(), 0, 0.5};
+        const Probe q = probe(j, pl, 0);
+        if (local(q) && section_ring(sm, sk.origin[j] + q.ring->radius() * in.normalized(), in))
+          own = q.ring;
+        else {
+          pl = {sk.origin[p], in, in.normalized(), in.normalized(), 0.5, 0.8};
+          leaf_along_bone = true;
+        }
+      }
     }
-    if (bone.norm() <= 0)
-      continue;
-    for (const auto& [frac, point] : spots) {
-      Vec3 axis = bone.normalized();
-      if (frac == 1.0 && p >= 0 && sk.kids[j].size() == 1) { // bisect the angle at the joint
-        const Vec3 out = sk.origin[sk.kids[j][0]] - sk.origin[j];
-        if (out.norm() > 0 && (axis + out.normalized()).norm() > 1e-6)
-          axis = (axis + out.normalized()).normalized();
+    // Extra rings along the bone into the joint.
+    if (p >= 0 && R > 1 && !leaf_along_bone) {
+      const Vec3 bone = sk.origin[j] - sk.origin[p];
+      for (int i = 1; i < R && bone.norm() > 0; ++i) {
+        const double f = static_cast<double>(i) / R;
+        std::string why;
+        if (auto r = first_local(j, {sk.origin[p], bone, bone.normalized(), bone.normalized(), f, f + 0.5 / R}, why)) {
+          r->id = name + suffix(i);
+          r->frac = f;
+          rings.push_back(std::move(*r));
+        } else {
+          say("ring '" + name + suffix(i) + "' not made: " + why);
+        }
       }
-      // The smallest closed section that winds around the joint.
-      const Section* best = nullptr;
-      const auto sections = plane_sections(sm, point, axis);
-      for (const Section& s : sections)
-        if (s.closed && s.points.size() >= 3 && winding_number(s.points, point, point, axis) != 0 &&
-            (!best || s.length() < best->length()))
-          best = &s;
-      if (!best)
-        continue;
-      Ring r;
-      r.id = joints[j].name + (opt.rings_per_bone > 1
-                                   ? "_" + std::to_string(static_cast<int>(std::lround(frac * opt.rings_per_bone)))
-                                   : "");
-      r.joint = j;
-      r.frac = frac;
-      r.axis = axis;
-      r.loop = best->points;
-      // Counter-clockwise about the axis, and the area centroid.
-      const auto [u, v] = plane_basis(axis);
-      double area = 0;
-      Eigen::Vector2d c2 = Eigen::Vector2d::Zero();
-      for (size_t i = 0; i < r.loop.size(); ++i) {
-        const Vec3 a = r.loop[i] - point, b = r.loop[(i + 1) % r.loop.size()] - point;
-        const double cr = a.dot(u) * b.dot(v) - a.dot(v) * b.dot(u);
-        area += cr / 2;
-        c2 += cr * Eigen::Vector2d(a.dot(u) + b.dot(u), a.dot(v) + b.dot(v)) / 6;
-      }
-      if (area < 0)
-        std::reverse(r.loop.begin(), r.loop.end());
-      r.centre = point + (c2.x() / area) * u + (c2.y() / area) * v;
-      double acc = 0;
-      for (size_t i = 0; i < r.loop.size(); ++i) {
-        r.at.push_back(acc);
-        acc += (r.loop[(i + 1) % r.loop.size()] - r.loop[i]).norm();
-      }
-      r.perimeter = acc;
-      rings.push_back(std::move(r));
+    }
+    std::string why = "its bone has no length";
+    if (!own && pl.step.norm() > 0)
+      own = first_local(j, pl, why);
+    if (own) {
+      own->id = name + suffix(R);
+      own->frac = 1;
+      rings.push_back(std::move(*own));
+    } else {
+      ringless[j] = why;
+      say("joint '" + name + "' has no ring: " + why);
     }
   }
   if (rings.empty())
@@ -284,9 +487,31 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         mesh.source, "skeleton",
         "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
 
-  // 2. Keep rings greedily, smallest first; drop rings too small for their
-  //    nodes, or too close to (or crossing) a ring already kept.
-  const double gap = std::max(opt.min_ring_gap * diag, 0.5 * h);
+  // 2. Keep rings greedily, smallest first. A ring too close to one already
+  //    kept (the gap scales with the smaller ring's radius) is moved along
+  //    its bone, and dropped only when that does not clear it.
+  auto gap = [&](const Ring& a, const Ring& b) { return opt.ring_gap * std::min(a.radius(), b.radius()); };
+  auto conflict_with = [&](const Ring& r, const std::vector<int>& among, int self) {
+    for (int k : among)
+      if (k != self && polyline_distance(r.loop, true, rings[k].loop, true) < gap(r, rings[k]))
+        return k;
+    return -1;
+  };
+  // One step (a tenth of its range's bone) further along its bone, if the
+  // section there is local.
+  auto move_on = [&](Ring& r) {
+    for (double t = r.t + 0.1; t <= r.place.t_max + 1e-9; t += 0.1)
+      if (Probe q = probe(r.joint, r.place, t); local(q)) {
+        r.t = q.ring->t;
+        r.centre = q.ring->centre;
+        r.axis = q.ring->axis;
+        r.loop = std::move(q.ring->loop);
+        r.at = std::move(q.ring->at);
+        r.perimeter = q.ring->perimeter;
+        return true;
+      }
+    return false;
+  };
   std::vector<int> order(rings.size());
   for (size_t i = 0; i < order.size(); ++i)
     order[i] = static_cast<int>(i);
@@ -294,22 +519,24 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   std::vector<int> kept;
   for (int i : order) {
     Ring& r = rings[i];
-    if (static_cast<int>(r.loop.size()) < N) {
-      say("ring '" + r.id + "' dropped: too small for " + std::to_string(N) + " nodes at this mesh resolution");
-      continue;
-    }
-    int conflict = -1;
-    for (int k : kept)
-      if (polyline_distance(r.loop, true, rings[k].loop, true) < gap) {
-        conflict = k;
-        break;
-      }
+    const double t0 = r.t;
+    int conflict = conflict_with(r, kept, i);
+    const int first_conflict = conflict;
+    while (conflict >= 0 && move_on(r))
+      conflict = conflict_with(r, kept, i);
     if (conflict >= 0) {
       r.replaced_by = conflict;
-      say("ring '" + r.id + "' dropped: it comes within " + std::to_string(gap) + " of ring '" + rings[conflict].id +
-          "'");
+      const std::string m = "ring '" + r.id + "' dropped: it comes within " + std::to_string(gap(r, rings[conflict])) +
+                            " of ring '" + rings[conflict].id + "'" +
+                            (r.place.t_max > t0 ? ", moved as far along its bone as it goes" : "");
+      say(m);
+      if (r.frac == 1)
+        ringless[r.joint] = m;
       continue;
     }
+    if (first_conflict >= 0)
+      say("ring '" + r.id + "' moved along its bone (" + percent(t0) + " to " + percent(r.t) +
+          "): it came too close to ring '" + rings[first_conflict].id + "'");
     r.active = true;
     kept.push_back(i);
   }
@@ -319,62 +546,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     return i >= 0 && rings[i].active ? i : -1;
   };
 
-  // 3. Nodes at consistent angles: one reference direction per chain.
-  for (int i : kept) {
-    Ring& r = rings[i];
-    int root = r.joint;
-    while (sk.parent[root] >= 0 && sk.kids[sk.parent[root]].size() == 1)
-      root = sk.parent[root];
-    Vec3 ref = sk.rotation[root].col(0);
-    ref -= ref.dot(r.axis) * r.axis;
-    if (ref.norm() < 0.3) {
-      ref = sk.rotation[root].col(2);
-      ref -= ref.dot(r.axis) * r.axis;
-    }
-    if (ref.norm() < 1e-9)
-      ref = plane_basis(r.axis)[0];
-    ref.normalize();
-    const Vec3 side = r.axis.cross(ref);
-    std::vector<double> pos;
-    for (int k = 0; k < N; ++k) {
-      const double ang = 2 * std::numbers::pi * k / N + opt.first_angle_deg * std::numbers::pi / 180;
-      const Vec3 dir = std::cos(ang) * ref + std::sin(ang) * side;
-      const Vec3 perp = r.axis.cross(dir);
-      // Nearest crossing of the ray from the centre with the loop.
-      double best = std::numeric_limits<double>::infinity(), best_s = -1;
-      for (size_t q = 0; q < r.loop.size(); ++q) {
-        const Vec3 a = r.loop[q] - r.centre, b = r.loop[(q + 1) % r.loop.size()] - r.centre;
-        // Solve lambda * dir = a + t (b - a) in the plane (2D, basis dir / side).
-        const double ax = a.dot(dir), ay = a.dot(perp), bx = b.dot(dir), by = b.dot(perp);
-        if ((ay > 0) == (by > 0) && ay != 0 && by != 0)
-          continue;
-        const double t = ay != by ? ay / (ay - by) : 0;
-        const double lambda = ax + t * (bx - ax);
-        if (lambda > 0 && lambda < best) {
-          best = lambda;
-          best_s = r.at[q] + t * (b - a).norm();
-        }
-      }
-      pos.push_back(best_s);
-    }
-    // The loop must meet the rays in order around it; otherwise spread the
-    // nodes evenly by arc length from node 0.
-    bool in_order = pos[0] >= 0;
-    for (int k = 1; k < N && in_order; ++k) {
-      const double prev = std::fmod(pos[k - 1] - pos[0] + r.perimeter, r.perimeter);
-      const double cur = std::fmod(pos[k] - pos[0] + r.perimeter, r.perimeter);
-      in_order = pos[k] >= 0 && cur > prev;
-    }
-    if (!in_order) {
-      const double s0 = pos[0] >= 0 ? pos[0] : 0;
-      for (int k = 0; k < N; ++k)
-        pos[k] = std::fmod(s0 + r.perimeter * k / N, r.perimeter);
-      say("ring '" + r.id + "': nodes spread by arc length (the section is not star-shaped about its centre)");
-    }
-    r.base_nodes = pos;
-  }
-
-  // 4. Each ring's parent: the ring at the nearest position up the skeleton.
+  // 3. Each ring's parent: the ring at the nearest position up the skeleton.
   std::map<int, std::vector<int>> at_joint; // joint -> candidate rings, by frac descending
   for (size_t i = 0; i < rings.size(); ++i)
     at_joint[rings[i].joint].push_back(static_cast<int>(i));
@@ -409,15 +581,50 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     }
   }
 
-  // 5. Build, embed, and on a failure drop what failed; repeat.
+  // 4. Nodes at consistent angles: node 0's direction is carried from each
+  //    ring's parent ring; a ring with none starts from its chain root's
+  //    local X axis.
+  std::vector<int> by_depth = kept;
+  auto depth = [&](int i) {
+    int d = 0;
+    for (int p = parent_ring[i]; p >= 0 && d <= static_cast<int>(kept.size()); p = parent_ring[p])
+      ++d;
+    return d;
+  };
+  std::stable_sort(by_depth.begin(), by_depth.end(), [&](int a, int b) { return depth(a) < depth(b); });
+  for (int i : by_depth) {
+    Ring& r = rings[i];
+    Vec3 ref = Vec3::Zero();
+    if (parent_ring[i] >= 0)
+      ref = rings[parent_ring[i]].ref - rings[parent_ring[i]].ref.dot(r.axis) * r.axis;
+    if (ref.norm() < 0.3) {
+      int root = r.joint;
+      while (sk.parent[root] >= 0 && sk.kids[sk.parent[root]].size() == 1)
+        root = sk.parent[root];
+      ref = sk.rotation[root].col(0);
+      ref -= ref.dot(r.axis) * r.axis;
+      if (ref.norm() < 0.3) {
+        ref = sk.rotation[root].col(2);
+        ref -= ref.dot(r.axis) * r.axis;
+      }
+    }
+    r.ref = ref.norm() > 1e-9 ? Vec3(ref.normalized()) : plane_basis(r.axis)[0];
+    if (!place_nodes(r, N, opt.first_angle_deg))
+      say("ring '" + r.id + "': nodes spread by arc length (the section is not star-shaped about its centre)");
+  }
+
+  // 5. Build, embed, and on a failure move or drop what failed; repeat.
   std::set<int> dropped;
-  std::map<int, int> join_attempt; // child ring -> 0: new node on parent, 1: parent's nearest node, 2: unjoined
+  std::map<int, int> join_attempt; // 2 * child ring + slot -> 0: new node on parent, 1: parent's nearest node, 2: none
+  std::map<int, std::string> join_failure; // child ring -> why its last join was given up
   for (int attempt = 0;; ++attempt) {
     Rig rig;
     rig.coverage = opt.coverage;
     rig.has_skeleton = true;
     rig.joints = joints;
-    std::map<std::string, std::pair<char, int>> owner; // profile -> (kind: a arc, l longitudinal, j join; ring)
+    // profile -> (kind: a arc, l longitudinal, j join; ring, or 2 * child ring + slot for a join)
+    std::map<std::string, std::pair<char, int>> owner;
+    std::map<std::string, double> scale; // profile -> the radius of the limb it is on
     std::vector<int> active;
     for (int i : kept)
       if (!dropped.count(i))
@@ -432,108 +639,177 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     for (int i : active)
       if (effective_parent(i) >= 0)
         children[effective_parent(i)].push_back(i);
-    // Series: a parent with one child ring gets N profiles along the chain;
-    // where a chain branches, each child ring joins its parent by one profile.
+    // Series: a parent with one child ring, or the child that carries its
+    // trunk on (the one ring ahead along its axis and at least 0.6 its size), gets
+    // N profiles along the chain; every other child joins its parent by
+    // profiles that leave it on the two sides of the fork (the back and the
+    // palm of a hand, the front and back of a hip or shoulder).
     std::map<int, int> series_child;
-    for (auto& [p, list] : children)
-      if (list.size() == 1)
+    std::map<int, Vec3> across; // parent -> the direction the join nodes face
+    for (auto& [p, list] : children) {
+      const Ring& pr = rings[p];
+      if (list.size() == 1) {
         series_child[p] = list[0];
+        continue;
+      }
+      std::vector<int> ahead;
+      for (int c : list) {
+        const Vec3 d = rings[c].centre - pr.centre;
+        if (d.norm() > 0 && rings[c].perimeter >= 0.6 * pr.perimeter &&
+            d.normalized().dot(pr.axis) > std::cos(35.0 * std::numbers::pi / 180.0))
+          ahead.push_back(c);
+      }
+      if (ahead.size() == 1) // several peers ahead (the fingers of a palm) all join
+        series_child[p] = ahead[0];
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (int c : list) {
+        Vec3 d = rings[c].centre - pr.centre;
+        d -= d.dot(pr.axis) * pr.axis;
+        cov += d * d.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+      Vec3 w = pr.axis.cross(es.eigenvectors().col(2));
+      if (w.norm() < 1e-9)
+        w = pr.ref;
+      w.normalize();
+      if (w.dot(pr.ref) < 0 || (w.dot(pr.ref) == 0 && w.dot(pr.axis.cross(pr.ref)) < 0))
+        w = -w; // a sign from the skeleton, not from the eigen solver
+      across[p] = w;
+    }
     // Extra nodes on parents where joins land.
     std::map<int, std::vector<std::pair<double, std::string>>> extra; // ring -> (arc pos, node id)
     struct Join {
-      int child, parent, child_node;
+      int child, parent, slot, child_node;
       std::string target;
       Vec3 to;
       std::optional<std::vector<Vec3>> path;
     };
     std::vector<Join> joins;
-    int unjoined = 0;
+    std::vector<int> unjoined;
     for (int c : active) {
       const int p = effective_parent(c);
       if (p < 0 || (series_child.count(p) && series_child[p] == c))
         continue;
-      const int mode = join_attempt[c];
-      if (mode >= 2) {
-        ++unjoined;
-        continue;
-      }
-      // The child's node nearest to the parent's loop.
-      int best_k = 0;
-      double best_d = std::numeric_limits<double>::infinity(), best_s = 0;
-      for (int k = 0; k < N; ++k) {
-        double d = 0;
-        const double s = closest_on_loop(rings[p], loop_point(rings[c], rings[c].base_nodes[k]), &d);
-        if (d < best_d) {
-          best_d = d;
-          best_k = k;
-          best_s = s;
+      const Ring &pr = rings[p], &cr = rings[c];
+      std::vector<int> nodes_used;
+      bool any = false;
+      for (int slot = 0; slot < 2; ++slot) {
+        const int mode = join_attempt[2 * c + slot];
+        // The child's node furthest to this slot's side.
+        int best_k = 0;
+        for (int k = 1; k < N; ++k) {
+          const double side = slot == 0 ? 1 : -1;
+          if (side * across[p].dot(loop_point(cr, cr.base_nodes[k]) - cr.centre) >
+              side * across[p].dot(loop_point(cr, cr.base_nodes[best_k]) - cr.centre))
+            best_k = k;
         }
-      }
-      Join jn{c, p, best_k, "", Vec3::Zero(), std::nullopt};
-      const Ring& pr = rings[p];
-      const Vec3 from = loop_point(rings[c], rings[c].base_nodes[best_k]);
-      if (mode == 0) {
-        jn.to = loop_point(pr, best_s);
-      } else {
-        int nk = 0;
-        for (int k = 1; k < N; ++k)
-          if ((loop_point(pr, pr.base_nodes[k]) - from).norm() < (loop_point(pr, pr.base_nodes[nk]) - from).norm())
-            nk = k;
-        jn.target = pr.id + "_" + std::to_string(nk);
-        jn.to = loop_point(pr, pr.base_nodes[nk]);
-      }
-      // The plane holds the outward direction at the target, so the join
-      // meets the parent ring square rather than glancing along it.
-      Vec3 out = jn.to - pr.centre;
-      out -= out.dot(pr.axis) * pr.axis;
-      // Of the candidate paths, take the first that meets the ring at a
-      // clear angle (at least 35 degrees); stop it where it first meets the ring.
-      const double min_sin = std::sin(35.0 * std::numbers::pi / 180.0);
-      double best_sin = -1;
-      for (auto& path : surface_paths(sm, from, jn.to, {jn.to + out, (pr.centre + rings[c].centre) / 2}, tol)) {
-        double s_hit = -1;
-        size_t cut = path.size() - 1;
-        for (size_t i = 0; i + 1 < path.size() && s_hit < 0; ++i) {
-          Vec3 hit = Vec3::Zero();
-          for (size_t q = 0; q < pr.loop.size(); ++q)
-            if (segment_distance(path[i], path[i + 1], pr.loop[q], pr.loop[(q + 1) % pr.loop.size()], &hit) < tol) {
-              s_hit = closest_on_loop(pr, hit);
-              cut = i;
+        if (std::find(nodes_used.begin(), nodes_used.end(), best_k) != nodes_used.end())
+          continue;
+        nodes_used.push_back(best_k);
+        if (mode >= 2)
+          continue;
+        any = true;
+        const Vec3 from = loop_point(cr, cr.base_nodes[best_k]);
+        double best_s = closest_on_loop(pr, from);
+        Join jn{c, p, slot, best_k, "", Vec3::Zero(), std::nullopt};
+        // A landing next to one of the parent's nodes (or another join's)
+        // lands on that node.
+        int near_node = -1;
+        std::string near_extra;
+        for (int k = 0; k < N; ++k)
+          if ((loop_point(pr, pr.base_nodes[k]) - loop_point(pr, best_s)).norm() < opt.ring_gap * pr.radius())
+            near_node = k;
+        for (const auto& [s_extra, id] : extra[p])
+          if (near_node < 0 && (loop_point(pr, s_extra) - loop_point(pr, best_s)).norm() < opt.ring_gap * pr.radius())
+            near_extra = id, best_s = s_extra;
+        if (mode == 0 && !near_extra.empty()) {
+          jn.target = near_extra;
+          jn.to = loop_point(pr, best_s);
+        } else if (mode == 0 && near_node < 0) {
+          jn.to = loop_point(pr, best_s);
+        } else {
+          int nk = mode == 0 ? near_node : 0;
+          for (int k = 1; k < N && mode > 0; ++k)
+            if ((loop_point(pr, pr.base_nodes[k]) - from).norm() < (loop_point(pr, pr.base_nodes[nk]) - from).norm())
+              nk = k;
+          jn.target = pr.id + "_" + std::to_string(nk);
+          jn.to = loop_point(pr, pr.base_nodes[nk]);
+        }
+        // The plane holds the outward direction at the target, so the join
+        // meets the parent ring square rather than glancing along it.
+        Vec3 out = jn.to - pr.centre;
+        out -= out.dot(pr.axis) * pr.axis;
+        // Of the candidate paths, take the first that meets the ring at a
+        // clear angle (at least 35 degrees); stop it where it first meets the ring.
+        const double min_sin = std::sin(35.0 * std::numbers::pi / 180.0);
+        double best_sin = -1;
+        // The first plane tried also holds the child's axis at its node, so
+        // the join leaves the child ring square too.
+        for (auto& path : surface_paths(sm, from, jn.to,
+                                        {from - cr.radius() * cr.axis, jn.to + out, (pr.centre + cr.centre) / 2}, tol)) {
+          double s_hit = -1;
+          size_t cut = path.size() - 1;
+          for (size_t i = 0; i + 1 < path.size() && s_hit < 0; ++i) {
+            Vec3 hit = Vec3::Zero();
+            for (size_t q = 0; q < pr.loop.size(); ++q)
+              if (segment_distance(path[i], path[i + 1], pr.loop[q], pr.loop[(q + 1) % pr.loop.size()], &hit) < tol) {
+                s_hit = closest_on_loop(pr, hit);
+                cut = i;
+                break;
+              }
+          }
+          if (s_hit < 0)
+            continue;
+          if (!jn.target.empty() && (loop_point(pr, s_hit) - jn.to).norm() > tol)
+            continue; // it would cross the ring before reaching its node
+          const Vec3 end = jn.target.empty() ? loop_point(pr, s_hit) : jn.to;
+          path.resize(cut + 1);
+          path.push_back(end);
+          // It must keep clear of every other ring, its own child ring
+          // included, away from its two ends.
+          bool clear = true;
+          for (int o : active) {
+            const double c = opt.ring_gap / 2 * std::min(cr.radius(), rings[o].radius());
+            std::vector<Vec3> middle;
+            for (const Vec3& q : path)
+              if ((q - from).norm() > 2 * c && (q - end).norm() > 2 * c)
+                middle.push_back(q);
+            if (middle.size() >= 2 && polyline_distance(middle, false, rings[o].loop, true) < c) {
+              clear = false;
               break;
             }
-        }
-        if (s_hit < 0)
-          continue;
-        if (mode == 1 && (loop_point(pr, s_hit) - jn.to).norm() > tol)
-          continue; // it would cross the ring before reaching its node
-        const Vec3 end = mode == 0 ? loop_point(pr, s_hit) : jn.to;
-        path.resize(cut + 1);
-        path.push_back(end);
-        // The incoming direction over the last half edge length, against the ring's tangent.
-        Vec3 in = Vec3::Zero();
-        for (size_t i = path.size() - 1; i-- > 0;) {
-          in = end - path[i];
-          if (in.norm() >= 0.5 * h)
+          }
+          if (!clear)
+            continue;
+          // The incoming direction over the last half edge length, against the ring's tangent.
+          Vec3 in = Vec3::Zero();
+          for (size_t i = path.size() - 1; i-- > 0;) {
+            in = end - path[i];
+            if (in.norm() >= 0.5 * h)
+              break;
+          }
+          const Vec3 tangent =
+              loop_point(pr, s_hit + 1e-3 * pr.perimeter) - loop_point(pr, s_hit - 1e-3 * pr.perimeter);
+          const double sine =
+              in.norm() > 0 && tangent.norm() > 0 ? in.normalized().cross(tangent.normalized()).norm() : 0;
+          if (sine > best_sin) {
+            best_sin = sine;
+            jn.path = path;
+            jn.to = end;
+            if (jn.target.empty())
+              best_s = s_hit;
+          }
+          if (sine >= min_sin)
             break;
         }
-        const Vec3 tangent = loop_point(pr, s_hit + 1e-3 * pr.perimeter) - loop_point(pr, s_hit - 1e-3 * pr.perimeter);
-        const double sine =
-            in.norm() > 0 && tangent.norm() > 0 ? in.normalized().cross(tangent.normalized()).norm() : 0;
-        if (sine > best_sin) {
-          best_sin = sine;
-          jn.path = path;
-          jn.to = end;
-          if (mode == 0)
-            best_s = s_hit;
+        if (jn.target.empty()) {
+          jn.target = pr.id + "_" + cr.id + (slot == 0 ? "_a" : "_b"); // named by the child: the same on every mesh
+          extra[p].emplace_back(best_s, jn.target);
         }
-        if (sine >= min_sin)
-          break;
+        joins.push_back(jn);
       }
-      if (mode == 0) {
-        jn.target = pr.id + "_j" + std::to_string(extra[p].size());
-        extra[p].emplace_back(best_s, jn.target);
-      }
-      joins.push_back(jn);
+      if (!any)
+        unjoined.push_back(c);
     }
     // Nodes and arcs of every ring.
     for (int i : active) {
@@ -555,14 +831,13 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         pr.to = b.second;
         pr.curve.points = loop_between(r, a.first, b.first);
         owner[pr.id] = {'a', i};
+        scale[pr.id] = r.radius();
         rig.profiles.push_back(std::move(pr));
       }
     }
     std::string failure; // the first reason this net cannot be used
     // Along each chain.
     for (const auto& [p, c] : series_child) {
-      if (dropped.count(c))
-        continue;
       const Vec3 mid = (rings[p].centre + rings[c].centre) / 2;
       for (int k = 0; k < N; ++k) {
         const Vec3 a = loop_point(rings[p], rings[p].base_nodes[k]), b = loop_point(rings[c], rings[c].base_nodes[k]);
@@ -575,12 +850,13 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           failure = "no plane section joins the ends of profile '" + pr.id + "' along the surface";
         pr.curve.points = path ? *path : std::vector<Vec3>{a, b};
         owner[pr.id] = {'l', c};
+        scale[pr.id] = std::min(rings[p].radius(), rings[c].radius());
         rig.profiles.push_back(std::move(pr));
       }
     }
     for (const Join& jn : joins) {
       Profile pr;
-      pr.id = rings[jn.child].id + "-" + rings[jn.parent].id + "_join";
+      pr.id = rings[jn.child].id + "-" + rings[jn.parent].id + (jn.slot == 0 ? "_join" : "_join1");
       pr.from = rings[jn.child].id + "_" + std::to_string(jn.child_node);
       pr.to = jn.target;
       if (!jn.path && failure.empty())
@@ -588,17 +864,20 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
       pr.curve.points =
           jn.path ? *jn.path
                   : std::vector<Vec3>{loop_point(rings[jn.child], rings[jn.child].base_nodes[jn.child_node]), jn.to};
-      owner[pr.id] = {'j', jn.child};
+      owner[pr.id] = {'j', 2 * jn.child + jn.slot};
+      scale[pr.id] = std::min(rings[jn.child].radius(), rings[jn.parent].radius());
       rig.profiles.push_back(std::move(pr));
     }
     for (const Node& n : rig.nodes) {
       for (const auto& [j, w] : auto_weights(joints, n.position, opt.weights))
         rig.weights[n.id][joints[j].name] = w;
     }
-    // Check it: profiles that share no node keep a clearance (so that the
-    // net also embeds on other tessellations), and the net embeds here.
+    // Check it: profiles that share no node keep a clearance that scales
+    // with the limbs they are on, and the net embeds here.
     if (failure.empty()) {
-      const double clearance = std::max(opt.min_ring_gap * diag / 2, 0.25 * h);
+      auto clearance = [&](const Profile& a, const Profile& b) {
+        return opt.ring_gap / 2 * std::min(scale[a.id], scale[b.id]);
+      };
       std::map<std::string, Vec3> node_at;
       for (const Node& n : rig.nodes)
         node_at[n.id] = n.position;
@@ -607,27 +886,31 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         for (const auto& q : rig.profiles[a].curve.points)
           box[a].extend(q);
       // The part of a profile that keeps away from the given nodes.
-      auto away_from = [&](const std::vector<Vec3>& pts, const std::vector<Vec3>& shared) {
+      auto away_from = [&](const std::vector<Vec3>& pts, const std::vector<Vec3>& shared, double c) {
         std::vector<Vec3> out;
         for (const Vec3& q : pts)
-          if (std::all_of(shared.begin(), shared.end(), [&](const Vec3& n) { return (q - n).norm() > 2 * clearance; }))
+          if (std::all_of(shared.begin(), shared.end(), [&](const Vec3& n) { return (q - n).norm() > 2 * c; }))
             out.push_back(q);
         return out;
       };
       for (size_t a = 0; a < rig.profiles.size() && failure.empty(); ++a)
         for (size_t b = a + 1; b < rig.profiles.size() && failure.empty(); ++b) {
-          if (box[a].exteriorDistance(box[b]) >= clearance)
-            continue;
           const Profile &pa = rig.profiles[a], &pb = rig.profiles[b];
+          const auto oa = owner[pa.id], ob = owner[pb.id];
+          if (oa.first == 'a' && ob.first == 'a' && oa.second == ob.second)
+            continue; // pieces of one plane section: they cannot cross
+          const double c = clearance(pa, pb);
+          if (box[a].exteriorDistance(box[b]) >= c)
+            continue;
           std::vector<Vec3> shared;
           for (const std::string& n : {pa.from, pa.to})
             if (n == pb.from || n == pb.to)
               shared.push_back(node_at[n]);
-          const auto qa = away_from(pa.curve.points, shared), qb = away_from(pb.curve.points, shared);
+          const auto qa = away_from(pa.curve.points, shared, c), qb = away_from(pb.curve.points, shared, c);
           if (qa.size() < 2 || qb.size() < 2)
             continue;
-          if (polyline_distance(qa, false, qb, false) < clearance)
-            failure = "profiles '" + pa.id + "' and '" + pb.id + "' come closer than " + std::to_string(clearance);
+          if (polyline_distance(qa, false, qb, false) < c)
+            failure = "profiles '" + pa.id + "' and '" + pb.id + "' come closer than " + std::to_string(c);
         }
     }
     // Profiles that leave one node must part at a clear angle.
@@ -660,11 +943,20 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         result.rig = std::move(rig);
         result.rings = static_cast<int>(active.size());
         result.joins = static_cast<int>(joins.size());
-        result.unjoined = unjoined;
+        result.unjoined = static_cast<int>(unjoined.size());
         result.net_components = e.report().components;
-        if (unjoined > 0)
-          say(std::to_string(unjoined) + " chain(s) could not be joined to their parent ring; the net has " +
+        for (int c : unjoined)
+          say("ring '" + rings[c].id + "' is not joined to ring '" + rings[effective_parent(c)].id +
+              "': " + join_failure[c]);
+        if (!unjoined.empty())
+          say(std::to_string(unjoined.size()) + " chain(s) could not be joined to their parent ring; the net has " +
               std::to_string(result.net_components) + " components, and the expected region count accounts for them");
+        std::set<int> ringed;
+        for (int i : active)
+          ringed.insert(rings[i].joint);
+        for (int j = 0; j < nj; ++j)
+          if (!ringed.count(j))
+            result.ringless.emplace_back(joints[j].name, ringless.count(j) ? ringless[j] : "its ring was dropped");
         // Say so in the rig itself.
         auto quote = [](const std::string& t) {
           std::string q = "\"";
@@ -680,13 +972,12 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         for (size_t k = 0; k < active.size(); ++k)
           ext += (k ? ", " : "") + quote(rings[active[k]].id);
         ext += "], \"unjoined\": [";
-        bool first = true;
-        for (int c : active)
-          if (effective_parent(c) >= 0 && join_attempt[c] >= 2) {
-            ext += (first ? "" : ", ") + quote(rings[c].id);
-            first = false;
-          }
-        ext += "], \"net_components\": " + std::to_string(result.net_components) + ", \"notes\": [";
+        for (size_t k = 0; k < unjoined.size(); ++k)
+          ext += (k ? ", " : "") + quote(rings[unjoined[k]].id);
+        ext += "], \"ringless\": {";
+        for (size_t k = 0; k < result.ringless.size(); ++k)
+          ext += (k ? ", " : "") + quote(result.ringless[k].first) + ": " + quote(result.ringless[k].second);
+        ext += "}, \"net_components\": " + std::to_string(result.net_components) + ", \"notes\": [";
         for (size_t k = 0; k < result.messages.size(); ++k)
           ext += (k ? ", " : "") + quote(result.messages[k]);
         ext += "]}";
@@ -698,10 +989,10 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     } catch (const EmbedError& e) {
       failure = e.what();
     }
-    if (attempt > 4 * static_cast<int>(rings.size()) + 8)
+    if (attempt > 6 * static_cast<int>(rings.size()) + 8)
       throw EmbedError("starter: could not make a net that embeds: " + failure);
     // Find what to give up: a join first, then the child ring of a longitudinal, then a ring.
-    int culprit_ring = -1;
+    int culprit = -1;
     char kind = 0;
     for (const std::string& id : quoted(failure)) {
       auto it = owner.find(id);
@@ -709,28 +1000,53 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         continue;
       if (it->second.first == 'j' || kind == 0 || (kind == 'a' && it->second.first == 'l')) {
         kind = it->second.first;
-        culprit_ring = it->second.second;
+        culprit = it->second.second;
       }
       if (kind == 'j')
         break;
     }
-    if (culprit_ring < 0) {
+    if (culprit < 0) {
       // No profile named (for example a wrong region count): drop the largest ring.
       for (int i : active)
-        if (culprit_ring < 0 || rings[i].perimeter > rings[culprit_ring].perimeter)
-          culprit_ring = i;
+        if (culprit < 0 || rings[i].perimeter > rings[culprit].perimeter)
+          culprit = i;
       kind = 'a';
     }
     if (kind == 'j') {
-      const int m = ++join_attempt[culprit_ring];
-      say("join of ring '" + rings[culprit_ring].id + "' " + (m >= 2 ? "abandoned" : "moved to an existing node") +
-          ": " + failure);
-    } else {
-      dropped.insert(culprit_ring);
-      say("ring '" + rings[culprit_ring].id + "' dropped: " + failure);
-      if (dropped.size() == kept.size())
-        throw EmbedError("starter: could not make a net that embeds: " + failure);
+      const int m = ++join_attempt[culprit];
+      const std::string& child = rings[culprit / 2].id;
+      say("join " + std::string(culprit % 2 ? "1 " : "") + "of ring '" + child + "' " +
+          (m >= 2 ? "abandoned" : "moved to an existing node") + ": " + failure);
+      if (m >= 2)
+        join_failure[culprit / 2] = failure;
+      continue;
     }
+    Ring& r = rings[culprit];
+    std::vector<int> others;
+    for (int i : active)
+      if (i != culprit)
+        others.push_back(i);
+    const double t0 = r.t;
+    const Ring before = r;
+    bool moved = false;
+    while (move_on(r))
+      if (conflict_with(r, others, culprit) < 0) {
+        moved = true;
+        break;
+      }
+    if (moved) {
+      place_nodes(r, N, opt.first_angle_deg);
+      say("ring '" + r.id + "' moved along its bone (" + percent(t0) + " to " + percent(r.t) + "): " + failure);
+      continue;
+    }
+    r = before;
+    dropped.insert(culprit);
+    const std::string m = "ring '" + r.id + "' dropped: " + failure;
+    say(m);
+    if (r.frac == 1)
+      ringless[r.joint] = m;
+    if (dropped.size() == kept.size())
+      throw EmbedError("starter: could not make a net that embeds: " + failure);
   }
 }
 
