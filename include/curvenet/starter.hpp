@@ -28,7 +28,8 @@ struct StarterOptions {
   AutoWeightOptions weights;
   /// Rings closer than this fraction of the smaller one's radius are too
   /// close: the larger is moved along its bone, or dropped when it cannot
-  /// move clear. Profiles that share no node keep half of it.
+  /// move clear. Profiles that share no node keep half of it (at most
+  /// 0.75 % of the bounding-box diagonal, on thick bodies).
   double ring_gap = 0.25;
   std::function<void(const std::string&)> message; ///< what was moved, dropped or not joined
 };

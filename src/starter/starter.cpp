@@ -387,8 +387,10 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           (local(probe(j, pl, mid)) ? hi : lo) = mid;
         }
         // Clear of a fork by a third of the radius, clear of the surface's
-        // rounded end (no section before) by a whole radius.
-        const double len = pl.step.norm(), clear = (foreign >= 0 ? 1.0 / 3 : 1.0) * q.ring->radius() / len;
+        // rounded end (no section before) by a whole radius; by at most a
+        // quarter of the bone.
+        const double len = pl.step.norm();
+        const double clear = std::min(0.25, (foreign >= 0 ? 1.0 / 3 : 1.0) * q.ring->radius() / len);
         // The furthest of a few steps back from there that is local.
         for (const double back : {0.0, 0.25, 0.5, 0.75})
           if (Probe m = probe(j, pl, std::min(pl.t_max, hi + (1 - back) * clear)); local(m))
@@ -408,6 +410,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     return std::nullopt;
   };
 
+  // A joint's ring moves at most part of the way to the next ring spot
+  // along the bone (1 / rings_per_bone), so rings stay in order along a chain.
   std::vector<Ring> rings;
   const int R = opt.rings_per_bone;
   auto suffix = [&](int i) { return R > 1 ? "_" + std::to_string(i) : std::string(); };
@@ -426,12 +430,12 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         Vec3 start = in.norm() > 0 ? in.normalized() : out.normalized();
         if (in.norm() > 0 && (start + out.normalized()).norm() > 1e-6)
           start = (start + out.normalized()).normalized();
-        pl = {sk.origin[j], out, out.normalized(), start, 0, 0.75};
+        pl = {sk.origin[j], out, out.normalized(), start, 0, 0.75 / R};
       }
     } else if (!kids.empty() && p >= 0) { // several children: back up the bone into the joint
       const Vec3 in = sk.origin[j] - sk.origin[p];
       if (in.norm() > 0)
-        pl = {sk.origin[j], -in, in.normalized(), in.normalized(), 0, 0.6};
+        pl = {sk.origin[j], -in, in.normalized(), in.normalized(), 0, 0.6 / R};
     } else if (!kids.empty()) { // a root: toward its trunk, the child with the largest subtree (ties averaged)
       int most = 0;
       for (int c : kids)
@@ -441,13 +445,13 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         if (sk.subtree[c] == most)
           step += sk.origin[c] - sk.origin[j];
       if (step.norm() > 0)
-        pl = {sk.origin[j], step, step.normalized(), step.normalized(), 0, 0.7};
+        pl = {sk.origin[j], step, step.normalized(), step.normalized(), 0, 0.7 / R};
     } else if (p >= 0) { // a leaf: at the joint if the limb goes on past it, else half-way along its bone
       const Vec3 in = sk.origin[j] - sk.origin[p];
       if (in.norm() > 0) {
         pl = {sk.origin[j], in, in.normalized(), in.normalized(), 0, 0.5};
         const Probe q = probe(j, pl, 0);
-        if (local(q) && section_ring(sm, sk.origin[j] + q.ring->radius() * in.normalized(), in))
+        if (local(q) && section_ring(sm, sk.origin[j] + q.ring->radius() / 2 * in.normalized(), in))
           own = q.ring;
         else {
           pl = {sk.origin[p], in, in.normalized(), in.normalized(), 0.5, 0.8};
@@ -491,6 +495,9 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   //    kept (the gap scales with the smaller ring's radius) is moved along
   //    its bone, and dropped only when that does not clear it.
   auto gap = [&](const Ring& a, const Ring& b) { return opt.ring_gap * std::min(a.radius(), b.radius()); };
+  // Profiles that share no node keep half the ring gap of the limb they are
+  // on, and at most 0.75 % of the diagonal on a thick body.
+  auto profile_clearance = [&](double radius) { return std::min(opt.ring_gap / 2 * radius, 0.0075 * diag); };
   auto conflict_with = [&](const Ring& r, const std::vector<int>& among, int self) {
     for (int k : among)
       if (k != self && polyline_distance(r.loop, true, rings[k].loop, true) < gap(r, rings[k]))
@@ -769,7 +776,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           // included, away from its two ends.
           bool clear = true;
           for (int o : active) {
-            const double c = opt.ring_gap / 2 * std::min(cr.radius(), rings[o].radius());
+            const double c = profile_clearance(std::min(cr.radius(), rings[o].radius()));
             std::vector<Vec3> middle;
             for (const Vec3& q : path)
               if ((q - from).norm() > 2 * c && (q - end).norm() > 2 * c)
@@ -876,7 +883,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     // with the limbs they are on, and the net embeds here.
     if (failure.empty()) {
       auto clearance = [&](const Profile& a, const Profile& b) {
-        return opt.ring_gap / 2 * std::min(scale[a.id], scale[b.id]);
+        return profile_clearance(std::min(scale[a.id], scale[b.id]));
       };
       std::map<std::string, Vec3> node_at;
       for (const Node& n : rig.nodes)
