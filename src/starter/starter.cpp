@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -69,7 +70,8 @@ struct Placement {
 struct Ring {
   std::string id;
   int joint = -1;  ///< the joint it belongs to
-  double frac = 1; ///< its order among the rings of `joint` (1: the joint's own ring)
+  double frac = 1; ///< its order among the rings of `joint` (1: the joint's own ring; 0: a shared trunk's)
+  std::vector<int> own; ///< the joints whose bones it may enclose: `joint`, or a trunk's joints
   Placement place;
   double t = 0; ///< where in `place` it sits
   Vec3 centre = Vec3::Zero();
@@ -251,16 +253,15 @@ std::optional<Ring> section_ring(const SectionMesh& sm, const Vec3& point, const
   return r;
 }
 
-/// A ring's section is local to its joint when no bone but the joint's own
-/// (those that start or end at it) passes through the plane inside the
-/// loop. Returns the first foreign bone (its child joint) inside, or -1.
-/// Which side of the plane a bone's end lies on is an exact test.
-int foreign_bone_inside(const Ring& r, const Vec3& point, int joint, const Skeleton& sk) {
+/// The bones (by child joint) that pass through the ring's plane inside its
+/// loop. Which side of the plane a bone's end lies on is an exact test.
+std::vector<int> bones_inside(const Ring& r, const Vec3& point, const Skeleton& sk) {
   const auto [u, v] = plane_basis(r.axis);
   const Vec3 o1 = point + u, o2 = point + v;
+  std::vector<int> inside;
   for (int c = 0; c < static_cast<int>(sk.parent.size()); ++c) {
     const int p = sk.parent[c];
-    if (p < 0 || p == joint || c == joint)
+    if (p < 0)
       continue;
     const Vec3 &a = sk.origin[p], &b = sk.origin[c];
     const int sa = orient3d(point, o1, o2, a), sb = orient3d(point, o1, o2, b);
@@ -269,8 +270,23 @@ int foreign_bone_inside(const Ring& r, const Vec3& point, int joint, const Skele
     const double da = (a - point).dot(r.axis), db = (b - point).dot(r.axis);
     const Vec3 x = a + (da / (da - db)) * (b - a);
     if (winding_number(r.loop, x, point, r.axis) != 0)
-      return c;
+      inside.push_back(c);
   }
+  return inside;
+}
+
+/// A bone (by child joint) that starts or ends at one of `joints`.
+bool incident(int bone, const std::vector<int>& joints, const Skeleton& sk) {
+  return std::any_of(joints.begin(), joints.end(), [&](int j) { return bone == j || sk.parent[bone] == j; });
+}
+
+/// A ring's section is local to its joints when no bone but theirs (those
+/// that start or end at one of them) passes through the plane inside the
+/// loop. Returns the first foreign bone inside, or -1.
+int foreign_bone_inside(const Ring& r, const Vec3& point, const std::vector<int>& own, const Skeleton& sk) {
+  for (int c : bones_inside(r, point, sk))
+    if (!incident(c, own, sk))
+      return c;
   return -1;
 }
 
@@ -356,17 +372,19 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     std::optional<Ring> ring;
     int foreign = -1;
   };
-  auto probe = [&](int j, const Placement& pl, double t) {
+  auto probe_shared = [&](const std::vector<int>& own, const Placement& pl, double t) {
     Probe q;
     q.ring = section_ring(sm, pl.point(t), pl.axis(t));
     if (q.ring) {
-      q.foreign = foreign_bone_inside(*q.ring, pl.point(t), j, sk);
+      q.foreign = foreign_bone_inside(*q.ring, pl.point(t), own, sk);
       q.ring->place = pl;
       q.ring->t = t;
-      q.ring->joint = j;
+      q.ring->joint = own.front();
+      q.ring->own = own;
     }
     return q;
   };
+  auto probe = [&](int j, const Placement& pl, double t) { return probe_shared({j}, pl, t); };
   auto local = [&](const Probe& q) { return q.ring && q.foreign < 0 && static_cast<int>(q.ring->loop.size()) >= N; };
   // The first local ring in the placement's range, moved on past where the
   // section first becomes local.
@@ -413,6 +431,12 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   // A joint's ring moves at most part of the way to the next ring spot
   // along the bone (1 / rings_per_bone), so rings stay in order along a chain.
   std::vector<Ring> rings;
+  struct Start {
+    Vec3 point, axis;
+    double radius;
+    std::vector<int> inside; ///< bones through the section
+  };
+  std::map<int, Start> shared_start; // joint -> its section through the joint, where that is not local
   const int R = opt.rings_per_bone;
   auto suffix = [&](int i) { return R > 1 ? "_" + std::to_string(i) : std::string(); };
   for (int j = 0; j < nj; ++j) {
@@ -474,6 +498,9 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         }
       }
     }
+    if (!kids.empty() && p >= 0 && pl.step.norm() > 0) // the joint's own section, for shared trunks below
+      if (const Probe q = probe(j, pl, 0); q.ring && q.foreign >= 0)
+        shared_start[j] = {pl.point(0), pl.axis(0), q.ring->radius(), bones_inside(*q.ring, pl.point(0), sk)};
     std::string why = "its bone has no length";
     if (!own && pl.step.norm() > 0)
       own = first_local(j, pl, why);
@@ -484,6 +511,68 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     } else {
       ringless[j] = why;
       say("joint '" + name + "' has no ring: " + why);
+    }
+  }
+  // Shared trunks: joints whose sections through the joint enclose each
+  // other's bones, and lie near each other's planes (the knuckles of a
+  // palm, the hips of a pelvis), get one
+  // ring between them, across the trunk at the fork: through their mean
+  // position, normal to their mean axis, local to all their bones. It comes
+  // before their own rings along each chain.
+  {
+    std::map<int, int> group; // joint -> representative
+    std::function<int(int)> find = [&](int j) { return group[j] == j ? j : group[j] = find(group[j]); };
+    for (const auto& [j, st] : shared_start)
+      group[j] = j;
+    auto related = [&](int a, int b) {
+      for (int x = a; x >= 0; x = sk.parent[x])
+        if (x == b)
+          return true;
+      for (int x = b; x >= 0; x = sk.parent[x])
+        if (x == a)
+          return true;
+      return false;
+    };
+    // a's section holds one of b's bones, and b lies near a's plane.
+    auto encloses = [&](int a, int b) {
+      const Start& st = shared_start[a];
+      return std::abs(st.axis.dot(sk.origin[b] - st.point)) < st.radius / 3 &&
+             std::any_of(st.inside.begin(), st.inside.end(), [&](int c) { return incident(c, {b}, sk); });
+    };
+    for (const auto& [a, sa] : shared_start)
+      for (const auto& [b, sb] : shared_start)
+        if (a < b && !related(a, b) && encloses(a, b) && encloses(b, a))
+          group[find(a)] = find(b);
+    std::map<int, std::vector<int>> members;
+    for (const auto& [j, st] : shared_start)
+      members[find(j)].push_back(j);
+    for (auto& [rep, list] : members) {
+      if (list.size() < 2)
+        continue;
+      std::sort(list.begin(), list.end());
+      Vec3 point = Vec3::Zero(), axis = Vec3::Zero(), out = Vec3::Zero();
+      for (int j : list) {
+        point += shared_start[j].point / static_cast<double>(list.size());
+        axis += shared_start[j].axis;
+        for (int c : sk.kids[j])
+          out += (sk.origin[c] - sk.origin[j]) / static_cast<double>(list.size() * sk.kids[j].size());
+      }
+      std::string names;
+      for (int j : list)
+        names += (names.empty() ? "'" : ", '") + joints[j].name + "'";
+      if (axis.norm() == 0 || out.norm() == 0)
+        continue;
+      const Placement pl{point, out, axis.normalized(), axis.normalized(), 0, 0.25 / R};
+      Probe q = probe_shared(list, pl, 0);
+      if (!local(q)) {
+        say("no trunk ring for " + names + ": " +
+            (q.ring && q.foreign >= 0 ? "its section also encloses bone " + bone_name(q.foreign) : "no section there"));
+        continue;
+      }
+      q.ring->id = joints[list.front()].name + "_trunk";
+      q.ring->frac = 0;
+      say("ring '" + q.ring->id + "' crosses the trunk that joints " + names + " share");
+      rings.push_back(std::move(*q.ring));
     }
   }
   if (rings.empty())
@@ -508,7 +597,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   // section there is local.
   auto move_on = [&](Ring& r) {
     for (double t = r.t + 0.1; t <= r.place.t_max + 1e-9; t += 0.1)
-      if (Probe q = probe(r.joint, r.place, t); local(q)) {
+      if (Probe q = probe_shared(r.own, r.place, t); local(q)) {
         r.t = q.ring->t;
         r.centre = q.ring->centre;
         r.axis = q.ring->axis;
@@ -556,7 +645,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   // 3. Each ring's parent: the ring at the nearest position up the skeleton.
   std::map<int, std::vector<int>> at_joint; // joint -> candidate rings, by frac descending
   for (size_t i = 0; i < rings.size(); ++i)
-    at_joint[rings[i].joint].push_back(static_cast<int>(i));
+    for (int j : rings[i].own)
+      at_joint[j].push_back(static_cast<int>(i));
   for (auto& [j, list] : at_joint)
     std::sort(list.begin(), list.end(), [&](int a, int b) { return rings[a].frac > rings[b].frac; });
   std::map<int, int> parent_ring;
@@ -960,7 +1050,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
               std::to_string(result.net_components) + " components, and the expected region count accounts for them");
         std::set<int> ringed;
         for (int i : active)
-          ringed.insert(rings[i].joint);
+          if (rings[i].frac > 0) // a trunk's ring is not a joint's own
+            ringed.insert(rings[i].joint);
         for (int j = 0; j < nj; ++j)
           if (!ringed.count(j))
             result.ringless.emplace_back(joints[j].name, ringless.count(j) ? ringless[j] : "its ring was dropped");
