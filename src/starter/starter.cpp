@@ -445,7 +445,6 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     const std::string& name = joints[j].name;
     Placement pl;
     std::optional<Ring> own;
-    bool leaf_along_bone = false;
     if (!kids.empty() && p >= 0 && kids.size() == 1) {
       // Through the joint across the bisector of its two bones; if that
       // section is not local, along the bone out of it.
@@ -470,21 +469,21 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           step += sk.origin[c] - sk.origin[j];
       if (step.norm() > 0)
         pl = {sk.origin[j], step, step.normalized(), step.normalized(), 0, 0.7 / R};
-    } else if (p >= 0) { // a leaf: at the joint if the limb goes on past it, else half-way along its bone
+    } else if (p >= 0) {
+      // A leaf: at the joint if the limb goes on past it by half a bone,
+      // else half-way from the last ring spot on its bone to the joint.
       const Vec3 in = sk.origin[j] - sk.origin[p];
       if (in.norm() > 0) {
         pl = {sk.origin[j], in, in.normalized(), in.normalized(), 0, 0.5};
         const Probe q = probe(j, pl, 0);
-        if (local(q) && section_ring(sm, sk.origin[j] + q.ring->radius() / 2 * in.normalized(), in))
+        if (local(q) && section_ring(sm, sk.origin[j] + in / 2, in))
           own = q.ring;
-        else {
-          pl = {sk.origin[p], in, in.normalized(), in.normalized(), 0.5, 0.8};
-          leaf_along_bone = true;
-        }
+        else
+          pl = {sk.origin[p], in, in.normalized(), in.normalized(), 1 - 0.5 / R, 1 - 0.2 / R};
       }
     }
     // Extra rings along the bone into the joint.
-    if (p >= 0 && R > 1 && !leaf_along_bone) {
+    if (p >= 0 && R > 1) {
       const Vec3 bone = sk.origin[j] - sk.origin[p];
       for (int i = 1; i < R && bone.norm() > 0; ++i) {
         const double f = static_cast<double>(i) / R;
