@@ -430,6 +430,23 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
 
   // A joint's ring moves at most part of the way to the next ring spot
   // along the bone (1 / rings_per_bone), so rings stay in order along a chain.
+  // Where no section across the bone is local (a thumb's metacarpal in the
+  // ball of the thumb), the narrowest local section through the bone's
+  // middle part whose plane is tilted from the bone by up to 45 degrees.
+  auto tilted_local = [&](int j, const Placement& pl) -> std::optional<Ring> {
+    std::optional<Ring> best;
+    const auto [u, v] = plane_basis(pl.along);
+    for (int it = 3; it <= 9; ++it)
+      for (const double tilt : {15.0, 30.0, 45.0})
+        for (int az = 0; az < 8; ++az) {
+          const double a = az * std::numbers::pi / 4, b = tilt * std::numbers::pi / 180;
+          const Vec3 axis = std::cos(b) * pl.along + std::sin(b) * (std::cos(a) * u + std::sin(a) * v);
+          Probe q = probe(j, {pl.base + pl.step * (it / 10.0), Vec3::Zero(), axis, axis, 0, 0}, 0);
+          if (local(q) && (!best || q.ring->perimeter < best->perimeter))
+            best = std::move(q.ring);
+        }
+    return best;
+  };
   std::vector<Ring> rings;
   struct Start {
     Vec3 point, axis;
@@ -503,6 +520,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     std::string why = "its bone has no length";
     if (!own && pl.step.norm() > 0)
       own = first_local(j, pl, why);
+    if (!own && !kids.empty() && pl.step.norm() > 0)
+      own = tilted_local(j, pl);
     if (own) {
       own->id = name + suffix(R);
       own->frac = 1;
@@ -1088,16 +1107,19 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     }
     if (attempt > 6 * static_cast<int>(rings.size()) + 8)
       throw EmbedError("starter: could not make a net that embeds: " + failure);
-    // Find what to give up: a join first, then the child ring of a longitudinal, then a ring.
+    // Find what to give up: a join first, then the child ring of a
+    // longitudinal, then a ring; a trunk's ring last of all.
     int culprit = -1;
     char kind = 0;
     for (const std::string& id : quoted(failure)) {
       auto it = owner.find(id);
       if (it == owner.end())
         continue;
-      if (it->second.first == 'j' || kind == 0 || (kind == 'a' && it->second.first == 'l')) {
-        kind = it->second.first;
-        culprit = it->second.second;
+      const auto [k, who] = it->second;
+      const bool trunk = kind != 0 && kind != 'j' && rings[culprit].frac == 0 && (k == 'j' || rings[who].frac > 0);
+      if (k == 'j' || kind == 0 || trunk || (kind == 'a' && k == 'l' && (k == 'j' || rings[who].frac > 0))) {
+        kind = k;
+        culprit = who;
       }
       if (kind == 'j')
         break;
