@@ -773,7 +773,8 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_readonly("rings", &StarterResult::rings)
       .def_readonly("joins", &StarterResult::joins)
       .def_readonly("unjoined", &StarterResult::unjoined)
-      .def_readonly("net_components", &StarterResult::net_components);
+      .def_readonly("net_components", &StarterResult::net_components)
+      .def_readonly("ringless", &StarterResult::ringless);
   m.def(
       "starter",
       [](const SurfaceMesh& mesh, const py::object& skeleton, int nodes_per_ring, int rings_per_bone,

@@ -534,6 +534,9 @@ int run_starter(const StarterArgs& a) {
   std::cout << "components: " << r.net_components << "\n";
   std::cout << "joins: " << r.joins << "\n";
   std::cout << "unjoined chains: " << r.unjoined << "\n";
+  std::cout << "joints without a ring: " << r.ringless.size() << "\n";
+  for (const auto& [joint, why] : r.ringless)
+    std::cout << "  " << joint << ": " << why << "\n";
   std::cout << "rig: " << a.out << "\n";
   return 0;
 }

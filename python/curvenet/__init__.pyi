@@ -286,6 +286,8 @@ class StarterResult:
     joins: int
     unjoined: int
     net_components: int
+    ringless: list[tuple[str, str]]
+    """Joints without a ring of their own, each with the reason."""
 
 Skeleton = Union[str, Rig, Binding, SkinnedMesh, Sequence[Joint]]
 """A skeleton file path (skinned glTF/GLB/FBX, or a rig file), or anything holding joints."""
