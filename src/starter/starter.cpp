@@ -568,9 +568,10 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
       if (list.size() < 2)
         continue;
       std::sort(list.begin(), list.end());
-      Vec3 point = Vec3::Zero(), axis = Vec3::Zero(), out = Vec3::Zero();
+      Vec3 point = Vec3::Zero(), axis = Vec3::Zero(), out = Vec3::Zero(), in = Vec3::Zero();
       for (int j : list) {
         point += shared_start[j].point / static_cast<double>(list.size());
+        in += (sk.origin[j] - sk.origin[sk.parent[j]]) / static_cast<double>(list.size());
         axis += shared_start[j].axis;
         for (int c : sk.kids[j])
           out += (sk.origin[c] - sk.origin[j]) / static_cast<double>(list.size() * sk.kids[j].size());
@@ -580,7 +581,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         names += (names.empty() ? "'" : ", '") + joints[j].name + "'";
       if (axis.norm() == 0 || out.norm() == 0)
         continue;
-      const Placement pl{point, out, axis.normalized(), axis.normalized(), 0, 0.25 / R};
+      const Placement pl{point - opt.weights.blend * in, out, axis.normalized(), axis.normalized(), 0, 0.25 / R};
       Probe q = probe_shared(list, pl, 0);
       if (!local(q)) {
         say("no trunk ring for " + names + ": " +
