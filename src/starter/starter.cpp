@@ -897,17 +897,23 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           }
           if (!clear)
             continue;
-          // The incoming direction over the last half edge length, against the ring's tangent.
-          Vec3 in = Vec3::Zero();
-          for (size_t i = path.size() - 1; i-- > 0;) {
-            in = end - path[i];
-            if (in.norm() >= 0.5 * h)
-              break;
-          }
-          const Vec3 tangent =
-              loop_point(pr, s_hit + 1e-3 * pr.perimeter) - loop_point(pr, s_hit - 1e-3 * pr.perimeter);
+          // The directions over the first and last half edge length,
+          // against the rings' tangents: the join must leave its ring and
+          // meet the other at a clear angle.
+          auto crossing_sine = [&](const Ring& ring, double s_at, bool at_end) {
+            const Vec3& o = at_end ? path.back() : path.front();
+            Vec3 d = Vec3::Zero();
+            for (size_t k = 1; k < path.size(); ++k) {
+              d = (at_end ? path[path.size() - 1 - k] : path[k]) - o;
+              if (d.norm() >= 0.5 * h)
+                break;
+            }
+            const Vec3 tangent =
+                loop_point(ring, s_at + 1e-3 * ring.perimeter) - loop_point(ring, s_at - 1e-3 * ring.perimeter);
+            return d.norm() > 0 && tangent.norm() > 0 ? d.normalized().cross(tangent.normalized()).norm() : 0.0;
+          };
           const double sine =
-              in.norm() > 0 && tangent.norm() > 0 ? in.normalized().cross(tangent.normalized()).norm() : 0;
+              std::min(crossing_sine(pr, s_hit, true), crossing_sine(cr, cr.base_nodes[jn.child_node], false));
           if (sine > best_sin) {
             best_sin = sine;
             jn.path = path;
