@@ -215,6 +215,21 @@ std::vector<std::string> quoted(const std::string& text) {
   return out;
 }
 
+/// How squarely a path along the surface crosses a ring at one of its ends
+/// (at arc position s_at): the sine of the angle between the path's
+/// direction over its first (or last) half edge length h and the ring.
+double crossing_sine(const std::vector<Vec3>& path, const Ring& ring, double s_at, bool at_end, double h) {
+  const Vec3& o = at_end ? path.back() : path.front();
+  Vec3 d = Vec3::Zero();
+  for (size_t k = 1; k < path.size(); ++k) {
+    d = (at_end ? path[path.size() - 1 - k] : path[k]) - o;
+    if (d.norm() >= 0.5 * h)
+      break;
+  }
+  const Vec3 tangent = loop_point(ring, s_at + 1e-3 * ring.perimeter) - loop_point(ring, s_at - 1e-3 * ring.perimeter);
+  return d.norm() > 0 && tangent.norm() > 0 ? d.normalized().cross(tangent.normalized()).norm() : 0.0;
+}
+
 /// The smallest closed section of the plane (point, axis) that winds around
 /// `point`, as a ring: counter-clockwise about the axis, with its area
 /// centroid and arc lengths.
@@ -900,20 +915,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           // The directions over the first and last half edge length,
           // against the rings' tangents: the join must leave its ring and
           // meet the other at a clear angle.
-          auto crossing_sine = [&](const Ring& ring, double s_at, bool at_end) {
-            const Vec3& o = at_end ? path.back() : path.front();
-            Vec3 d = Vec3::Zero();
-            for (size_t k = 1; k < path.size(); ++k) {
-              d = (at_end ? path[path.size() - 1 - k] : path[k]) - o;
-              if (d.norm() >= 0.5 * h)
-                break;
-            }
-            const Vec3 tangent =
-                loop_point(ring, s_at + 1e-3 * ring.perimeter) - loop_point(ring, s_at - 1e-3 * ring.perimeter);
-            return d.norm() > 0 && tangent.norm() > 0 ? d.normalized().cross(tangent.normalized()).norm() : 0.0;
-          };
-          const double sine =
-              std::min(crossing_sine(pr, s_hit, true), crossing_sine(cr, cr.base_nodes[jn.child_node], false));
+          const double sine = std::min(crossing_sine(path, pr, s_hit, true, h),
+                                       crossing_sine(path, cr, cr.base_nodes[jn.child_node], false, h));
           if (sine > best_sin) {
             best_sin = sine;
             jn.path = path;
@@ -967,7 +970,20 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         pr.id = rings[p].id + "-" + rings[c].id + "_" + std::to_string(k);
         pr.from = rings[p].id + "_" + std::to_string(k);
         pr.to = rings[c].id + "_" + std::to_string(k);
-        auto path = surface_path(sm, a, b, {mid}, tol);
+        // The first path that meets both rings at a clear angle (at least
+        // 35 degrees), or the squarest.
+        std::optional<std::vector<Vec3>> path;
+        double best_sine = -1;
+        for (auto& candidate : surface_paths(sm, a, b, {mid}, tol)) {
+          const double sine = std::min(crossing_sine(candidate, rings[p], rings[p].base_nodes[k], false, h),
+                                       crossing_sine(candidate, rings[c], rings[c].base_nodes[k], true, h));
+          if (sine > best_sine) {
+            best_sine = sine;
+            path = std::move(candidate);
+          }
+          if (best_sine >= std::sin(35.0 * std::numbers::pi / 180.0))
+            break;
+        }
         if (!path && failure.empty())
           failure = "no plane section joins the ends of profile '" + pr.id + "' along the surface";
         pr.curve.points = path ? *path : std::vector<Vec3>{a, b};
