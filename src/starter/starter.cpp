@@ -629,17 +629,23 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
   };
   // One step (a tenth of its range's bone) further along its bone, if the
   // section there is local.
+  // Puts the ring at t of its placement, if the section there is local.
+  auto place_at = [&](Ring& r, double t) {
+    Probe q = probe_shared(r.own, r.place, t);
+    if (!local(q))
+      return false;
+    r.t = t;
+    r.centre = q.ring->centre;
+    r.axis = q.ring->axis;
+    r.loop = std::move(q.ring->loop);
+    r.at = std::move(q.ring->at);
+    r.perimeter = q.ring->perimeter;
+    return true;
+  };
   auto move_on = [&](Ring& r) {
     for (double t = r.t + 0.1; t <= r.place.t_max + 1e-9; t += 0.1)
-      if (Probe q = probe_shared(r.own, r.place, t); local(q)) {
-        r.t = q.ring->t;
-        r.centre = q.ring->centre;
-        r.axis = q.ring->axis;
-        r.loop = std::move(q.ring->loop);
-        r.at = std::move(q.ring->at);
-        r.perimeter = q.ring->perimeter;
+      if (place_at(r, t))
         return true;
-      }
     return false;
   };
   std::vector<int> order(rings.size());
@@ -652,8 +658,21 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     const double t0 = r.t;
     int conflict = conflict_with(r, kept, i);
     const int first_conflict = conflict;
-    while (conflict >= 0 && move_on(r))
+    double last_close = r.t;
+    while (conflict >= 0) {
+      last_close = r.t;
+      if (!move_on(r))
+        break;
       conflict = conflict_with(r, kept, i);
+    }
+    if (first_conflict >= 0 && conflict < 0) { // the least move that clears it, found by bisection
+      double lo = last_close, hi = r.t;
+      for (int it = 0; it < 6; ++it) {
+        const double mid = (lo + hi) / 2;
+        (place_at(r, mid) && conflict_with(r, kept, i) < 0 ? hi : lo) = mid;
+      }
+      place_at(r, hi);
+    }
     if (conflict >= 0) {
       r.replaced_by = conflict;
       const std::string m = "ring '" + r.id + "' dropped: it comes within " + std::to_string(gap(r, rings[conflict])) +
