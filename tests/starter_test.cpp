@@ -12,9 +12,12 @@
 #include "transfer_check.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <set>
 
@@ -217,5 +220,170 @@ TEST(Starter, AFlatHierarchyIsNamedAndPointsToSkeleton) {
     const std::string what = e.what();
     EXPECT_NE(what.find("are all roots (a flat hierarchy"), std::string::npos) << what;
     EXPECT_NE(what.find("--skeleton"), std::string::npos) << what;
+  }
+}
+
+// Issue 14: nets that rig whole characters, measured on every tessellation.
+
+namespace {
+
+/// The ids of the rings a starter net keeps (its x_starter extension).
+std::set<std::string> ring_ids(const StarterResult& r) {
+  const auto j = nlohmann::json::parse(r.rig.extensions.at("x_starter"));
+  return j["rings"].get<std::set<std::string>>();
+}
+
+std::string own_data(const std::string& name) { return std::string(CURVENET_SOURCE_DIR) + "/tests/data/" + name; }
+
+/// Every tessellation of the shared hand, and one we decimated ourselves.
+std::vector<std::string> hand_meshes() {
+  return {test::data("xr_tools_hand/hand_l.gltf"), test::data("xr_tools_hand/Hand_low_L.gltf"),
+          test::data("xr_tools_hand/hand_l_quads.obj"), test::data("xr_tools_hand/hand_low_l_quads.obj"),
+          own_data("hand/hand_l_decimated.glb")};
+}
+
+std::vector<std::string> cesium_meshes() {
+  const std::string v = test::data("cesium_man/variants/");
+  return {test::data("cesium_man/CesiumMan.glb"),      v + "cesium_man_a_welded.obj",
+          v + "cesium_man_b_remesh.obj",              v + "cesium_man_c_decimated.obj",
+          v + "cesium_man_d_loop.obj",                v + "cesium_man_e_decimated_326.obj"};
+}
+
+double volume(const SurfaceMesh& m, const std::vector<Vec3>& welded) {
+  double v = 0;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto c = m.face(f);
+    for (size_t k = 1; k + 1 < c.size(); ++k)
+      v += welded[c[0]].dot(welded[c[k]].cross(welded[c[k + 1]])) / 6;
+  }
+  return v;
+}
+
+std::vector<Vec3> welded(const SurfaceMesh& m, const std::vector<Vec3>& per_input) {
+  std::vector<Vec3> p(m.num_vertices());
+  for (size_t i = 0; i < per_input.size(); ++i)
+    p[m.input_to_welded[i]] = per_input[i];
+  return p;
+}
+
+} // namespace
+
+TEST(Starter, EveryJointOfTheHandHasARingOrASaidReasonOnEveryTessellation) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto joints = load_skinned_mesh(test::data("xr_tools_hand/hand_l.gltf")).joints;
+  for (const std::string& path : hand_meshes()) {
+    SCOPED_TRACE(path);
+    const StarterResult r = make_starter(load_mesh(path), joints);
+    const std::set<std::string> rings = ring_ids(r);
+    EXPECT_EQ(r.net_components, 1);
+    EXPECT_EQ(r.unjoined, 0);
+    // A ring at the wrist, across the knuckles (the palm's trunk), and at
+    // every finger joint: knuckle, middle and end joints and the tip.
+    EXPECT_TRUE(rings.count("Wrist_L"));
+    EXPECT_TRUE(rings.count("Index_Proximal_L_trunk"));
+    for (const std::string finger : {"Index", "Middle", "Ring", "Little"})
+      for (const std::string joint : {"Proximal", "Intermediate", "Distal", "Tip"})
+        EXPECT_TRUE(rings.count(finger + "_" + joint + "_L")) << finger << " " << joint;
+    for (const std::string joint : {"Proximal", "Distal", "Tip"})
+      EXPECT_TRUE(rings.count("Thumb_" + joint + "_L")) << joint;
+    // The joints without one are the palm's: metacarpals inside its one
+    // trunk, and the Palm_L leaf. Each has its reason.
+    std::set<std::string> ringed = rings;
+    for (const auto& [joint, why] : r.ringless) {
+      EXPECT_TRUE(joint.find("_Metacarpal_L") != std::string::npos || joint == "Palm_L") << joint << ": " << why;
+      EXPECT_FALSE(why.empty()) << joint;
+      EXPECT_FALSE(rings.count(joint)) << joint;
+      ringed.insert(joint);
+    }
+    for (const auto& j : joints)
+      EXPECT_TRUE(ringed.count(j.name)) << j.name << " has neither a ring nor a reason";
+  }
+}
+
+TEST(Starter, CesiumManGetsARingAtEveryJointOnEveryTessellation) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto joints = load_skinned_mesh(test::data("cesium_man/CesiumMan.glb")).joints;
+  for (const std::string& path : cesium_meshes()) {
+    SCOPED_TRACE(path);
+    const StarterResult r = make_starter(load_mesh(path), joints);
+    std::printf("%s: %d rings, %d components, %d joins, %d unjoined\n", path.c_str(), r.rings, r.net_components, r.joins,
+                r.unjoined);
+    for (const auto& [joint, why] : r.ringless)
+      ADD_FAILURE() << joint << " has no ring: " << why;
+    EXPECT_EQ(static_cast<int>(ring_ids(r).size()), 19);
+    // One connected net: hips and shoulders joined to the trunk, except on
+    // the voxel remesh, where one shoulder's joins find no clear path (the
+    // reason is in the messages; docs/starter.md).
+    const bool remesh = path.find("b_remesh") != std::string::npos;
+    EXPECT_LE(r.unjoined, remesh ? 1 : 0);
+    EXPECT_EQ(r.net_components, 1 + r.unjoined);
+  }
+}
+
+TEST(Starter, NetsMadeOnDifferentTessellationsShareIdsAndPlaces) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // A rig started on any LOD transfers to the rest: the same rings, and the
+  // same nodes. The rings' nodes lie within 1 % of the diagonal of each
+  // other; where a join lands on its parent ring depends on the plane
+  // section its path takes, and lands within 1.5 %.
+  for (const auto& [skeleton, meshes] :
+       {std::pair{test::data("xr_tools_hand/hand_l.gltf"), hand_meshes()},
+        std::pair{test::data("cesium_man/CesiumMan.glb"), cesium_meshes()}}) {
+    const auto joints = load_skinned_mesh(skeleton).joints;
+    const SurfaceMesh first = load_mesh(meshes.front());
+    const StarterResult base = make_starter(first, joints);
+    std::map<std::string, Vec3> at;
+    for (const auto& n : base.rig.nodes)
+      at[n.id] = n.position;
+    for (size_t k = 1; k < meshes.size(); ++k) {
+      SCOPED_TRACE(meshes[k]);
+      const StarterResult other = make_starter(load_mesh(meshes[k]), joints);
+      EXPECT_EQ(ring_ids(other), ring_ids(base));
+      const std::set<std::string> rings = ring_ids(base);
+      int shared = 0;
+      double worst_ring = 0, worst_join = 0;
+      for (const auto& n : other.rig.nodes)
+        if (auto it = at.find(n.id); it != at.end()) {
+          ++shared;
+          const bool on_ring = rings.count(n.id.substr(0, n.id.rfind('_'))) > 0; // "<ring>_<k>"
+          double& worst = on_ring ? worst_ring : worst_join;
+          worst = std::max(worst, (n.position - it->second).norm());
+        }
+      std::printf("%s: %d of %zu nodes shared; ring nodes at most %.3f%% of the diagonal apart, join nodes %.3f%%\n",
+                  meshes[k].c_str(), shared, base.rig.nodes.size(), 100 * worst_ring / first.bbox_diagonal(),
+                  100 * worst_join / first.bbox_diagonal());
+      EXPECT_LT(worst_ring, 0.01 * first.bbox_diagonal());
+      EXPECT_LT(worst_join, 0.015 * first.bbox_diagonal());
+      EXPECT_GE(shared, static_cast<int>(0.95 * static_cast<double>(base.rig.nodes.size())));
+    }
+  }
+}
+
+TEST(Starter, TheHandsFistsKeepTheirVolumeWithinThreePointsOfTheSkin) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // Every clip of the shared hand (the Grip is a full fist), posed through
+  // the starter net in the default mode and by the file's own skin: the
+  // net's volume change is no worse than the skin's plus 3 points.
+  const std::string path = test::data("xr_tools_hand/hand_l_poses.glb");
+  const SurfaceMesh mesh = load_mesh(path);
+  const SkinnedMesh skin = load_skinned_mesh(path);
+  const RawMesh raw = read_raw_mesh(path);
+  const Binding b = bind(mesh, make_starter(mesh, skin.joints).rig);
+  const double v0 = volume(mesh, mesh.positions);
+  ASSERT_GT(skin.num_clips(), 30);
+  for (int c = 0; c < skin.num_clips(); ++c) {
+    const double t = skin.clip_range(c).second;
+    std::vector<Vec3> ours(b.num_input_vertices());
+    b.deform(clip_skinning_matrices(b.joints(), skin, c, t), ours);
+    const auto theirs = skin_positions(skin, raw.positions, clip_skinning_matrices(skin.joints, skin, c, t));
+    const double vo = 100 * (volume(mesh, welded(mesh, ours)) / v0 - 1);
+    const double vs = 100 * (volume(mesh, welded(mesh, theirs)) / v0 - 1);
+    EXPECT_LE(std::abs(vo), std::abs(vs) + 3) << skin.clip_names[c] << ": " << vo << " points, the skin " << vs;
+    if (skin.clip_names[c] == "Grip")
+      std::printf("Grip: the net changes the volume by %+.2f points, the skin by %+.2f\n", vo, vs);
   }
 }
