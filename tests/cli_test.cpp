@@ -174,6 +174,9 @@ TEST(Cli, StarterWritesARigThatEmbeds) {
                        dir);
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("Curvenet starter: SUCCESS"), std::string::npos);
+  // Joints left without a ring are listed, each with its reason.
+  EXPECT_NE(r.out.find("joints without a ring: 6\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  Palm_L: every section across its bone"), std::string::npos) << r.out;
   ASSERT_TRUE(fs::exists(rig));
   EXPECT_EQ(run("embed " + test::data("xr_tools_hand/hand_l.gltf") + " " + rig.string(), dir).code, 0);
   // The skeleton can come from a rig file too.
