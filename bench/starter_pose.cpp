@@ -3,16 +3,18 @@
 // the harmonic and the gradient mode, posed by every clip, against the
 // file's own skin posed by the same clip.
 //
-//   build/bin/starter_pose [MESH.glb [CLIPS.glb]]...
+//   build/bin/starter_pose [--rules] [MESH.glb [CLIPS.glb]]...
 //     default: the shared hand (its 35 clips), its low-resolution version
-//     and our decimated one (tests/data/hand/hand_l_decimated.glb, 609 faces; the
+//     and our decimated one (tests/data/hand/hand_l_decimated.glb, 610 faces; the
 //     same clips), CesiumMan (its walk, 6 frames) and RiggedSimple
 //
 // Per character: the net's counts (rings, bending joints, components,
 // joins, messages), then per mode the mean and max distance to the skin
 // (% of the diagonal; mean over clips of the mean over vertices), the worst
 // volume change against the skin's (points), and the most triangles turned
-// more than 120 degrees against the skin in any clip.
+// more than 120 degrees against the skin in any clip, and how many poses
+// meet each of issue 14's goals. With --rules: the automatic weight rules
+// (docs/weights.md), each measured on the starter nets it makes.
 
 #include "curvenet/deform.hpp"
 #include "curvenet/errors.hpp"
@@ -75,27 +77,78 @@ int turned(const std::vector<std::array<int, 3>>& t, const std::vector<Vec3>& a,
   return n;
 }
 
+/// A character loaded once: its mesh, its own skin, the clips that pose it.
+struct Loaded {
+  SurfaceMesh mesh;
+  SkinnedMesh skin, clips;
+  RawMesh raw;
+  std::vector<std::array<int, 3>> tris;
+  double diag = 0, v0 = 0;
+  explicit Loaded(const Character& ch)
+      : mesh(load_mesh(ch.mesh)), skin(load_skinned_mesh(ch.mesh)), clips(load_skinned_mesh(ch.clips)),
+        raw(read_raw_mesh(ch.mesh)), tris(triangles(mesh)), diag(mesh.bbox_diagonal()),
+        v0(volume(tris, mesh.positions)) {}
+};
+
+/// A binding posed by every clip against the skin posed by the same clip.
+struct Scores {
+  double mean = 0, max = 0, worst_volume = 0; ///< % of the diagonal; points against the skin's change
+  int poses = 0, most_turned = 0, volume_ok = 0, turned_ok = 0, mean_ok = 0;
+};
+
+Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip) {
+  Scores sc;
+  double sum = 0;
+  std::vector<Vec3> ours(b.num_input_vertices());
+  for (int k = 0; k < c.clips.num_clips(); ++k) {
+    const auto [t0, t1] = c.clips.clip_range(k);
+    for (int s = 0; s < samples_per_clip; ++s) {
+      const double t = samples_per_clip == 1 ? t1 : t0 + (t1 - t0) * s / (samples_per_clip - 1);
+      b.deform(clip_skinning_matrices(b.joints(), c.clips, k, t), ours);
+      const auto theirs = skin_positions(c.skin, c.raw.positions, clip_skinning_matrices(c.skin.joints, c.clips, k, t));
+      double d = 0;
+      for (size_t i = 0; i < ours.size(); ++i) {
+        const double e = (ours[i] - theirs[i]).norm();
+        d += e;
+        sc.max = std::max(sc.max, e);
+      }
+      sum += d / ours.size();
+      sc.mean_ok += d / ours.size() < 0.01 * c.diag;
+      ++sc.poses;
+      const auto wo = welded(c.mesh, ours), wt = welded(c.mesh, theirs);
+      // Volume changes in points of the rest volume; the goal: ours no
+      // worse than the skin's plus 3 points.
+      const double vo = 100 * (volume(c.tris, wo) / c.v0 - 1), vt = 100 * (volume(c.tris, wt) / c.v0 - 1);
+      if (std::abs(vo - vt) > std::abs(sc.worst_volume))
+        sc.worst_volume = vo - vt;
+      sc.volume_ok += std::abs(vo) <= std::abs(vt) + 3;
+      const int n = turned(c.tris, wo, wt);
+      sc.most_turned = std::max(sc.most_turned, n);
+      sc.turned_ok += n == 0;
+    }
+  }
+  sc.mean = 100 * sum / std::max(sc.poses, 1) / c.diag;
+  sc.max *= 100 / c.diag;
+  return sc;
+}
+
+std::string name_of(const std::string& path) { return path.substr(path.find_last_of('/') + 1); }
+
 void measure(const Character& ch) {
-  const SurfaceMesh mesh = load_mesh(ch.mesh);
-  const SkinnedMesh skin = load_skinned_mesh(ch.mesh);
-  const SkinnedMesh clips = load_skinned_mesh(ch.clips);
-  const RawMesh raw = read_raw_mesh(ch.mesh);
-  const double diag = mesh.bbox_diagonal();
-  const auto tris = triangles(mesh);
-  const double v0 = volume(tris, mesh.positions);
-  std::printf("%s (%d faces, %zu joints), clips from %s\n", ch.mesh.substr(ch.mesh.find_last_of('/') + 1).c_str(),
-              mesh.num_faces(), skin.joints.size(), ch.clips.substr(ch.clips.find_last_of('/') + 1).c_str());
+  const Loaded c(ch);
+  std::printf("%s (%d faces, %zu joints), clips from %s\n", name_of(ch.mesh).c_str(), c.mesh.num_faces(),
+              c.skin.joints.size(), name_of(ch.clips).c_str());
   StarterResult st;
   try {
-    st = make_starter(mesh, skin.joints);
+    st = make_starter(c.mesh, c.skin.joints);
   } catch (const Error& e) {
     std::printf("  starter refused: %s\n\n", e.what());
     return;
   }
   std::printf("  net: %d rings, %zu nodes, %zu profiles; %zu of %zu joints have a ring; %d components, %d joins, %d "
               "unjoined\n",
-              st.rings, st.rig.nodes.size(), st.rig.profiles.size(), skin.joints.size() - st.ringless.size(),
-              skin.joints.size(), st.net_components, st.joins, st.unjoined);
+              st.rings, st.rig.nodes.size(), st.rig.profiles.size(), c.skin.joints.size() - st.ringless.size(),
+              c.skin.joints.size(), st.net_components, st.joins, st.unjoined);
   for (const auto& [joint, why] : st.ringless)
     std::printf("    no ring at %s: %s\n", joint.c_str(), why.c_str());
   for (const auto& m : st.messages)
@@ -108,40 +161,39 @@ void measure(const Character& ch) {
   for (const auto method : {DeformMethod::Harmonic, DeformMethod::Gradient}) {
     BindOptions o;
     o.method = method;
-    Binding b = [&] { return bind(mesh, st.rig, o); }();
-    double sum = 0, mx = 0, worst_volume = 0;
-    int n = 0, most_turned = 0, volume_ok = 0, turned_ok = 0, mean_ok = 0;
-    for (int c = 0; c < clips.num_clips(); ++c) {
-      const auto [t0, t1] = clips.clip_range(c);
-      for (int s = 0; s < ch.samples_per_clip; ++s) {
-        const double t = ch.samples_per_clip == 1 ? t1 : t0 + (t1 - t0) * s / (ch.samples_per_clip - 1);
-        std::vector<Vec3> ours(b.num_input_vertices());
-        b.deform(clip_skinning_matrices(b.joints(), clips, c, t), ours);
-        const auto theirs = skin_positions(skin, raw.positions, clip_skinning_matrices(skin.joints, clips, c, t));
-        double d = 0;
-        for (size_t i = 0; i < ours.size(); ++i) {
-          const double e = (ours[i] - theirs[i]).norm();
-          d += e;
-          mx = std::max(mx, e);
-        }
-        sum += d / ours.size();
-        mean_ok += d / ours.size() < 0.01 * diag;
-        ++n;
-        const auto wo = welded(mesh, ours), wt = welded(mesh, theirs);
-        // Volume changes in points of the rest volume; the goal: ours no
-        // worse than the skin's plus 3 points.
-        const double vo = 100 * (volume(tris, wo) / v0 - 1), vt = 100 * (volume(tris, wt) / v0 - 1);
-        if (std::abs(vo - vt) > std::abs(worst_volume))
-          worst_volume = vo - vt;
-        volume_ok += std::abs(vo) <= std::abs(vt) + 3;
-        const int k = turned(tris, wo, wt);
-        most_turned = std::max(most_turned, k);
-        turned_ok += k == 0;
-      }
-    }
+    const Scores sc = pose_all(c, bind(c.mesh, st.rig, o), ch.samples_per_clip);
     std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d, %d, %d of %d |\n",
-                method == DeformMethod::Harmonic ? "harmonic" : "gradient", 100 * sum / std::max(n, 1) / diag,
-                100 * mx / diag, worst_volume, most_turned, volume_ok, turned_ok, mean_ok, n);
+                method == DeformMethod::Harmonic ? "harmonic" : "gradient", sc.mean, sc.max, sc.worst_volume,
+                sc.most_turned, sc.volume_ok, sc.turned_ok, sc.mean_ok, sc.poses);
+  }
+  std::printf("\n");
+}
+
+/// The automatic weight rules of docs/weights.md, measured on the starter
+/// nets they make (the rule sets the nodes' weights, and the blend zone
+/// where a trunk's ring sits), in the default mode.
+void measure_rules(const Character& ch) {
+  const Loaded c(ch);
+  std::printf("%s, starter nets by weight rule (harmonic)\n", name_of(ch.mesh).c_str());
+  std::printf("  | rule | blend | mean | max | worst volume vs the skin's | poses within the volume goal |\n"
+              "  |---|---|---|---|---|---|\n");
+  for (const auto& [rule, blend] : {std::pair{WeightRule::Segment, 0.0}, std::pair{WeightRule::BlendZone, 0.1},
+                                    std::pair{WeightRule::BlendZone, 0.2}, std::pair{WeightRule::BlendZone, 0.3},
+                                    std::pair{WeightRule::BlendZone, 0.5}}) {
+    StarterOptions so;
+    so.weights.rule = rule;
+    so.weights.blend = blend;
+    const std::string name = rule == WeightRule::Segment ? "segment" : "blend-zone";
+    try {
+      const StarterResult st = make_starter(c.mesh, c.skin.joints, so);
+      BindOptions bo;
+      bo.weights = so.weights;
+      const Scores sc = pose_all(c, bind(c.mesh, st.rig, bo), ch.samples_per_clip);
+      std::printf("  | %s | %.1f | %.3f%% | %.3f%% | %+.2f | %d of %d |\n", name.c_str(), blend, sc.mean, sc.max,
+                  sc.worst_volume, sc.volume_ok, sc.poses);
+    } catch (const Error& e) {
+      std::printf("  | %s | %.1f | refused: %s |\n", name.c_str(), blend, e.what());
+    }
   }
   std::printf("\n");
 }
@@ -149,8 +201,9 @@ void measure(const Character& ch) {
 } // namespace
 
 int main(int argc, char** argv) {
+  const bool rules = argc > 1 && std::string(argv[1]) == "--rules";
   std::vector<Character> chars;
-  for (int i = 1; i < argc; ++i) {
+  for (int i = rules ? 2 : 1; i < argc; ++i) {
     Character c;
     c.mesh = argv[i];
     c.clips = i + 1 < argc && std::string(argv[i + 1]).find(".glb") != std::string::npos ? argv[++i] : c.mesh;
@@ -166,7 +219,10 @@ int main(int argc, char** argv) {
   }
   for (const auto& c : chars) {
     try {
-      measure(c);
+      if (rules)
+        measure_rules(c);
+      else
+        measure(c);
     } catch (const Error& e) {
       std::printf("%s: %s\n\n", c.mesh.c_str(), e.what());
     }
