@@ -52,13 +52,6 @@ Tris triangles(const SurfaceMesh& m) {
   return out;
 }
 
-std::vector<Vec3> welded(const SurfaceMesh& m, const std::vector<Vec3>& per_input) {
-  std::vector<Vec3> p(m.num_vertices());
-  for (size_t i = 0; i < per_input.size(); ++i)
-    p[m.input_to_welded[i]] = per_input[i];
-  return p;
-}
-
 double volume(const Tris& t, const std::vector<Vec3>& p) {
   double v = 0;
   for (const auto& f : t.t)
@@ -172,7 +165,7 @@ void quality() {
     c.mesh = load_mesh(ex + "hand_l_welded.obj");
     c.rig = read_rig(ex + "hand_l.cnrig.json");
     c.pose = read_pose(ex + "fist.pose.json");
-    c.lbs = welded(c.mesh, read_raw_mesh(ex + "fist_lbs.obj").positions);
+    c.lbs = c.mesh.welded(read_raw_mesh(ex + "fist_lbs.obj").positions);
     c.lbs_name = "fist_lbs.obj (the file's skin)";
     cases.push_back(c);
   }
@@ -199,7 +192,7 @@ void quality() {
                                       skinning_matrices(skin.joints, c.pose));
     // hand_l_welded.obj is hand_l.gltf welded: match vertices by rest position.
     std::vector<Vec3> ref(c.mesh.num_vertices());
-    const auto gw = welded(g, moved);
+    const auto gw = g.welded(moved);
     for (int v = 0; v < c.mesh.num_vertices(); ++v) {
       int best = 0;
       double bd = 1e300;
@@ -278,7 +271,7 @@ void quality() {
           : variant == 2 ? "gradient (quaternion blend)"
           : variant == 3 ? "gradient, not cut-aware"
                          : "gradient with curve frames",
-          welded(c.mesh, out));
+          c.mesh.welded(out));
     }
   }
 }

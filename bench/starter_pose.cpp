@@ -42,13 +42,6 @@ struct Character {
   int samples_per_clip = 1; ///< 1: each clip's last key; more: evenly over the clip
 };
 
-std::vector<Vec3> welded(const SurfaceMesh& m, const std::vector<Vec3>& per_input) {
-  std::vector<Vec3> p(m.num_vertices());
-  for (size_t i = 0; i < per_input.size(); ++i)
-    p[m.input_to_welded[i]] = per_input[i];
-  return p;
-}
-
 std::vector<std::array<int, 3>> triangles(const SurfaceMesh& m) {
   std::vector<std::array<int, 3>> t;
   for (int f = 0; f < m.num_faces(); ++f) {
@@ -57,13 +50,6 @@ std::vector<std::array<int, 3>> triangles(const SurfaceMesh& m) {
       t.push_back({face[0], face[k], face[k + 1]});
   }
   return t;
-}
-
-double volume(const std::vector<std::array<int, 3>>& t, const std::vector<Vec3>& p) {
-  double v = 0;
-  for (const auto& f : t)
-    v += p[f[0]].dot(p[f[1]].cross(p[f[2]])) / 6;
-  return v;
 }
 
 int turned(const std::vector<std::array<int, 3>>& t, const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
@@ -87,7 +73,7 @@ struct Loaded {
   explicit Loaded(const Character& ch)
       : mesh(load_mesh(ch.mesh)), skin(load_skinned_mesh(ch.mesh)), clips(load_skinned_mesh(ch.clips)),
         raw(read_raw_mesh(ch.mesh)), tris(triangles(mesh)), diag(mesh.bbox_diagonal()),
-        v0(volume(tris, mesh.positions)) {}
+        v0(mesh.enclosed_volume(mesh.positions)) {}
 };
 
 /// A binding posed by every clip against the skin posed by the same clip.
@@ -115,10 +101,10 @@ Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip) {
       sum += d / ours.size();
       sc.mean_ok += d / ours.size() < 0.01 * c.diag;
       ++sc.poses;
-      const auto wo = welded(c.mesh, ours), wt = welded(c.mesh, theirs);
+      const auto wo = c.mesh.welded(ours), wt = c.mesh.welded(theirs);
       // Volume changes in points of the rest volume; the goal: ours no
       // worse than the skin's plus 3 points.
-      const double vo = 100 * (volume(c.tris, wo) / c.v0 - 1), vt = 100 * (volume(c.tris, wt) / c.v0 - 1);
+      const double vo = 100 * (c.mesh.enclosed_volume(wo) / c.v0 - 1), vt = 100 * (c.mesh.enclosed_volume(wt) / c.v0 - 1);
       if (std::abs(vo - vt) > std::abs(sc.worst_volume))
         sc.worst_volume = vo - vt;
       sc.volume_ok += std::abs(vo) <= std::abs(vt) + 3;

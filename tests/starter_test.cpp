@@ -249,23 +249,6 @@ std::vector<std::string> cesium_meshes() {
           v + "cesium_man_d_loop.obj",                v + "cesium_man_e_decimated_326.obj"};
 }
 
-double volume(const SurfaceMesh& m, const std::vector<Vec3>& welded) {
-  double v = 0;
-  for (int f = 0; f < m.num_faces(); ++f) {
-    const auto c = m.face(f);
-    for (size_t k = 1; k + 1 < c.size(); ++k)
-      v += welded[c[0]].dot(welded[c[k]].cross(welded[c[k + 1]])) / 6;
-  }
-  return v;
-}
-
-std::vector<Vec3> welded(const SurfaceMesh& m, const std::vector<Vec3>& per_input) {
-  std::vector<Vec3> p(m.num_vertices());
-  for (size_t i = 0; i < per_input.size(); ++i)
-    p[m.input_to_welded[i]] = per_input[i];
-  return p;
-}
-
 } // namespace
 
 TEST(Starter, EveryJointOfTheHandHasARingOrASaidReasonOnEveryTessellation) {
@@ -373,15 +356,15 @@ TEST(Starter, TheHandsFistsKeepTheirVolumeWithinThreePointsOfTheSkin) {
   const SkinnedMesh skin = load_skinned_mesh(path);
   const RawMesh raw = read_raw_mesh(path);
   const Binding b = bind(mesh, make_starter(mesh, skin.joints).rig);
-  const double v0 = volume(mesh, mesh.positions);
+  const double v0 = mesh.enclosed_volume(mesh.positions);
   ASSERT_GT(skin.num_clips(), 30);
   for (int c = 0; c < skin.num_clips(); ++c) {
     const double t = skin.clip_range(c).second;
     std::vector<Vec3> ours(b.num_input_vertices());
     b.deform(clip_skinning_matrices(b.joints(), skin, c, t), ours);
     const auto theirs = skin_positions(skin, raw.positions, clip_skinning_matrices(skin.joints, skin, c, t));
-    const double vo = 100 * (volume(mesh, welded(mesh, ours)) / v0 - 1);
-    const double vs = 100 * (volume(mesh, welded(mesh, theirs)) / v0 - 1);
+    const double vo = 100 * (mesh.enclosed_volume(mesh.welded(ours)) / v0 - 1);
+    const double vs = 100 * (mesh.enclosed_volume(mesh.welded(theirs)) / v0 - 1);
     EXPECT_LE(std::abs(vo), std::abs(vs) + 3) << skin.clip_names[c] << ": " << vo << " points, the skin " << vs;
     if (skin.clip_names[c] == "Grip")
       std::printf("Grip: the net changes the volume by %+.2f points, the skin by %+.2f\n", vo, vs);

@@ -213,3 +213,27 @@ TEST(MeshIo, UnreadableFilesAreInputErrors) {
   std::ofstream(dir / "broken.gltf") << "{ not json";
   EXPECT_THROW(load_mesh((dir / "broken.gltf").string()), InputError);
 }
+
+TEST(SurfaceMesh, EnclosedVolumeOfAUnitCubeAndOfPositionsGivenPerInputVertex) {
+  // A unit cube of quads, with one corner split in the input as at a seam.
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}, {0, 0, 0}};
+  for (const auto& f : std::vector<std::vector<int>>{
+           {0, 3, 2, 1}, {4, 5, 6, 7}, {8, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}})
+    r.add_face(f);
+  const SurfaceMesh m = make_surface_mesh(r, "cube");
+  ASSERT_EQ(m.num_vertices(), 8);
+  EXPECT_NEAR(m.enclosed_volume(m.positions), 1.0, 1e-15);
+  // Scaled by 2 through the input vertices (the split corner too): 8 times.
+  std::vector<Vec3> per_input;
+  for (const auto& p : r.positions)
+    per_input.push_back(2 * p);
+  const auto w = m.welded(per_input);
+  ASSERT_EQ(w.size(), 8u);
+  EXPECT_NEAR(m.enclosed_volume(w), 8.0, 1e-14);
+  // Turned inside out, the volume is negative.
+  std::vector<Vec3> flipped = m.positions;
+  for (auto& p : flipped)
+    p.x() = -p.x();
+  EXPECT_NEAR(m.enclosed_volume(flipped), -1.0, 1e-15);
+}

@@ -45,6 +45,13 @@ struct SurfaceMesh {
   }
   [[nodiscard]] double bbox_diagonal() const;
   [[nodiscard]] double mean_edge_length() const;
+  /// Positions per welded vertex from positions per input vertex (what a
+  /// deformation returns, in the file's order).
+  [[nodiscard]] std::vector<Vec3> welded(const std::vector<Vec3>& per_input) const;
+  /// The volume the faces enclose with the given welded positions (the
+  /// divergence theorem over each face's fan; positive when the faces point
+  /// outward).
+  [[nodiscard]] double enclosed_volume(const std::vector<Vec3>& welded_positions) const;
 };
 
 /// Per connected component: whether it is closed, and its Euler characteristic.

@@ -73,6 +73,23 @@ double SurfaceMesh::mean_edge_length() const {
   return count ? sum / static_cast<double>(count) : 0.0;
 }
 
+std::vector<Vec3> SurfaceMesh::welded(const std::vector<Vec3>& per_input) const {
+  std::vector<Vec3> p = positions;
+  for (size_t i = 0; i < per_input.size() && i < input_to_welded.size(); ++i)
+    p[input_to_welded[i]] = per_input[i];
+  return p;
+}
+
+double SurfaceMesh::enclosed_volume(const std::vector<Vec3>& welded_positions) const {
+  double v = 0;
+  for (int f = 0; f < num_faces(); ++f) {
+    const auto c = face(f);
+    for (size_t k = 1; k + 1 < c.size(); ++k)
+      v += welded_positions[c[0]].dot(welded_positions[c[k]].cross(welded_positions[c[k + 1]])) / 6;
+  }
+  return v;
+}
+
 namespace {
 
 struct EdgeUse {
