@@ -443,8 +443,6 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     return std::nullopt;
   };
 
-  // A joint's ring moves at most part of the way to the next ring spot
-  // along the bone (1 / rings_per_bone), so rings stay in order along a chain.
   // Where no section across the bone is local (a thumb's metacarpal in the
   // ball of the thumb), the narrowest local section through the bone's
   // middle part whose plane is tilted from the bone by up to 45 degrees.
@@ -462,6 +460,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         }
     return best;
   };
+  // A joint's ring moves at most part of the way to the next ring spot
+  // along the bone (1 / rings_per_bone), so rings stay in order along a chain.
   std::vector<Ring> rings;
   struct Start {
     Vec3 point, axis;
@@ -496,9 +496,13 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
       for (int c : kids)
         most = std::max(most, sk.subtree[c]);
       Vec3 step = Vec3::Zero();
+      int tied = 0;
       for (int c : kids)
-        if (sk.subtree[c] == most)
+        if (sk.subtree[c] == most) {
           step += sk.origin[c] - sk.origin[j];
+          ++tied;
+        }
+      step /= tied;
       if (step.norm() > 0)
         pl = {sk.origin[j], step, step.normalized(), step.normalized(), 0, 0.7 / R};
     } else if (p >= 0) {
