@@ -22,8 +22,9 @@ struct StarterOptions {
   /// more spread along the bone.
   int rings_per_bone = 1;
   Coverage coverage = Coverage::Full;
-  /// Angle of node 0 from the chain's reference direction (its root joint's
-  /// local X axis), about the bone, in degrees.
+  /// Angle of node 0 from its ring's reference direction (carried from the
+  /// parent ring; a ring with none starts from its chain root's local X
+  /// axis), about the bone, in degrees.
   double first_angle_deg = 0;
   AutoWeightOptions weights;
   /// Rings closer than this fraction of the smaller one's radius are too
