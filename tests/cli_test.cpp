@@ -252,6 +252,28 @@ TEST(Cli, PoseAndAnimateOnTheInputTopology) {
   EXPECT_NE(r.err.find("/joints/Wrist_L/rotation"), std::string::npos) << r.err;
 }
 
+TEST(Cli, StarterTakesTheWeightRule) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // RiggedSimple's skin blends along its whole bone: the segment rule
+  // stands in for it (docs/starter.md), and the rig's node weights follow.
+  const auto dir = test::temp_dir("starter_rule");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf");
+  const fs::path seg = dir / "segment.cnrig.json", zone = dir / "zone.cnrig.json";
+  CliRun r = run("starter " + gltf + " --weight-rule segment -o " + seg.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("weights: segment\n"), std::string::npos) << r.out;
+  r = run("starter " + gltf + " --blend 0.2 -o " + zone.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("weights: blend-zone 0.20\n"), std::string::npos) << r.out;
+  const Rig a = read_rig(seg.string()), b = read_rig(zone.string());
+  ASSERT_EQ(a.nodes.size(), b.nodes.size());
+  EXPECT_NE(a.weights, b.weights);
+  r = run("starter " + gltf + " --blend 0.7 -o " + (dir / "bad.cnrig.json").string(), dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_FALSE(fs::exists(dir / "bad.cnrig.json"));
+}
+
 TEST(Cli, AnimationDoesNotDependOnTheThreadCount) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -520,6 +520,7 @@ int run_starter(const StarterArgs& a) {
   opt.rings_per_bone = a.rings_per_bone;
   opt.first_angle_deg = a.first_angle;
   opt.coverage = a.coverage == "local" ? Coverage::Local : Coverage::Full;
+  opt.weights = {a.weight_rule == "segment" ? WeightRule::Segment : WeightRule::BlendZone, a.blend};
   opt.message = [](const std::string& m) { std::cout << "note: " << m << "\n"; };
   const StarterResult r = make_starter(mesh, joints, opt);
   write_rig(r.rig, a.out);
@@ -534,6 +535,10 @@ int run_starter(const StarterArgs& a) {
   std::cout << "components: " << r.net_components << "\n";
   std::cout << "joins: " << r.joins << "\n";
   std::cout << "unjoined chains: " << r.unjoined << "\n";
+  std::cout << "weights: "
+            << (opt.weights.rule == WeightRule::Segment ? std::string("segment")
+                                                         : "blend-zone " + std::to_string(opt.weights.blend).substr(0, 4))
+            << "\n";
   std::cout << "joints without a ring: " << r.ringless.size() << "\n";
   for (const auto& [joint, why] : r.ringless)
     std::cout << "  " << joint << ": " << why << "\n";

@@ -16,10 +16,11 @@ struct EmbedArgs {
 int run_embed(const EmbedArgs& args);
 
 struct StarterArgs {
-  std::string mesh, skeleton, out, coverage = "full";
+  std::string mesh, skeleton, out, coverage = "full", weight_rule = "blend-zone";
   int nodes_per_ring = 4;
   int rings_per_bone = 1;
   double first_angle = 0;
+  double blend = 0.3;
 };
 int run_starter(const StarterArgs& args);
 

@@ -77,6 +77,15 @@ int main(int argc, char** argv) {
                    "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")
       ->capture_default_str()
       ->check(finite_in(-360, 360));
+  starter
+      ->add_option("--weight-rule", starter_args.weight_rule,
+                   "Automatic node weights (docs/weights.md): blend-zone (bones rigid, blended around joints) or "
+                   "segment (blended along each bone)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"blend-zone", "segment"}));
+  starter->add_option("--blend", starter_args.blend, "The blend zone's half-width, as a fraction of each bone")
+      ->capture_default_str()
+      ->check(finite_in(0, 0.5, true));
   starter->add_option("--coverage", starter_args.coverage, "Coverage of the net")
       ->capture_default_str()
       ->check(CLI::IsMember({"full", "local"}));
