@@ -1153,22 +1153,22 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
     }
     if (attempt > 6 * static_cast<int>(rings.size()) + 8)
       throw EmbedError("starter: could not make a net that embeds: " + failure);
-    // Find what to give up: a join first, then the child ring of a
-    // longitudinal, then a ring; a trunk's ring last of all.
-    int culprit = -1;
+    // Find what to give up, of what the failure names: a join first, then
+    // the child ring of a longitudinal, then the ring of an arc; a trunk's
+    // ring last of all.
+    int culprit = -1, best_rank = 4;
     char kind = 0;
     for (const std::string& id : quoted(failure)) {
       auto it = owner.find(id);
       if (it == owner.end())
         continue;
       const auto [k, who] = it->second;
-      const bool trunk = kind != 0 && kind != 'j' && rings[culprit].frac == 0 && (k == 'j' || rings[who].frac > 0);
-      if (k == 'j' || kind == 0 || trunk || (kind == 'a' && k == 'l' && (k == 'j' || rings[who].frac > 0))) {
+      const int rank = k == 'j' ? 0 : rings[who].frac == 0 ? 3 : k == 'l' ? 1 : 2;
+      if (rank < best_rank) {
+        best_rank = rank;
         kind = k;
         culprit = who;
       }
-      if (kind == 'j')
-        break;
     }
     if (culprit < 0) {
       // No profile named (for example a wrong region count): drop the largest ring.
