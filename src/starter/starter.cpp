@@ -199,14 +199,6 @@ std::vector<std::vector<Vec3>> surface_paths(const SectionMesh& sm, const Vec3& 
   return out;
 }
 
-std::optional<std::vector<Vec3>> surface_path(const SectionMesh& sm, const Vec3& a, const Vec3& b,
-                                              const std::vector<Vec3>& preferred, double tol) {
-  auto all = surface_paths(sm, a, b, preferred, tol);
-  if (all.empty())
-    return std::nullopt;
-  return std::move(all.front());
-}
-
 std::vector<std::string> quoted(const std::string& text) {
   std::vector<std::string> out;
   static const std::regex re("'([^']+)'");
