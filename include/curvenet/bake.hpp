@@ -42,10 +42,11 @@ SkinWeights bake_weights(const Binding& binding, int max_influences = 4);
 ///   has the wrong number of matrices.
 SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences = 4);
 
-/// Linear blend skinning with these weights: `rest` (one position per input
-/// vertex) moved by `skinning` (one matrix per joint of the weights).
+/// Skinning with these weights: `rest` (one position per input vertex) moved
+/// by `skinning` (one matrix per joint of the weights), linearly or by dual
+/// quaternions.
 std::vector<Vec3> skin_positions(const SkinWeights& weights, std::span<const Vec3> rest,
-                                 std::span<const Mat4> skinning);
+                                 std::span<const Mat4> skinning, Skinning method = Skinning::Linear);
 
 /// The weights as CSV: a header, then one row per input vertex
 /// (`vertex,joint_0,weight_0,...`), joints by name, empty where unused.

@@ -56,9 +56,16 @@ SkinnedMesh load_skinned_mesh(const std::string& path);
 /// The same through assimp, for any format it reads (used for FBX).
 SkinnedMesh load_skinned_mesh_assimp(const std::string& path);
 
-/// Moves `positions` (one per file vertex) by linear blend skinning.
+/// How a vertex blends its joints' matrices.
+enum class Skinning {
+  Linear,         ///< linear blend skinning: sum_j w_j M_j x
+  DualQuaternion, ///< dual-quaternion skinning (Kavan et al. 2008): the joints' rigid
+                  ///< motions blended as dual quaternions, after the blend of their stretches
+};
+
+/// Moves `positions` (one per file vertex) by the skin's weights.
 std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::vector<Eigen::Vector3d>& positions,
-                                            const std::vector<Mat4>& matrices);
+                                            const std::vector<Mat4>& matrices, Skinning method = Skinning::Linear);
 
 /// The joints of a skeleton file: a skinned glTF/GLB or FBX, or a rig file
 /// that has a skeleton.

@@ -3,6 +3,7 @@
 
 #include "curvenet/bake.hpp"
 #include "curvenet/errors.hpp"
+#include "core/dual_quaternion.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -187,21 +188,35 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
   return w;
 }
 
-std::vector<Vec3> skin_positions(const SkinWeights& w, std::span<const Vec3> rest, std::span<const Mat4> skinning) {
+std::vector<Vec3> skin_positions(const SkinWeights& w, std::span<const Vec3> rest, std::span<const Mat4> skinning,
+                                 Skinning method) {
   if (static_cast<int>(rest.size()) != w.num_vertices() || skinning.size() != w.joints.size())
     throw Error("skin_positions: " + std::to_string(rest.size()) + " positions and " +
                 std::to_string(skinning.size()) + " matrices for weights of " + std::to_string(w.num_vertices()) +
                 " vertices and " + std::to_string(w.joints.size()) + " joints");
   std::vector<Vec3> out(rest.size());
+  std::vector<detail::DualJoint> dual;
+  if (method == Skinning::DualQuaternion)
+    for (const Mat4& m : skinning)
+      dual.push_back(detail::split_joint(m));
+  detail::DualBlend blend;
   const int k = w.influences;
   for (size_t v = 0; v < rest.size(); ++v) {
     Eigen::Vector4d x = Eigen::Vector4d::Zero();
+    blend.clear();
     for (int i = 0; i < k; ++i) {
       const int j = w.joint[v * k + i];
-      if (j >= 0)
+      if (j < 0)
+        continue;
+      if (method == Skinning::DualQuaternion)
+        blend.add(dual[j], w.weight[v * k + i]);
+      else
         x += w.weight[v * k + i] * (skinning[j] * rest[v].homogeneous());
     }
-    out[v] = x.head<3>();
+    if (method == Skinning::Linear)
+      out[v] = x.head<3>();
+    else
+      out[v] = blend.valid() ? blend.apply(rest[v]) : rest[v];
   }
   return out;
 }

@@ -6,6 +6,7 @@
 // solve for the positions, with the CutChains pinned where the net puts them.
 
 #include "curvenet/rig.hpp"
+#include "core/dual_quaternion.hpp"
 #include "cut/cut_mesh.hpp"
 
 #include <Eigen/Sparse>
@@ -94,10 +95,6 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in);
 /// Positions of every cut vertex for the skinning matrices. Allocates only
 /// the first time a thread deforms this binding.
 void deform_gradient(const GradientBind& g, std::span<const Mat4> skinning, std::span<Eigen::Vector3d> cut_out);
-
-/// The nearest rotation to a 3x3 matrix (its polar factor; the rotation of
-/// its SVD, when the matrix is far from one).
-Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& a);
 
 /// Reads the rig extension x_side_scales: {"profile id": [left, right], ...}.
 std::map<std::string, std::pair<double, double>> side_scales_of(const Rig& rig);

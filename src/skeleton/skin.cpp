@@ -12,6 +12,7 @@
 #include <charconv>
 #include <set>
 
+#include "core/dual_quaternion.hpp"
 #include "core/matrix_checks.hpp"
 #include "core/numbers.hpp"
 #include <cmath>
@@ -183,19 +184,34 @@ std::vector<Mat4> SkinnedMesh::skinning_matrices(int clip, double t) const {
 }
 
 std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::vector<Eigen::Vector3d>& positions,
-                                            const std::vector<Mat4>& matrices) {
+                                            const std::vector<Mat4>& matrices, Skinning method) {
   std::vector<Eigen::Vector3d> out(positions.size());
+  std::vector<detail::DualJoint> dual;
+  if (method == Skinning::DualQuaternion)
+    for (const Mat4& m : matrices)
+      dual.push_back(detail::split_joint(m));
+  detail::DualBlend blend;
   for (size_t v = 0; v < positions.size(); ++v) {
     Eigen::Vector4d acc = Eigen::Vector4d::Zero();
     double total = 0;
+    blend.clear();
     for (int k = 0; k < 4; ++k) {
       const int j = skin.vertex_joint[v][k];
-      if (j < 0)
+      const double w = skin.vertex_weight[v][k];
+      if (j < 0 || !(w > 0))
         continue;
-      acc += skin.vertex_weight[v][k] * (matrices[j] * positions[v].homogeneous());
-      total += skin.vertex_weight[v][k];
+      if (method == Skinning::DualQuaternion)
+        blend.add(dual[j], w);
+      else
+        acc += w * (matrices[j] * positions[v].homogeneous());
+      total += w;
     }
-    out[v] = total > 0 ? Eigen::Vector3d(acc.head<3>()) : positions[v];
+    if (!(total > 0))
+      out[v] = positions[v];
+    else if (method == Skinning::Linear)
+      out[v] = acc.head<3>();
+    else
+      out[v] = blend.valid() ? blend.apply(positions[v]) : positions[v];
   }
   return out;
 }

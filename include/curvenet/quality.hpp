@@ -1,0 +1,61 @@
+#pragma once
+/// \file quality.hpp
+/// How well a deformation keeps a character's shape, measured on the posed
+/// mesh against its rest pose and its skeleton: volume, the sections across
+/// a limb, growth away from the bones, self-intersection, turned triangles
+/// and edge stretch (docs/deform.md, "Against the skins").
+
+#include "curvenet/rig.hpp"
+#include "curvenet/surface_mesh.hpp"
+
+#include <span>
+#include <vector>
+
+namespace curvenet {
+
+struct QualityOptions {
+  /// Chains of joints (indices into the skeleton, parent first) whose
+  /// sections are measured: planes across each bone between consecutive
+  /// joints, at the joints across the bisector.
+  std::vector<std::vector<int>> limbs;
+  int planes_per_bone = 24;
+  /// Welded vertices whose growth away from the skeleton counts (empty: all).
+  std::vector<char> bulge_vertices;
+  /// Joints whose bones count for the growth (empty: all). A bone runs from
+  /// a joint's parent to the joint.
+  std::vector<char> bone_joints;
+  /// A triangle is turned when its normal turns by more than this against
+  /// its rest normal carried by its dominant joint's rotation.
+  double turn_degrees = 90;
+};
+
+struct DeformationQuality {
+  double volume_change = 0;    ///< posed / rest - 1
+  double smallest_section = 1; ///< smallest posed / rest area of a section across a limb
+  /// Largest growth of a vertex's distance to the skeleton's bones, posed
+  /// against rest, over the bounding-box diagonal.
+  double bulge = 0;
+  int self_intersections = 0; ///< pairs of triangles that share no vertex and intersect
+  int turned = 0;
+  double stretch_mean = 0, stretch_max = 0; ///< |length / rest length - 1| over the edges
+};
+
+/// Measures `posed` (one position per welded vertex of `mesh`) against the
+/// mesh's rest positions. `joints` are the skeleton in the mesh's space,
+/// `skinning` its matrices in the pose (M_j = G_j B_j^-1), and
+/// `dominant_joint` each welded vertex's strongest joint, the same for every
+/// deformation compared.
+DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const Vec3> posed,
+                                       const std::vector<Joint>& joints, std::span<const Mat4> skinning,
+                                       std::span<const int> dominant_joint, const QualityOptions& options = {});
+
+/// Pairs of the mesh's triangles (polygons as fans) that share no vertex and
+/// intersect, with the given welded positions. Exact: decided by orientation
+/// predicates, not a tolerance.
+int self_intersecting_pairs(const SurfaceMesh& mesh, std::span<const Vec3> positions);
+
+/// The area of the smallest closed section around `point` of the plane
+/// through it with normal `normal` (0 when no section winds around it).
+double section_area(const SurfaceMesh& mesh, std::span<const Vec3> positions, const Vec3& point, const Vec3& normal);
+
+} // namespace curvenet
