@@ -1,13 +1,19 @@
-// Binding and per-frame cost against plain linear blend skinning (4
-// influences), on capped tubes of about 5k, 50k and 500k vertices with a
-// 5-joint skeleton and a 13-ring net. Prints medians from one run.
+// Binding and per-frame cost of each deformation mode, against plain linear
+// blend skinning and dual-quaternion skinning (4 influences, the library's
+// own skin_positions), on capped tubes of about 5k, 50k and 500k vertices
+// with a 5-joint skeleton and a 13-ring net. One run; medians of 21 frames.
 //
 //   build/bin/deform_bench [max_vertices]
+//
+// "1 thread" runs with TBB limited to one thread; "2 threads" with two.
 
+#include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/weights.hpp"
 #include "generate/tube.hpp"
+
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <chrono>
@@ -15,6 +21,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <numbers>
+#include <string>
 #include <sys/resource.h>
 #include <vector>
 
@@ -33,6 +40,29 @@ long peak_mb() {
   getrusage(RUSAGE_SELF, &u);
   return u.ru_maxrss / 1024;
 }
+
+std::vector<std::vector<Mat4>> frames_of(const std::vector<Joint>& joints) {
+  std::vector<std::vector<Mat4>> out;
+  for (int f = 0; f < 21; ++f) {
+    Pose pose;
+    for (int j = 1; j < 5; ++j)
+      pose["j" + std::to_string(j)].rotation =
+          Eigen::Quaterniond(Eigen::AngleAxisd((10 + f) * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()));
+    out.push_back(skinning_matrices(joints, pose));
+  }
+  return out;
+}
+
+template <class F> double median_ms(int threads, const std::vector<std::vector<Mat4>>& frames, F&& frame) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  std::vector<double> t;
+  for (const auto& M : frames) {
+    const double s = now_ms();
+    frame(M);
+    t.push_back(now_ms() - s);
+  }
+  return median(t);
+}
 } // namespace
 
 int main(int argc, char** argv) {
@@ -46,59 +76,69 @@ int main(int argc, char** argv) {
   Rig rig = make_tube_net(ns);
   rig.joints = joints;
   rig.has_skeleton = true;
-  std::printf("%9s %9s %10s %12s %10s %8s %12s %10s\n", "vertices", "faces", "bind_ms", "frame_ms", "lbs_ms", "ratio",
-              "influences", "peak_MB");
+  std::printf("| vertices | faces | mode | bind ms | frame ms, 1 thread | frame ms, 2 threads | influences per vertex | "
+              "peak MB |\n|---|---|---|---|---|---|---|---|\n");
   for (const int around : {64, 200, 640}) {
     TubeSpec ts;
     ts.around = around;
     ts.along = around;
     ts.cap_rings = around / 8;
     ts.triangulate = true;
-    const SurfaceMesh mesh = make_surface_mesh(make_capped_tube(ts), "tube");
-    if (mesh.num_vertices() > max_vertices)
+    const RawMesh raw = make_capped_tube(ts);
+    if (static_cast<long>(raw.positions.size()) > max_vertices)
       break;
-    const double t0 = now_ms();
-    const Binding b = bind(mesh, rig);
-    const double bind_ms = now_ms() - t0;
-    // LBS with 4 influences from the same skeleton.
-    const int nv = mesh.num_vertices();
-    std::vector<std::array<int, 4>> lj(nv);
-    std::vector<std::array<double, 4>> lw(nv);
-    for (int v = 0; v < nv; ++v) {
-      auto w = auto_weights(joints, mesh.positions[v]);
+    const SurfaceMesh mesh = make_surface_mesh(raw, "tube");
+    const auto frames = frames_of(joints);
+    const std::vector<Vec3> rest(mesh.positions.begin(), mesh.positions.end());
+    std::vector<Vec3> out(mesh.input_to_welded.size());
+    SkinWeights skin; // the skins: the blend-zone rule's weights, 4 influences
+    for (const auto& j : joints)
+      skin.joints.push_back(j.name);
+    for (const auto& p : rest) {
+      auto w = auto_weights(joints, p);
       w.resize(std::min<size_t>(w.size(), 4));
       double sum = 0;
       for (auto& [j, x] : w)
         sum += x;
       for (int k = 0; k < 4; ++k) {
-        lj[v][k] = k < static_cast<int>(w.size()) ? w[k].first : 0;
-        lw[v][k] = k < static_cast<int>(w.size()) ? w[k].second / sum : 0;
+        skin.joint.push_back(k < static_cast<int>(w.size()) ? w[k].first : -1);
+        skin.weight.push_back(k < static_cast<int>(w.size()) ? w[k].second / sum : 0.0);
       }
     }
-    std::vector<Vec3> out(b.num_input_vertices()), lbs(nv);
-    std::vector<double> ours, plain;
-    for (int f = 0; f < 21; ++f) {
-      Pose pose;
-      for (int j = 1; j < 5; ++j)
-        pose["j" + std::to_string(j)].rotation =
-            Eigen::Quaterniond(Eigen::AngleAxisd((10 + f) * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()));
-      const auto M = skinning_matrices(b.joints(), pose);
-      double s = now_ms();
-      b.deform(M, out);
-      ours.push_back(now_ms() - s);
-      s = now_ms();
-      for (int v = 0; v < nv; ++v) {
-        Vec3 x = Vec3::Zero();
-        for (int k = 0; k < 4; ++k)
-          x.noalias() += lw[v][k] * (M[lj[v][k]].topLeftCorner<3, 3>() * mesh.positions[v] + M[lj[v][k]].block<3, 1>(0, 3));
-        lbs[v] = x;
-      }
-      plain.push_back(now_ms() - s);
+    for (const auto method : {Skinning::Linear, Skinning::DualQuaternion}) {
+      std::vector<Vec3> posed;
+      auto frame = [&](const std::vector<Mat4>& M) { posed = skin_positions(skin, rest, M, method); };
+      std::printf("| %d | %d | %s | | %.3f | %.3f | 4 | |\n", mesh.num_vertices(), mesh.num_faces(),
+                  method == Skinning::Linear ? "LBS (baseline)" : "DQS (baseline)", median_ms(1, frames, frame),
+                  median_ms(2, frames, frame));
     }
-    const double fo = median(ours), fl = median(plain);
-    std::printf("%9d %9d %10.1f %12.3f %10.3f %8.2f %12.2f %10ld\n", nv, mesh.num_faces(), bind_ms, fo, fl, fo / fl,
-                b.report().mean_influences, peak_mb());
-    std::fflush(stdout);
+    for (const auto m : {DeformMethod::DualQuaternion, DeformMethod::Harmonic, DeformMethod::Gradient}) {
+      if (std::getenv("CURVENET_ONLY_DQ") && m != DeformMethod::DualQuaternion)
+        continue;
+      BindOptions o;
+      o.method = m;
+      double bind_ms = 0;
+      std::unique_ptr<Binding> b;
+      {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        const double t0 = now_ms();
+        b = std::make_unique<Binding>(bind(mesh, rig, o));
+        bind_ms = now_ms() - t0;
+      }
+      auto frame = [&](const std::vector<Mat4>& M) { b->deform(M, out); };
+      const double one = median_ms(1, frames, frame), two = median_ms(2, frames, frame);
+      std::printf("| %d | %d | %s%s | %.1f | %.3f | %.3f | %.2f | %ld |\n", mesh.num_vertices(), mesh.num_faces(),
+                  to_string(m), m == DeformMethod::DualQuaternion ? " (default)" : "", bind_ms, one, two,
+                  b->report().mean_influences, peak_mb());
+      if (std::getenv("CURVENET_BIND_STAGES"))
+      {
+        for (const auto& [stage, ms] : b->report().timings_ms)
+          std::printf("    %s %.1f ms\n", stage.c_str(), ms);
+        for (const auto& [stage, ms] : b->embedding().report().timings_ms)
+          std::printf("      embed: %s %.1f ms\n", stage.c_str(), ms);
+      }
+      std::fflush(stdout);
+    }
   }
   return 0;
 }

@@ -280,8 +280,10 @@ void families() {
   std::printf("| family | mode | rows | mean posed mean | max posed mean | max posed max | rows within bound |\n"
               "|---|---|---|---|---|---|---|\n");
   for (const char* fam : {"hand", "spot", "penguin"}) {
-    for (const int variant : {0, 1, 2}) {
-      BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
+    for (const int variant : {3, 0, 1, 2}) {
+      BindOptions o = with(variant == 3 ? DeformMethod::DualQuaternion
+                           : variant == 0 ? DeformMethod::Harmonic
+                                          : DeformMethod::Gradient);
       o.curve_frames = variant == 2;
       const auto rows = check::run_family(fam, kData, {}, nullptr, o);
       double sum = 0, worst_mean = 0, worst_max = 0;
@@ -293,7 +295,11 @@ void families() {
         pass += r.pass_mean() && r.pass_max();
       }
       std::printf("| %s | %s | %zu | %.3f%% | %.3f%% | %.3f%% | %d |\n", fam,
-                  variant == 0 ? "harmonic" : variant == 1 ? "gradient" : "gradient with curve frames", rows.size(),
+                  variant == 3   ? "dq"
+                  : variant == 0 ? "harmonic"
+                  : variant == 1 ? "gradient"
+                                 : "gradient with curve frames",
+                  rows.size(),
                   rows.empty() ? 0.0 : sum / rows.size(), worst_mean, worst_max, pass);
     }
   }

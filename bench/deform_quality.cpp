@@ -17,7 +17,6 @@
 #include "curvenet/quality.hpp"
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
-#include "core/dual_quaternion.hpp"
 #include "generate/tube.hpp"
 
 #include <algorithm>
@@ -113,8 +112,6 @@ struct Method {
 struct Row {
   std::string method;
   DeformationQuality worst;
-  int worst_frame = 0;
-  double ms = 0;
 };
 
 void worst_of(DeformationQuality& w, const DeformationQuality& q, bool first) {
@@ -204,6 +201,13 @@ Case hand_fist() {
   return c;
 }
 
+/// The example folder's own fist (fist.pose.json, 14 joint rotations).
+Case hand_fist_pose() {
+  Case c = hand_base("hand fist (fist.pose.json, hand-drawn net)");
+  c.poses.push_back(read_pose(kData + "/xr_tools_hand/example/fist.pose.json"));
+  return c;
+}
+
 Case hand_twist() {
   Case c = hand_base("hand, middle finger twisted 90 about its bone");
   Pose p;
@@ -273,6 +277,7 @@ std::vector<std::pair<std::string, std::function<Case()>>> all_cases() {
       {"cylinder twist 90", [] { return cylinder("cylinder twist 90", 90, true); }},
       {"cylinder twist 180", [] { return cylinder("cylinder twist 180", 180, true); }},
       {"hand fist", [] { return hand_fist(); }},
+      {"hand fist pose", [] { return hand_fist_pose(); }},
       {"hand twist", [] { return hand_twist(); }},
       {"hand flex", [] { return hand_flex(); }},
       {"cesium man walk", [] { return skinned("cesium man walk", kData + "/cesium_man/CesiumMan.glb", {"0"}, 8); }},
@@ -310,7 +315,7 @@ void write_ply(const std::string& path, const SurfaceMesh& mesh, const std::vect
   std::fclose(f);
 }
 
-void run(Case c, const std::string& obj_dir) {
+void run(Case c, const std::string& ply_dir) {
   c.dominant = dominant_of(c.mesh, c.skin);
   if (c.quality.bone_joints.empty()) {
     // Bones to joints that carry skin weight (IK helpers and poles do not).
@@ -321,7 +326,6 @@ void run(Case c, const std::string& obj_dir) {
   }
   std::vector<Vec3> rest_in(c.raw.positions.begin(), c.raw.positions.end());
   std::vector<Method> methods;
-  methods.push_back({"rest", [&](size_t) { return rest_in; }});
   methods.push_back({"LBS", [&](size_t f) {
                        return skin_positions(c.skin, rest_in, frame_matrices(c, c.skin_joints, f), Skinning::Linear);
                      }});
@@ -330,12 +334,16 @@ void run(Case c, const std::string& obj_dir) {
                                              Skinning::DualQuaternion);
                      }});
   std::vector<std::pair<std::string, BindOptions>> modes;
-  {
+  for (const DeformMethod m : {DeformMethod::DualQuaternion, DeformMethod::Harmonic, DeformMethod::Gradient}) {
     BindOptions o;
-    o.method = DeformMethod::Harmonic;
-    modes.push_back({"harmonic", o});
+    o.method = m;
+    modes.push_back({std::string(to_string(m)) + (m == DeformMethod::DualQuaternion ? " (default)" : ""), o});
+  }
+  {
+    BindOptions o; // the gradient mode as it was: targets that do not turn with the sections, and polar rotations
     o.method = DeformMethod::Gradient;
-    modes.push_back({"gradient", o});
+    o.sections = false;
+    modes.push_back({"gradient without sections", o});
   }
   std::vector<std::unique_ptr<Binding>> bindings;
   for (const auto& [label, o] : modes) {
@@ -352,134 +360,54 @@ void run(Case c, const std::string& obj_dir) {
                          return out;
                        }});
   }
-  // Prototypes on the harmonic binding's weights s_j.
-  {
-    const Binding* hb = bindings.front().get();
-    const int nin = hb->num_input_vertices();
-    auto hw = std::make_shared<std::vector<std::vector<std::pair<int, double>>>>(nin);
-    for (int i = 0; i < nin; ++i)
-      hb->harmonic_weights(i, (*hw)[i]);
-    methods.push_back({"DQS of s_j", [&c, hb, hw](size_t f) {
-                         const auto M = frame_matrices(c, hb->joints(), f);
-                         std::vector<detail::DualJoint> dj;
-                         for (const auto& m : M)
-                           dj.push_back(detail::split_joint(m));
-                         std::vector<Vec3> out(hw->size());
-                         detail::DualBlend b;
-                         for (size_t i = 0; i < hw->size(); ++i) {
-                           b.clear();
-                           for (const auto& [j, w] : (*hw)[i])
-                             b.add(dj[j], w);
-                           out[i] = b.apply(c.raw.positions[i]);
-                         }
-                         return out;
-                       }});
-    // Optimised centres of rotation (Le and Hodgins 2016) for the weights s_j.
-    auto cor = std::make_shared<std::vector<Vec3>>(nin, Vec3::Zero());
-    {
-      const int nj = static_cast<int>(hb->joints().size());
-      std::vector<Eigen::VectorXd> wv(c.mesh.num_vertices(), Eigen::VectorXd::Zero(nj));
-      for (int i = 0; i < nin; ++i)
-        for (const auto& [j, w] : (*hw)[i])
-          wv[c.mesh.input_to_welded[i]][j] = w;
-      struct T {
-        Eigen::VectorXd w;
-        Vec3 p;
-        double a;
-      };
-      std::vector<T> tris;
-      for (int f = 0; f < c.mesh.num_faces(); ++f) {
-        const auto fc = c.mesh.face(f);
-        for (size_t k = 1; k + 1 < fc.size(); ++k) {
-          const Vec3 &a = c.mesh.positions[fc[0]], &b2 = c.mesh.positions[fc[k]], &d = c.mesh.positions[fc[k + 1]];
-          tris.push_back({(wv[fc[0]] + wv[fc[k]] + wv[fc[k + 1]]) / 3, (a + b2 + d) / 3, 0.5 * (b2 - a).cross(d - a).norm()});
-        }
-      }
-      const double sigma = 0.1;
-      std::vector<Vec3> wc(c.mesh.num_vertices(), Vec3::Zero());
-      for (int v = 0; v < c.mesh.num_vertices(); ++v) {
-        std::vector<int> nz;
-        for (int j = 0; j < nj; ++j)
-          if (wv[v][j] > 0)
-            nz.push_back(j);
-        if (nz.size() < 2) {
-          wc[v] = c.mesh.positions[v];
-          continue;
-        }
-        Vec3 num = Vec3::Zero();
-        double den = 0;
-        for (const auto& t : tris) {
-          double sim = 0;
-          for (size_t x = 0; x < nz.size(); ++x)
-            for (size_t y = x + 1; y < nz.size(); ++y) {
-              const int j = nz[x], k = nz[y];
-              const double e = (wv[v][j] * t.w[k] - wv[v][k] * t.w[j]) / sigma;
-              sim += wv[v][j] * wv[v][k] * t.w[j] * t.w[k] * std::exp(-e * e);
-            }
-          num += sim * t.a * t.p;
-          den += sim * t.a;
-        }
-        wc[v] = den > 0 ? Vec3(num / den) : c.mesh.positions[v];
-      }
-      for (int i = 0; i < nin; ++i)
-        (*cor)[i] = wc[c.mesh.input_to_welded[i]];
-    }
-    methods.push_back({"CoR of s_j", [&c, hb, hw, cor](size_t f) {
-                         const auto M = frame_matrices(c, hb->joints(), f);
-                         std::vector<detail::DualJoint> dj;
-                         for (const auto& m : M)
-                           dj.push_back(detail::split_joint(m));
-                         std::vector<Vec3> out(hw->size());
-                         for (size_t i = 0; i < hw->size(); ++i) {
-                           Eigen::Vector4d q = Eigen::Vector4d::Zero();
-                           Eigen::Vector4d lc = Eigen::Vector4d::Zero();
-                           const Eigen::Vector4d* pivot = nullptr;
-                           for (const auto& [j, w] : (*hw)[i]) {
-                             if (!pivot)
-                               pivot = &dj[j].real;
-                             q += (pivot->dot(dj[j].real) < 0 ? -w : w) * dj[j].real;
-                             lc += w * (M[j] * (*cor)[i].homogeneous());
-                           }
-                           Eigen::Quaterniond qq;
-                           qq.coeffs() = q.normalized();
-                           out[i] = qq * (c.raw.positions[i] - (*cor)[i]) + lc.head<3>();
-                         }
-                         return out;
-                       }});
-  }
+  std::vector<Row> rows;
   for (const auto& m : methods) {
     Row r;
     r.method = m.name;
     for (size_t f = 0; f < frames_of(c); ++f) {
       const auto posed = c.mesh.welded(m.pose(f));
       const auto M = frame_matrices(c, c.skin_joints, f);
-      const DeformationQuality q = measure_deformation(c.mesh, posed, c.skin_joints, M, c.dominant, c.quality);
-      worst_of(r.worst, q, f == 0);
-      if (!obj_dir.empty() && f + 1 == frames_of(c)) {
-        std::filesystem::create_directories(obj_dir);
-        write_ply(obj_dir + "/" + m.name + ".ply", c.mesh, posed);
+      worst_of(r.worst, measure_deformation(c.mesh, posed, c.skin_joints, M, c.dominant, c.quality), f == 0);
+      if (!ply_dir.empty() && f + 1 == frames_of(c)) {
+        std::filesystem::create_directories(ply_dir);
+        std::string file = m.name.substr(0, m.name.find(" ("));
+        std::replace(file.begin(), file.end(), ' ', '_');
+        write_ply(ply_dir + "/" + file + ".ply", c.mesh, posed);
         if (&m == &methods.front())
-          write_ply(obj_dir + "/rest.ply", c.mesh, c.mesh.positions);
+          write_ply(ply_dir + "/rest.ply", c.mesh, c.mesh.positions);
       }
     }
+    rows.push_back(r);
     const auto& w = r.worst;
     const bool limb = !c.quality.limbs.empty();
+    char section[32] = "";
+    if (limb)
+      std::snprintf(section, sizeof(section), "%.2f", w.smallest_section);
     std::printf("| %s | %s | %+.2f%% | %s | %.2f%% | %d | %d | %.1f%% / %.0f%% |\n", c.name.c_str(), r.method.c_str(),
-                100 * w.volume_change, limb ? (std::to_string(w.smallest_section).substr(0, 4)).c_str() : "",
-                100 * w.bulge, w.self_intersections, w.turned, 100 * w.stretch_mean, 100 * w.stretch_max);
+                100 * w.volume_change, section, 100 * w.bulge, w.self_intersections, w.turned, 100 * w.stretch_mean,
+                100 * w.stretch_max);
     std::fflush(stdout);
   }
+  // The goals (the default against DQS, and LBS for self-intersection).
+  const DeformationQuality &lbs = rows[0].worst, &dqs = rows[1].worst, &ours = rows[2].worst;
+  auto mark = [](bool ok) { return ok ? "yes" : "no"; };
+  std::printf("| %s | default meets the goals: volume %s, section %s, bulge %s, pairs %s, turned %s | | | | | | |\n",
+              c.name.c_str(), mark(std::abs(ours.volume_change) <= std::abs(dqs.volume_change) + 0.005),
+              c.quality.limbs.empty() ? "-" : mark(ours.smallest_section >= dqs.smallest_section - 0.02),
+              mark(ours.bulge <= dqs.bulge + 1e-12),
+              mark(ours.self_intersections <= std::min(lbs.self_intersections, dqs.self_intersections)),
+              mark(ours.turned <= dqs.turned));
 }
 
 } // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> wanted;
-  std::string obj_dir;
+  std::string ply_dir;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--ply" && i + 1 < argc)
-      obj_dir = argv[++i];
+      ply_dir = argv[++i];
     else
       wanted.push_back(a);
   }
@@ -493,7 +421,7 @@ int main(int argc, char** argv) {
     if (!take)
       continue;
     try {
-      run(make(), obj_dir);
+      run(make(), ply_dir);
     } catch (const Error& e) {
       std::printf("| %s | (refused) | %s |\n", name.c_str(), e.what());
     }

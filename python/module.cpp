@@ -660,7 +660,7 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property_readonly("num_input_vertices", [](const PyBinding& b) { return b.binding.num_input_vertices(); })
       .def_property_readonly("has_embedding", [](const PyBinding& b) { return b.binding.has_embedding(); })
       .def_property_readonly("method", [](const PyBinding& b) {
-        return b.binding.method() == DeformMethod::Gradient ? "gradient" : "harmonic";
+        return to_string(b.binding.method());
       })
       .def_property_readonly("embedding",
                              [](const PyBinding& b) {
@@ -739,9 +739,8 @@ PYBIND11_MODULE(_curvenet, m) {
           throw py::value_error("rotation: expected 'polar' or 'quaternion'");
         o.rotation_blend =
             rotation == "quaternion" ? BindOptions::RotationBlend::Quaternion : BindOptions::RotationBlend::Polar;
-        if (method != "harmonic" && method != "gradient")
-          throw py::value_error("method: expected 'harmonic' or 'gradient'");
-        o.method = method == "gradient" ? DeformMethod::Gradient : DeformMethod::Harmonic;
+        if (!parse_deform_method(method, o.method))
+          throw py::value_error("method: expected 'dq', 'harmonic' or 'gradient', got '" + method + "'");
         o.cut_aware = cut_aware;
         if (laplacian != "intrinsic" && laplacian != "uniform")
           throw py::value_error("laplacian: expected 'intrinsic' or 'uniform'");
@@ -757,7 +756,7 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("laplacian") = "intrinsic",
       py::arg("rigid") = "per-vertex", py::arg("weight_rule") = "blend-zone", py::arg("blend") = 0.3,
-      py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "harmonic",
+      py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "dq",
       py::arg("cut_aware") = true, py::arg("rotation") = "polar", py::arg("curve_frames") = false);
   m.def(
       "complete_weights",

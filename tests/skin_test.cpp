@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <numbers>
 
 using namespace curvenet;
 
@@ -253,4 +254,74 @@ TEST(Skin, ClipMatricesMatchJointsByNameAndFramesCoverTheClip) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), clips.source);
   }
+}
+
+// --- dual-quaternion skinning, the baseline a rigger compares with ----------
+
+namespace {
+
+SkinnedMesh two_joint_skin(const std::vector<Vec3>& points, double child_weight) {
+  SkinnedMesh s;
+  Joint root, child;
+  root.name = "root";
+  child.name = "child";
+  child.parent = "root";
+  child.bind(1, 3) = 1; // one up the y axis
+  s.joints = {root, child};
+  for (size_t v = 0; v < points.size(); ++v) {
+    s.vertex_joint.push_back({0, 1, -1, -1});
+    s.vertex_weight.push_back({1 - child_weight, child_weight, 0, 0});
+  }
+  return s;
+}
+
+} // namespace
+
+TEST(Skin, DualQuaternionSkinningIsExactForOneJointAndForRigidMotions) {
+  const std::vector<Vec3> pts{{0.3, 0.2, -0.1}, {1, 2, 3}, {-0.5, 1.5, 0.25}};
+  Eigen::Affine3d T = Eigen::Affine3d::Identity();
+  T.translate(Vec3(0.4, -1, 2));
+  T.rotate(Eigen::AngleAxisd(2.5, Vec3(1, -2, 0.5).normalized()));
+  for (const double w : {0.0, 0.3, 1.0}) {
+    const SkinnedMesh s = two_joint_skin(pts, w);
+    // Both joints moved alike: every point moves rigidly.
+    const auto out = skin_positions(s, pts, {T.matrix(), T.matrix()}, Skinning::DualQuaternion);
+    for (size_t i = 0; i < pts.size(); ++i)
+      EXPECT_LT((out[i] - T * pts[i]).norm(), 1e-12) << w;
+  }
+  // One joint alone: its own motion, exactly as LBS gives it.
+  const SkinnedMesh s = two_joint_skin(pts, 1.0);
+  const Mat4 R = Eigen::Affine3d(Eigen::AngleAxisd(1.1, Vec3::UnitZ())).matrix();
+  const auto dq = skin_positions(s, pts, {Mat4::Identity(), R}, Skinning::DualQuaternion);
+  const auto lbs = skin_positions(s, pts, {Mat4::Identity(), R}, Skinning::Linear);
+  for (size_t i = 0; i < pts.size(); ++i)
+    EXPECT_LT((dq[i] - lbs[i]).norm(), 1e-12);
+}
+
+TEST(Skin, DualQuaternionSkinningTurnsA180DegreeTwistInsteadOfCollapsingIt) {
+  // Points on a unit circle about the y axis, weighted half and half: the
+  // child twisted by 180 degrees about y. LBS averages each point with its
+  // opposite, the centre; DQS turns it by 90 degrees and keeps its radius.
+  std::vector<Vec3> ring;
+  for (int k = 0; k < 8; ++k)
+    ring.emplace_back(std::cos(k * 0.785398), 0.5, std::sin(k * 0.785398));
+  const SkinnedMesh s = two_joint_skin(ring, 0.5);
+  const Mat4 twist = Eigen::Affine3d(Eigen::AngleAxisd(std::numbers::pi, Vec3::UnitY())).matrix();
+  const auto dq = skin_positions(s, ring, {Mat4::Identity(), twist}, Skinning::DualQuaternion);
+  const auto lbs = skin_positions(s, ring, {Mat4::Identity(), twist}, Skinning::Linear);
+  const Eigen::AngleAxisd quarter(std::numbers::pi / 2, Vec3::UnitY());
+  for (size_t i = 0; i < ring.size(); ++i) {
+    EXPECT_NEAR(std::hypot(dq[i].x(), dq[i].z()), 1.0, 1e-12);
+    EXPECT_LT((dq[i] - quarter * ring[i]).norm(), 1e-12);
+    EXPECT_LT(std::hypot(lbs[i].x(), lbs[i].z()), 1e-12);
+  }
+  // A bend of 90 degrees about the joint: the half-way point turns by 45
+  // degrees about the joint (on the circle about it), where LBS cuts the chord.
+  const Mat4 bend = (Eigen::Translation3d(0, 1, 0) * Eigen::AngleAxisd(std::numbers::pi / 2, Vec3::UnitZ()) *
+                     Eigen::Translation3d(0, -1, 0))
+                        .matrix();
+  const std::vector<Vec3> p{{0, 2, 0}};
+  const auto b = skin_positions(two_joint_skin(p, 0.5), p, {Mat4::Identity(), bend}, Skinning::DualQuaternion);
+  EXPECT_NEAR((b[0] - Vec3(0, 1, 0)).norm(), 1.0, 1e-12);
+  EXPECT_NEAR(std::atan2(-b[0].x(), b[0].y() - 1), std::numbers::pi / 4, 1e-12);
 }

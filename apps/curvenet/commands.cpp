@@ -161,7 +161,7 @@ BindOptions bind_options(const DeformArgs& a) {
   BindOptions o;
   o.laplacian = a.laplacian == "uniform" ? LaplacianChoice::Uniform : LaplacianChoice::IntrinsicDelaunay;
   o.rigid = a.rigid == "horn" ? RigidMode::Horn : RigidMode::PerVertex;
-  o.method = a.method == "gradient" ? DeformMethod::Gradient : DeformMethod::Harmonic;
+  parse_deform_method(a.method, o.method); // the CLI checks the spelling
   o.rotation_blend =
       a.rotation == "quaternion" ? BindOptions::RotationBlend::Quaternion : BindOptions::RotationBlend::Polar;
   o.curve_frames = a.curve_frames;

@@ -26,7 +26,7 @@ int run_starter(const StarterArgs& args);
 
 struct DeformArgs {
   std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex", binding_cache;
-  std::string method = "harmonic", rotation = "polar";
+  std::string method = "dq", rotation = "polar";
   bool curve_frames = false;
 };
 

@@ -105,9 +105,11 @@ int main(int argc, char** argv) {
         ->capture_default_str()
         ->check(CLI::IsMember({"per-vertex", "horn"}));
     cmd->add_option("--method", a.method,
-                    "harmonic: blend the joints per vertex; gradient: per-face gradients and a Poisson solve")
+                    "dq: blend the joints' rigid motions per vertex as dual quaternions, with the net's harmonic "
+                    "weights; harmonic: blend the joints' matrices linearly; gradient: per-face gradients and a "
+                    "Poisson solve")
         ->capture_default_str()
-        ->check(CLI::IsMember({"harmonic", "gradient"}));
+        ->check(CLI::IsMember({"dq", "harmonic", "gradient"}));
     cmd->add_option("--rotation", a.rotation, "Gradient mode: a face's rotation from its joints'")
         ->capture_default_str()
         ->check(CLI::IsMember({"polar", "quaternion"}));

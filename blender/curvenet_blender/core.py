@@ -458,12 +458,12 @@ METHOD_KEY = "curvenet_method"
 def bind(obj, arm, method=None):
     """Binds the object's rig to the armature (its bones replace the rig's
     skeleton, matched by name), and starts live deformation. method:
-    'harmonic' or 'gradient' (docs/deform.md); by default the object's last."""
+    'dq', 'harmonic' or 'gradient' (docs/deform.md); by default the object's last."""
     rig = get_rig(obj)
     rig = curvenet.with_skeleton(rig, armature_joints(obj, arm), arm.name)
     set_rig(obj, rig)
     st = state(obj)
-    method = method or obj.get(METHOD_KEY, "harmonic")
+    method = method or obj.get(METHOD_KEY, "dq")
     st.binding = curvenet.bind(engine_mesh(obj), rig, method=method)
     obj[METHOD_KEY] = method
     names = {b.name for b in arm.data.bones}

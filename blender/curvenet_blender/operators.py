@@ -203,7 +203,8 @@ class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
     method: EnumProperty(
         name="Method",
         items=(("SCENE", "Panel's", "The method set in the panel"),
-               ("harmonic", "Harmonic", "Blend the joints per vertex with harmonic weights"),
+               ("dq", "Dual quaternion", "Blend the joints' rigid motions per vertex as dual quaternions, with the net's weights"),
+               ("harmonic", "Harmonic", "Blend the joints' matrices per vertex, linearly, with the net's weights"),
                ("gradient", "Gradient", "Per-face deformation gradients, rotation-aware, and a Poisson solve")),
         default="SCENE")
 

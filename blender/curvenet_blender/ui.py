@@ -22,9 +22,10 @@ class CurvenetSceneProps(bpy.types.PropertyGroup):
     weight: FloatProperty(name="Weight", default=1.0, min=0.0, max=1.0)
     method: EnumProperty(
         name="Method",
-        items=(("harmonic", "Harmonic", "Blend the joints per vertex with harmonic weights"),
+        items=(("dq", "Dual quaternion", "Blend the joints' rigid motions per vertex as dual quaternions, with the net's weights"),
+               ("harmonic", "Harmonic", "Blend the joints' matrices per vertex, linearly, with the net's weights"),
                ("gradient", "Gradient", "Per-face deformation gradients, rotation-aware, and a Poisson solve")),
-        default="harmonic")
+        default="dq")
     status: StringProperty(name="Status")
 
 

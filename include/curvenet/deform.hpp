@@ -42,10 +42,20 @@ enum class DeformMethod {
   /// polar factor of the blend) times a stretch, applied to the face's rest
   /// edges; then a Poisson solve for the positions with the CutChains pinned.
   Gradient,
+  /// Each vertex blends its joints' rigid motions as dual quaternions, with
+  /// the harmonic weights: the curves are posed by their own weights and
+  /// keep their size, a twist turns instead of collapsing, and a bend keeps
+  /// its volume, as dual-quaternion skinning does with the same weights.
+  DualQuaternion,
 };
 
+/// "harmonic", "gradient" or "dq", as the front ends spell them.
+const char* to_string(DeformMethod method);
+/// The method spelled `name`; false when it is none of them.
+bool parse_deform_method(const std::string& name, DeformMethod& method);
+
 struct BindOptions {
-  DeformMethod method = DeformMethod::Harmonic;
+  DeformMethod method = DeformMethod::DualQuaternion;
   /// Gradient mode: values per face corner, so the two sides of a curve may
   /// differ. Off, each vertex on a curve takes the average of its sides
   /// (only for showing what the cut-aware discretisation does).
@@ -59,6 +69,11 @@ struct BindOptions {
   /// interpolated over the surface per frame (3 more right-hand sides, about
   /// twice the frame time; docs/deform.md measures both).
   bool curve_frames = false;
+  /// Gradient mode: targets that turn as cross-sections do about their
+  /// bones (the blend's turn along each weight's gradient applied to the
+  /// triangle's offset from its bone), so that twists and bends keep their
+  /// sections. Uses the quaternion blend.
+  bool sections = true;
   LaplacianChoice laplacian = LaplacianChoice::IntrinsicDelaunay;
   RigidMode rigid = RigidMode::PerVertex;
   AutoWeightOptions weights; ///< for nodes the rig gives no weights

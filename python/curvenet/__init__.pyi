@@ -240,7 +240,7 @@ class Binding:
     def has_embedding(self) -> bool: ...
     @property
     def method(self) -> str:
-        """'harmonic' or 'gradient'."""
+        """'dq', 'harmonic' or 'gradient'."""
     @property
     def embedding(self) -> Embedding: ...
     def save(self, path: str) -> None:
@@ -264,7 +264,7 @@ def bind(
     blend: float = 0.3,
     density: float = 5.0,
     cache: Optional[str] = None,
-    method: str = "harmonic",
+    method: str = "dq",
     cut_aware: bool = True,
     rotation: str = "polar",
     curve_frames: bool = False,
@@ -272,8 +272,9 @@ def bind(
     """Binds the rig (which needs a skeleton). laplacian: 'intrinsic' or 'uniform'; rigid: 'per-vertex' or 'horn';
     weight_rule for nodes without weights: 'blend-zone' or 'segment'. With `cache`, a binding file is reused when it
     was made for this mesh, rig and options, and written otherwise (not in the gradient mode).
-    method: 'harmonic' (joints blended per vertex) or 'gradient' (per-face gradients, rotation-aware, and a Poisson
-    solve; docs/deform.md); rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); curve_frames: the
+    method: 'dq' (the default: the joints' rigid motions blended per vertex as dual quaternions, with the net's harmonic
+    weights), 'harmonic' (the joints' matrices blended linearly) or 'gradient' (per-face gradients that turn with the
+    sections, and a Poisson solve; docs/deform.md); rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); curve_frames: the
     gradient mode's side frames also follow the posed curves; cut_aware=False only for comparison. Raises EmbedError, InputError."""
 
 def complete_weights(rig: Rig, *, weight_rule: str = "blend-zone", blend: float = 0.3) -> Rig:

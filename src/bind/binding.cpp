@@ -5,13 +5,16 @@
 #include "curvenet/deform.hpp"
 
 #include "bind/gradient.hpp"
+#include "core/dual_quaternion.hpp"
 #include "bind/laplacian.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
 #include "embed/embedding_impl.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
@@ -46,13 +49,36 @@ struct Binding::Impl {
   std::vector<double> s;
   std::vector<Eigen::Vector3d> Y;
   std::vector<Eigen::Vector3d> delta;
+  std::vector<Eigen::Vector3d> rest; ///< per welded vertex (the dual-quaternion mode)
   // Horn mode: the constraints (rest position, weights).
   std::vector<Eigen::Vector3d> c_rest;
   std::vector<int> c_offset, c_joint;
   std::vector<double> c_weight;
   // The gradient mode's tables (DeformMethod::Gradient).
   std::shared_ptr<const GradientBind> gradient;
+  DeformMethod method = DeformMethod::DualQuaternion;
 };
+
+const char* to_string(DeformMethod method) {
+  switch (method) {
+  case DeformMethod::Harmonic:
+    return "harmonic";
+  case DeformMethod::Gradient:
+    return "gradient";
+  case DeformMethod::DualQuaternion:
+    return "dq";
+  }
+  return "?";
+}
+
+bool parse_deform_method(const std::string& name, DeformMethod& method) {
+  for (const DeformMethod m : {DeformMethod::DualQuaternion, DeformMethod::Harmonic, DeformMethod::Gradient})
+    if (name == to_string(m)) {
+      method = m;
+      return true;
+    }
+  return false;
+}
 
 Binding::Binding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
 const std::vector<Joint>& Binding::joints() const {
@@ -125,7 +151,7 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   eat(text.data(), text.size());
   const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid),
                          static_cast<int>(opt.weights.rule), static_cast<int>(opt.method), opt.cut_aware ? 1 : 0,
-                         static_cast<int>(opt.rotation_blend), opt.curve_frames ? 1 : 0};
+                         static_cast<int>(opt.rotation_blend), opt.curve_frames ? 1 : 0, opt.sections ? 1 : 0};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -208,7 +234,7 @@ bool consistent(const Binding::Impl& b, const SurfaceMesh& mesh, size_t joints) 
 } // namespace
 
 DeformMethod Binding::method() const {
-  return impl_->gradient ? DeformMethod::Gradient : DeformMethod::Harmonic;
+  return impl_->method;
 }
 
 void Binding::save(const std::string& path) const {
@@ -276,6 +302,8 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
          consistent(*impl, mesh, rig.joints.size());
     if (ok) {
       impl->fingerprint = fp;
+      impl->method = opt.method;
+      impl->rest = mesh.positions;
       impl->mode = static_cast<RigidMode>(mode);
       for (size_t j = 0; j < rig.joints.size(); ++j) {
         Joint jt = rig.joints[j];
@@ -310,6 +338,8 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
 Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& opt) {
   auto impl = std::make_shared<Binding::Impl>();
   impl->fingerprint = fingerprint(mesh, input_rig, opt);
+  impl->method = opt.method;
+  impl->rest = mesh.positions;
   BindReport& rep = impl->report;
   auto t0 = std::chrono::steady_clock::now();
   auto lap = [&](const char* stage) {
@@ -486,7 +516,9 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   std::vector<Eigen::VectorXd> sj(nj), yj[3];
   for (auto& y : yj)
     y.resize(nj);
-  Eigen::MatrixXd rhs(nf, 4), sol;
+  // Only the harmonic mode reads Y_j = H(w_j p); the others need s_j alone.
+  const bool positions = opt.method == DeformMethod::Harmonic;
+  Eigen::MatrixXd rhs(nf, positions ? 4 : 1), sol;
   for (int j = 0; j < nj; ++j) {
     if (joint_constraints[j].empty() || nf == 0)
       continue;
@@ -500,19 +532,21 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
           continue;
         const Eigen::Vector3d& p = cut.position(Vertex(u));
         rhs(k, 0) -= l * wv[u];
-        rhs(k, 1) -= l * wv[u] * p.x();
-        rhs(k, 2) -= l * wv[u] * p.y();
-        rhs(k, 3) -= l * wv[u] * p.z();
+        if (positions) {
+          rhs(k, 1) -= l * wv[u] * p.x();
+          rhs(k, 2) -= l * wv[u] * p.y();
+          rhs(k, 3) -= l * wv[u] * p.z();
+        }
       }
     sol = solver.solve(rhs);
     if (solver.info() != Eigen::Success || !sol.allFinite())
       throw EmbedError("bind: the harmonic solve failed for joint '" + impl->joints[j].name + "'");
     sj[j] = sol.col(0);
-    for (int c = 0; c < 3; ++c)
-      yj[c][j] = sol.col(c + 1);
+    if (positions)
+      for (int c = 0; c < 3; ++c)
+        yj[c][j] = sol.col(c + 1);
   }
   lap("solve");
-
   // Per input (welded) vertex: influences and detail.
   const int nv = mesh.num_vertices();
   impl->input_to_welded = mesh.input_to_welded;
@@ -537,7 +571,9 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
       for (int j = 0; j < nj; ++j) {
         if (sj[j].size() == 0 || sj[j][k] == 0)
           continue; // exactly zero: joint j bounds none of this vertex's region
-        const Eigen::Vector3d y(yj[0][j][k], yj[1][j][k], yj[2][j][k]);
+        // Without the harmonic mode's positions, Y_j = s_j X, so that the detail is zero.
+        const Eigen::Vector3d y =
+            positions ? Eigen::Vector3d(yj[0][j][k], yj[1][j][k], yj[2][j][k]) : Eigen::Vector3d(sj[j][k] * X);
         impl->joint.push_back(j);
         impl->s.push_back(sj[j][k]);
         impl->Y.push_back(y);
@@ -589,6 +625,8 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
     gi.side_scales = side_scales_of(rig);
     gi.cut_aware = opt.cut_aware;
     gi.curve_frames = opt.curve_frames;
+    gi.sections = opt.sections;
+    gi.joints = &impl->joints;
     gi.rotation = opt.rotation_blend == BindOptions::RotationBlend::Quaternion ? RotationBlend::Quaternion
                                                                                : RotationBlend::Polar;
     impl->gradient = build_gradient(gi);
@@ -623,6 +661,35 @@ void Binding::deform(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) co
     throw Error("deform: expected " + std::to_string(b.joints.size()) + " skinning matrices and room for " +
                 std::to_string(b.input_to_welded.size()) + " positions, got " + std::to_string(M.size()) + " and " +
                 std::to_string(out.size()));
+  if (b.method == DeformMethod::DualQuaternion) {
+    // Per welded vertex, its harmonic weights' blend of the joints' rigid
+    // motions (after their stretches), as dual quaternions.
+    thread_local std::vector<DualJoint> joints;
+    thread_local std::vector<Eigen::Vector3d> welded;
+    joints.resize(M.size());
+    for (size_t j = 0; j < M.size(); ++j)
+      joints[j] = split_joint(M[j]);
+    welded.resize(b.rest.size());
+    // Each vertex on its own, so the result does not depend on how the range
+    // is split. Isolated: a waiting thread must not start another frame of
+    // deform_frames, which would reuse its buffers.
+    const std::vector<DualJoint>& dj = joints;
+    std::vector<Eigen::Vector3d>& w = welded;
+    tbb::this_task_arena::isolate([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, b.rest.size(), 8192), [&](const tbb::blocked_range<size_t>& r) {
+        DualBlend blend;
+        for (size_t v = r.begin(); v < r.end(); ++v) {
+          blend.clear();
+          for (int k = b.offset[v]; k < b.offset[v + 1]; ++k)
+            blend.add(dj[b.joint[k]], b.s[k]);
+          w[v] = blend.valid() ? blend.apply(b.rest[v]) : b.rest[v];
+        }
+      });
+    });
+    for (size_t i = 0; i < out.size(); ++i)
+      out[i] = welded[b.input_to_welded[i]];
+    return;
+  }
   if (b.gradient) {
     thread_local std::vector<Eigen::Vector3d> cut_positions;
     cut_positions.resize(static_cast<size_t>(b.gradient->num_cut_vertices));

@@ -254,9 +254,25 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
   }
 
   // The Poisson system: cotangent weights of each face's triangles (ear
-  // clipping), per edge, with the face it belongs to.
+  // clipping), per edge, with the triangle it belongs to.
   std::vector<Eigen::Triplet<double>> kt;
   std::vector<Eigen::Vector3d> corners;
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> bones;
+  g.sections = in.sections && in.joints && !in.joints->empty();
+  if (g.sections) {
+    std::map<std::string, int> index;
+    for (size_t j = 0; j < in.joints->size(); ++j)
+      index[(*in.joints)[j].name] = static_cast<int>(j);
+    for (const Joint& jt : *in.joints)
+      if (jt.parent)
+        if (auto it = index.find(*jt.parent); it != index.end())
+          bones.emplace_back((*in.joints)[it->second].bind.block<3, 1>(0, 3), jt.bind.block<3, 1>(0, 3));
+    if (bones.empty())
+      for (const Joint& jt : *in.joints)
+        bones.emplace_back(jt.bind.block<3, 1>(0, 3), jt.bind.block<3, 1>(0, 3));
+    g.tri_grad_offset.push_back(0);
+  }
+  std::map<int, double> corner_w[3];
   for (int f = 0; f < nfaces; ++f) {
     const auto loop = cut.face_loop(Face(f));
     corners.clear();
@@ -265,7 +281,44 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
       ids.push_back(cut.from(h).idx);
       corners.push_back(g.rest[ids.back()]);
     }
-    for (const auto& t : triangulate_polygon(corners))
+    for (const auto& t : triangulate_polygon(corners)) {
+      const int tri = static_cast<int>(g.tri_face.size());
+      g.tri_face.push_back(f);
+      if (g.sections) {
+        const Eigen::Vector3d A = g.rest[ids[t[0]]], B = g.rest[ids[t[1]]], C = g.rest[ids[t[2]]];
+        const Eigen::Vector3d centroid = (A + B + C) / 3;
+        double best = INFINITY;
+        Eigen::Vector3d at = centroid;
+        for (const auto& [a, b] : bones) {
+          const Eigen::Vector3d d = b - a;
+          const double l2 = d.squaredNorm();
+          const Eigen::Vector3d q = a + (l2 > 0 ? std::clamp((centroid - a).dot(d) / l2, 0.0, 1.0) : 0.0) * d;
+          if ((q - centroid).norm() < best) {
+            best = (q - centroid).norm();
+            at = q;
+          }
+        }
+        g.tri_offset.push_back(centroid - at);
+        // Gradients of the face's joint weights on this triangle: grad phi_k = n x (opposite edge) / (2 area).
+        const Eigen::Vector3d n2 = (B - A).cross(C - A); // 2 area times the unit normal
+        const double a2 = n2.squaredNorm();
+        for (int k = 0; k < 3; ++k)
+          vertex_weights(ids[t[k]], corner_w[k]);
+        for (int q = g.face_offset[f]; q < g.face_offset[f + 1]; ++q) {
+          const int j = g.face_joint[q];
+          Eigen::Vector3d grad = Eigen::Vector3d::Zero();
+          if (a2 > 0) {
+            const Eigen::Vector3d P[3] = {A, B, C};
+            for (int k = 0; k < 3; ++k) {
+              const auto it = corner_w[k].find(j);
+              if (it != corner_w[k].end())
+                grad += it->second * n2.cross(P[(k + 2) % 3] - P[(k + 1) % 3]) / a2;
+            }
+          }
+          g.tri_grad.push_back(grad);
+        }
+        g.tri_grad_offset.push_back(static_cast<int>(g.tri_grad.size()));
+      }
       for (int k = 0; k < 3; ++k) {
         const int i = ids[t[k]], j = ids[t[(k + 1) % 3]], o = ids[t[(k + 2) % 3]];
         const Eigen::Vector3d a = g.rest[i] - g.rest[o], b = g.rest[j] - g.rest[o];
@@ -273,7 +326,7 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
         if (!(cr > 0))
           continue;
         const double wgt = 0.5 * a.dot(b) / cr;
-        g.edges.push_back({i, j, f, wgt, g.rest[j] - g.rest[i]});
+        g.edges.push_back({i, j, tri, wgt, g.rest[j] - g.rest[i]});
         const int ui = g.unknown[i], uj = g.unknown[j];
         if (ui >= 0)
           kt.emplace_back(ui, ui, wgt);
@@ -284,6 +337,7 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
           kt.emplace_back(uj, ui, -wgt);
         }
       }
+    }
   }
   if (g.num_unknowns > 0) {
     Sparse K(g.num_unknowns, g.num_unknowns);
@@ -298,7 +352,8 @@ std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in) {
 namespace {
 struct Scratch {
   const GradientBind* owner = nullptr;
-  std::vector<Eigen::Matrix3d> rotation, stretch, face;
+  std::vector<Eigen::Matrix3d> rotation, stretch, face, tri;
+  std::vector<Eigen::Vector3d> turn_rate; ///< per face joint entry: the blend's turn per unit of its weight
   std::vector<Eigen::Quaterniond> real, dual; ///< each joint's rigid part as a dual quaternion
   std::vector<Eigen::Vector3d> turn;          ///< per frame sample: the curve frame's turn (axis times angle)
   Eigen::MatrixXd hx, hy;                     ///< the turn's harmonic solve
@@ -314,6 +369,8 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
   if (s.owner != &g || static_cast<int>(s.face.size()) != nfaces || s.rhs.rows() != g.num_unknowns) {
     s.owner = &g;
     s.face.resize(nfaces);
+    s.tri.resize(g.tri_face.size());
+    s.turn_rate.resize(g.face_joint.size());
     s.rhs.resize(g.num_unknowns, 3);
     s.x.resize(g.num_unknowns, 3);
     s.y.resize(g.num_unknowns, 3);
@@ -430,16 +487,30 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
         st += g.face_weight[k] * s.stretch[g.face_joint[k]];
       if (k1 - k0 == 1) {
         rot = s.rotation[g.face_joint[k0]];
-      } else if (g.rotation == RotationBlend::Quaternion) {
+      } else if (g.rotation == RotationBlend::Quaternion || g.sections) {
         Eigen::Vector4d q = Eigen::Vector4d::Zero();
         const Eigen::Quaterniond& pivot = s.real[g.face_joint[k0]];
         for (int k = k0; k < k1; ++k) {
           const Eigen::Quaterniond& qj = s.real[g.face_joint[k]];
           q += (pivot.dot(qj) < 0 ? -g.face_weight[k] : g.face_weight[k]) * qj.coeffs();
         }
+        const double norm = q.norm();
         Eigen::Quaterniond qq;
-        qq.coeffs() = q;
-        rot = q.norm() > 1e-12 ? qq.normalized().toRotationMatrix() : s.rotation[g.face_joint[k0]];
+        qq.coeffs() = norm > 1e-12 ? Eigen::Vector4d(q / norm) : s.real[g.face_joint[k0]].coeffs();
+        rot = qq.toRotationMatrix();
+        if (g.sections)
+          for (int k = k0; k < k1; ++k) {
+            // d(q)/d(w_k) = (q_k - (q . q_k) q) / |b|, and the turn it makes: 2 vec(dq q*).
+            if (!(norm > 1e-12)) {
+              s.turn_rate[k].setZero();
+              continue;
+            }
+            const Eigen::Quaterniond& qj = s.real[g.face_joint[k]];
+            const Eigen::Vector4d qk = pivot.dot(qj) < 0 ? Eigen::Vector4d(-qj.coeffs()) : Eigen::Vector4d(qj.coeffs());
+            Eigen::Quaterniond dq;
+            dq.coeffs() = (qk - qq.coeffs().dot(qk) * qq.coeffs()) / norm;
+            s.turn_rate[k] = 2 * (dq * qq.conjugate()).vec();
+          }
       } else {
         Eigen::Matrix3d r = Eigen::Matrix3d::Zero();
         for (int k = k0; k < k1; ++k)
@@ -461,11 +532,27 @@ void deform_gradient(const GradientBind& g, std::span<const Mat4> M, std::span<E
     }
   });
   });
+  const int ntris = static_cast<int>(g.tri_face.size());
+  tbb::this_task_arena::isolate([&] {
+  tbb::parallel_for(tbb::blocked_range<int>(0, ntris, 8192), [&](const tbb::blocked_range<int>& range) {
+    for (int t = range.begin(); t < range.end(); ++t) {
+      const int f = g.tri_face[t];
+      s.tri[t] = s.face[f];
+      const int k0 = g.face_offset[f], k1 = g.face_offset[f + 1];
+      if (!g.sections || k1 - k0 < 2)
+        continue;
+      // The section's turn: each weight's gradient times how the blend turns the triangle's offset from its bone.
+      const Eigen::Vector3d rr = s.face[f] * g.tri_offset[t];
+      for (int k = k0, q = g.tri_grad_offset[t]; k < k1; ++k, ++q)
+        s.tri[t].noalias() += s.turn_rate[k].cross(rr) * g.tri_grad[q].transpose();
+    }
+  });
+  });
   if (g.num_unknowns == 0)
     return;
   s.rhs.setZero();
   for (const auto& e : g.edges) {
-    const Eigen::Vector3d d = s.face[e.face] * e.e; // the target x_j - x_i
+    const Eigen::Vector3d d = s.tri[e.tri] * e.e; // the target x_j - x_i
     const int ui = g.unknown[e.i], uj = g.unknown[e.j];
     if (ui >= 0) {
       s.rhs.row(ui) -= e.w * d.transpose();

@@ -36,13 +36,24 @@ struct GradientBind {
   std::vector<double> face_weight;
   std::vector<Eigen::Matrix3d> face_stretch;
   bool stretched = false;
-  // The Poisson energy: sum over triangle edges of w |(x_j - x_i) - F_f e|^2.
+  // The Poisson energy: sum over triangle edges of w |(x_j - x_i) - F_t e|^2,
+  // the triangles those of each cut face's ear clipping.
   struct Edge {
-    int i, j, face;
+    int i, j, tri;
     double w;
     Eigen::Vector3d e; ///< rest X_j - X_i
   };
   std::vector<Edge> edges;
+  std::vector<int> tri_face; ///< per triangle, its cut face
+  // Sections: per triangle, the offset r of its centroid from the nearest
+  // bone, and the gradient of each of its face's joint weights (one per
+  // entry of face_joint, CSR by tri_grad_offset). A triangle's target then
+  // turns with the blend as a cross-section does about its own axis:
+  // F_t = R S + sum_j (w_j x R r) grad s_j^T, w_j the turn of the blend per unit of s_j.
+  bool sections = false;
+  std::vector<Eigen::Vector3d> tri_offset;
+  std::vector<int> tri_grad_offset;
+  std::vector<Eigen::Vector3d> tri_grad;
   // Unknowns: every cut vertex that is neither on a CutChain nor in a rigid part.
   std::vector<int> unknown; ///< per cut vertex, its unknown index or -1
   int num_unknowns = 0;
@@ -88,6 +99,11 @@ struct GradientInput {
   bool cut_aware = true;
   RotationBlend rotation = RotationBlend::Polar;
   bool curve_frames = true;
+  /// Targets that turn like cross-sections about their bones (the blend's
+  /// derivative along the weights' gradient), so that twists and bends are
+  /// compatible; needs `joints` (mesh space) and the quaternion blend.
+  bool sections = false;
+  const std::vector<Joint>* joints = nullptr;
 };
 
 std::shared_ptr<const GradientBind> build_gradient(const GradientInput& in);

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
-#include <unordered_map>
+#include <cstdint>
 
 namespace curvenet::detail {
 namespace {
@@ -53,23 +53,38 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
   m.twin.assign(3 * nt, -1);
   m.next.resize(3 * nt);
   m.length.resize(3 * nt);
-  std::unordered_map<long long, int> directed;
-  directed.reserve(3 * tris.size());
-  auto key = [nv](int a, int b) { return static_cast<long long>(a) * nv + b; };
+  // Twins by sorting the half-edges on their (smaller, larger) end: a flat
+  // table, no hashing. A pair with the same ends and opposite directions is
+  // a pair of twins; a non-manifold edge (more than two) keeps none.
+  std::vector<std::pair<std::uint64_t, int>> keys(3 * static_cast<size_t>(nt));
   for (int t = 0; t < nt; ++t)
     for (int k = 0; k < 3; ++k) {
       const int h = 3 * t + k, a = tris[t][k], b = tris[t][(k + 1) % 3];
       m.origin[h] = a;
       m.next[h] = 3 * t + (k + 1) % 3;
       m.length[h] = (pos[a] - pos[b]).norm();
-      directed[key(a, b)] = h;
+      const std::uint64_t lo = static_cast<std::uint32_t>(std::min(a, b)), hi = static_cast<std::uint32_t>(std::max(a, b));
+      keys[h] = {(lo << 32) | hi, h};
     }
-  for (int h = 0; h < 3 * nt; ++h) {
-    auto it = directed.find(key(m.origin[m.next[h]], m.origin[h]));
-    if (it != directed.end())
-      m.twin[h] = it->second;
+  std::sort(keys.begin(), keys.end());
+  for (size_t i = 0; i < keys.size();) {
+    size_t j = i + 1;
+    while (j < keys.size() && keys[j].first == keys[i].first)
+      ++j;
+    if (j - i == 2) {
+      const int h = keys[i].second, g = keys[i + 1].second;
+      if (m.origin[h] != m.origin[g]) {
+        m.twin[h] = g;
+        m.twin[g] = h;
+      }
+    }
+    i = j;
   }
-  auto edge_weight = [&](int h) { return m.cot_at(h) + (m.twin[h] >= 0 ? m.cot_at(m.twin[h]) : 0.0); };
+  // The cotangent opposite every half-edge, kept up to date through the flips.
+  std::vector<double> cot(3 * static_cast<size_t>(nt));
+  for (int h = 0; h < 3 * nt; ++h)
+    cot[h] = m.cot_at(h);
+  auto edge_weight = [&](int h) { return cot[h] + (m.twin[h] >= 0 ? cot[m.twin[h]] : 0.0); };
   LaplacianStats st;
   st.triangles = nt;
   for (int h = 0; h < 3 * nt; ++h)
@@ -114,6 +129,8 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
     m.next[h1] = t0;
     m.next[t0] = t2;
     m.length[h0] = m.length[t0] = lkl;
+    for (int e : {h0, h1, h2, t0, t1, t2})
+      cot[e] = m.cot_at(e);
     ++st.flips;
     for (int e : {h1, h2, t1, t2}) {
       const int c = m.twin[e] >= 0 ? std::min(e, m.twin[e]) : e;
@@ -123,7 +140,21 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
       }
     }
   }
-  std::vector<Eigen::Triplet<double>> trip;
+  // The matrix, column by column (no triplet sort): each edge once, its
+  // weight off the diagonal at both ends and on both diagonals. After flips
+  // two edges may join the same pair of vertices; their weights add.
+  std::vector<int> count(static_cast<size_t>(nv) + 1, 0);
+  for (int h = 0; h < 3 * nt; ++h) {
+    if (m.twin[h] >= 0 && h > m.twin[h])
+      continue;
+    ++count[m.origin[h] + 1];
+    ++count[m.origin[m.next[h]] + 1];
+  }
+  for (int v = 0; v < nv; ++v)
+    count[v + 1] += count[v] + 1; // and the diagonal
+  std::vector<std::pair<int, double>> entries(static_cast<size_t>(count[nv]));
+  std::vector<int> fill(count.begin(), count.end() - 1);
+  std::vector<double> diagonal(nv, 0.0);
   for (int h = 0; h < 3 * nt; ++h) {
     if (m.twin[h] >= 0 && h > m.twin[h])
       continue;
@@ -131,13 +162,33 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
     if (w < 0)
       ++st.negative_after;
     const int a = m.origin[h], b = m.origin[m.next[h]];
-    trip.emplace_back(a, b, -w);
-    trip.emplace_back(b, a, -w);
-    trip.emplace_back(a, a, w);
-    trip.emplace_back(b, b, w);
+    entries[fill[a]++] = {b, -w};
+    entries[fill[b]++] = {a, -w};
+    diagonal[a] += w;
+    diagonal[b] += w;
   }
+  for (int v = 0; v < nv; ++v)
+    entries[fill[v]++] = {v, diagonal[v]};
   Eigen::SparseMatrix<double> L(nv, nv);
-  L.setFromTriplets(trip.begin(), trip.end());
+  std::vector<int> outer(static_cast<size_t>(nv) + 1, 0);
+  std::vector<int> inner;
+  std::vector<double> value;
+  inner.reserve(entries.size());
+  value.reserve(entries.size());
+  for (int v = 0; v < nv; ++v) {
+    auto first = entries.begin() + count[v], last = entries.begin() + count[v + 1];
+    std::sort(first, last, [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (auto it = first; it != last; ++it)
+      if (!inner.empty() && static_cast<int>(inner.size()) > outer[v] && inner.back() == it->first)
+        value.back() += it->second;
+      else {
+        inner.push_back(it->first);
+        value.push_back(it->second);
+      }
+    outer[v + 1] = static_cast<int>(inner.size());
+  }
+  L = Eigen::Map<const Eigen::SparseMatrix<double>>(nv, nv, static_cast<Eigen::Index>(inner.size()), outer.data(),
+                                                   inner.data(), value.data());
   if (stats)
     *stats = st;
   return L;
@@ -164,14 +215,24 @@ Eigen::SparseMatrix<double> cut_mesh_laplacian(const CutMesh& mesh, LaplacianKin
   for (int v = 0; v < nv; ++v)
     pos[v] = mesh.position(Vertex(v));
   std::vector<std::array<int, 3>> tris;
+  tris.reserve(static_cast<size_t>(mesh.num_faces()) * 2);
+  std::vector<Eigen::Vector3d> corners;
+  std::vector<int> ids;
   for (int f = 0; f < mesh.num_faces(); ++f) {
-    const auto loop = mesh.face_loop(Face(f));
-    std::vector<Eigen::Vector3d> corners;
-    std::vector<int> ids;
-    for (Halfedge h : loop) {
+    ids.clear();
+    corners.clear();
+    const Halfedge start = mesh.halfedge(Face(f));
+    Halfedge h = start;
+    do {
       ids.push_back(mesh.from(h).idx);
-      corners.push_back(mesh.position(mesh.from(h)));
+      h = mesh.next(h);
+    } while (h != start && static_cast<int>(ids.size()) <= mesh.num_halfedges());
+    if (ids.size() == 3 && ids[0] != ids[1] && ids[1] != ids[2] && ids[0] != ids[2]) {
+      tris.push_back({ids[0], ids[1], ids[2]});
+      continue;
     }
+    for (int v : ids)
+      corners.push_back(mesh.position(Vertex(v)));
     for (const auto& t : triangulate_polygon(corners))
       if (ids[t[0]] != ids[t[1]] && ids[t[1]] != ids[t[2]] && ids[t[0]] != ids[t[2]]) // a crack repeats a vertex
         tris.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});

@@ -208,6 +208,7 @@ DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const 
   }
 
   // Sections across the limbs.
+  double smallest = INFINITY;
   for (const auto& limb : opt.limbs) {
     if (limb.size() < 2)
       continue;
@@ -231,10 +232,13 @@ DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const 
         const double a0 = section_area(mesh, rest, p0, n0);
         if (!(a0 > 0))
           continue;
-        q.smallest_section = std::min(q.smallest_section, section_area(mesh, posed, p1, n1) / a0);
+        smallest = std::min(smallest, section_area(mesh, posed, p1, n1) / a0);
       }
     }
   }
+
+  if (std::isfinite(smallest))
+    q.smallest_section = smallest;
 
   // Growth away from the bones.
   std::vector<std::pair<int, int>> bones;
