@@ -1,10 +1,10 @@
-// The gradient mode against the harmonic mode and linear blend skinning, on
-// the same inputs (docs/deform.md, "The gradient mode"):
+// The gradient mode's variants against the other modes and linear blend
+// skinning, on the same inputs (docs/deform.md, "The gradient mode"; the
+// modes against the skins are bench/deform_quality, their speed bench/deform_bench):
 //
 //   build/bin/deform_gradient quality   volume, inverted triangles and detail: the example fist, a 90-degree
 //                                       twist of a finger, a 90-degree tube bend
 //   build/bin/deform_gradient families  the transfer test's posed agreement across tessellations, both modes
-//   build/bin/deform_gradient speed     bind and one frame at about 5k, 50k and 500k vertices, one core
 //
 // One run on one machine; timings are medians of repeated frames.
 
@@ -16,8 +16,6 @@
 #include "curvenet/weights.hpp"
 #include "generate/tube.hpp"
 #include "transfer_check.hpp"
-
-#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <chrono>
@@ -32,10 +30,6 @@ using namespace curvenet;
 namespace {
 
 const std::string kData = CURVENET_DATA_DIR;
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 struct Tris {
   std::vector<std::array<int, 3>> t;
@@ -255,23 +249,28 @@ void quality() {
                   100 * detail_change(t, rest, p, far));
     };
     row(c.lbs_name, c.lbs);
-    for (const int variant : {0, 1, 2, 3, 4}) {
-      BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
-      if (variant == 2)
-        o.rotation_blend = BindOptions::RotationBlend::Quaternion;
-      if (variant == 3)
-        o.cut_aware = false;
+    const char* names[] = {"dq (default)",
+                           "harmonic",
+                           "gradient (sections)",
+                           "gradient without sections (polar)",
+                           "gradient without sections (quaternion blend)",
+                           "gradient, not cut-aware",
+                           "gradient with curve frames"};
+    for (const int variant : {0, 1, 2, 3, 4, 5, 6}) {
+      BindOptions o = with(variant == 0 ? DeformMethod::DualQuaternion
+                           : variant == 1 ? DeformMethod::Harmonic
+                                          : DeformMethod::Gradient);
+      o.sections = variant != 3 && variant != 4;
       if (variant == 4)
+        o.rotation_blend = BindOptions::RotationBlend::Quaternion;
+      if (variant == 5)
+        o.cut_aware = false;
+      if (variant == 6)
         o.curve_frames = true;
-      const Binding b = variant == 0 ? hb : bind(c.mesh, c.rig, o);
+      const Binding b = variant == 1 ? hb : bind(c.mesh, c.rig, o);
       std::vector<Vec3> out(b.num_input_vertices());
       b.deform(skinning_matrices(b.joints(), c.pose), out);
-      row(variant == 0   ? "harmonic"
-          : variant == 1 ? "gradient (polar)"
-          : variant == 2 ? "gradient (quaternion blend)"
-          : variant == 3 ? "gradient, not cut-aware"
-                         : "gradient with curve frames",
-          c.mesh.welded(out));
+      row(names[variant], c.mesh.welded(out));
     }
   }
 }
@@ -305,48 +304,6 @@ void families() {
   }
 }
 
-void speed() {
-  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-  std::printf("| vertices | mode | bind ms | frame ms (median of 15) |\n|---|---|---|---|\n");
-  for (const auto [around, along] : {std::pair{48, 100}, std::pair{150, 330}, std::pair{470, 1060}}) {
-    TubeSpec ts;
-    ts.around = around;
-    ts.along = along;
-    ts.cap_rings = 8;
-    ts.triangulate = true;
-    const SurfaceMesh mesh = make_surface_mesh(make_capped_tube(ts), "tube");
-    const Rig rig = make_tube_net();
-    Pose pose;
-    pose["mid"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(1.2, Vec3::UnitZ()));
-    for (const int variant : {0, 1, 2, 3}) {
-      BindOptions o = with(variant == 0 ? DeformMethod::Harmonic : DeformMethod::Gradient);
-      if (variant == 2)
-        o.rotation_blend = BindOptions::RotationBlend::Quaternion;
-      if (variant == 3)
-        o.curve_frames = true;
-      const double t0 = now_ms();
-      const Binding b = bind(mesh, rig, o);
-      const double tb = now_ms() - t0;
-      const auto M = skinning_matrices(b.joints(), pose);
-      std::vector<Vec3> out(b.num_input_vertices());
-      std::vector<double> times;
-      for (int k = 0; k < 15; ++k) {
-        const double s = now_ms();
-        b.deform(M, out);
-        times.push_back(now_ms() - s);
-      }
-      std::sort(times.begin(), times.end());
-      std::printf("| %d | %s | %.0f | %.2f |\n", mesh.num_vertices(),
-                  variant == 0   ? "harmonic"
-                  : variant == 1 ? "gradient (polar)"
-                  : variant == 2 ? "gradient (quaternion blend)"
-                                 : "gradient (polar) with curve frames",
-                  tb,
-                  times[times.size() / 2]);
-    }
-  }
-}
-
 } // namespace
 
 int main(int argc, char** argv) {
@@ -355,7 +312,5 @@ int main(int argc, char** argv) {
     quality();
   if (what == "families" || what == "all")
     families();
-  if (what == "speed" || what == "all")
-    speed();
   return 0;
 }

@@ -276,7 +276,7 @@ std::vector<std::pair<std::string, std::function<Case()>>> all_cases() {
       {"cylinder bend 160", [] { return cylinder("cylinder bend 160", 160, false); }},
       {"cylinder twist 90", [] { return cylinder("cylinder twist 90", 90, true); }},
       {"cylinder twist 180", [] { return cylinder("cylinder twist 180", 180, true); }},
-      {"hand fist", [] { return hand_fist(); }},
+      {"hand fist grip", [] { return hand_fist(); }},
       {"hand fist pose", [] { return hand_fist_pose(); }},
       {"hand twist", [] { return hand_twist(); }},
       {"hand flex", [] { return hand_flex(); }},

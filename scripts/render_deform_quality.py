@@ -3,7 +3,7 @@ each, labelled with the file name: the pictures of docs/deform.md's
 comparison with the skins (bench/deform_quality --ply DIR CASE).
 
     blender -b --factory-startup --python-exit-code 1 --python scripts/render_deform_quality.py -- \\
-        OUT.png DIR NAME... [--view X Y Z] [--up X Y Z] [--focus X Y Z R] [--panel W H]
+        OUT.png DIR NAME[:LABEL]... [--view X Y Z] [--up X Y Z] [--focus X Y Z R] [--panel W H]
 
 --view is the direction towards the camera and --up the picture's up, in
 the file's axes; --focus frames a ball of radius R about a point (default:
@@ -39,7 +39,9 @@ x_axis = y_axis.cross(view)
 basis = Matrix([[x_axis[k], y_axis[k], view[k], 0] for k in range(3)] + [[0, 0, 0, 1]])
 
 tiles = []
-for name in names:
+for entry in names:
+    name, _, label_text = entry.partition(":")
+    label_text = label_text or name
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     bpy.ops.import_mesh.ply(filepath=os.path.join(folder, name + ".ply"))
@@ -63,7 +65,7 @@ for name in names:
     cam_data.clip_end = radius * 20
     scene.camera = cam
     text = bpy.data.curves.new("label", "FONT")
-    text.body = name
+    text.body = label_text
     text.align_x = "CENTER"
     label = bpy.data.objects.new("label", text)
     scene.collection.objects.link(label)
