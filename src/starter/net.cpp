@@ -1,0 +1,448 @@
+// The starter's net (docs/starter.md, steps 5 to 7): arcs of every ring,
+// profiles along each chain, joins on both sides of each fork, and the
+// checks a net must pass before it is embedded.
+
+#include "core/polyline_distance.hpp"
+#include "starter/stages.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace curvenet::detail {
+
+namespace {
+
+const double kClearSine = std::sin(35.0 * std::numbers::pi / 180.0);
+
+/// The shortest way along the surface between a and b inside the plane through
+/// a, b and m: the shorter arc of the section that holds both points.
+std::optional<std::vector<Vec3>> section_path(const SectionMesh& sm, const Vec3& a, const Vec3& b, const Vec3& m,
+                                              const Vec3& fallback_axis, double tol) {
+  Vec3 n = (b - a).cross(m - a);
+  if (n.norm() < 1e-12 * (b - a).norm() * (m - a).norm())
+    n = (b - a).cross(fallback_axis);
+  if (n.norm() == 0)
+    return std::nullopt;
+  for (const Section& s : plane_sections(sm, a, n)) {
+    Ring tmp;
+    tmp.loop = s.points;
+    if (!s.closed)
+      continue;
+    tmp.at.resize(tmp.loop.size());
+    double acc = 0;
+    for (size_t i = 0; i < tmp.loop.size(); ++i) {
+      tmp.at[i] = acc;
+      acc += (tmp.loop[(i + 1) % tmp.loop.size()] - tmp.loop[i]).norm();
+    }
+    tmp.perimeter = acc;
+    double da = 0, db = 0;
+    const double sa = closest_on_loop(tmp, a, &da), sb = closest_on_loop(tmp, b, &db);
+    if (da > tol || db > tol)
+      continue;
+    const double forward = std::fmod(sb - sa + tmp.perimeter, tmp.perimeter);
+    std::vector<Vec3> path = forward <= tmp.perimeter / 2 ? loop_between(tmp, sa, sb) : loop_between(tmp, sb, sa);
+    if (forward > tmp.perimeter / 2)
+      std::reverse(path.begin(), path.end());
+    path.front() = a;
+    path.back() = b;
+    return path;
+  }
+  return std::nullopt;
+}
+
+double path_length(const std::vector<Vec3>& p) {
+  double len = 0;
+  for (size_t i = 1; i < p.size(); ++i)
+    len += (p[i] - p[i - 1]).norm();
+  return len;
+}
+
+/// Paths along the surface from a to b: the sections through the preferred
+/// third points first, then those of planes turned about the line through a
+/// and b, shortest first.
+std::vector<std::vector<Vec3>> surface_paths(const SectionMesh& sm, const Vec3& a, const Vec3& b,
+                                             const std::vector<Vec3>& preferred, double tol) {
+  std::vector<std::vector<Vec3>> out;
+  const Vec3 d = b - a;
+  for (const Vec3& m : preferred)
+    if (auto p = section_path(sm, a, b, m, d.unitOrthogonal(), tol))
+      out.push_back(std::move(*p));
+  std::vector<std::vector<Vec3>> swept;
+  const Vec3 e1 = d.unitOrthogonal(), e2 = d.normalized().cross(e1);
+  for (int k = 0; k < 12; ++k) {
+    const double ang = std::numbers::pi * k / 12;
+    const Vec3 m = (a + b) / 2 + d.norm() * (std::cos(ang) * e1 + std::sin(ang) * e2);
+    if (auto p = section_path(sm, a, b, m, e1, tol))
+      swept.push_back(std::move(*p));
+  }
+  std::sort(swept.begin(), swept.end(), [](const auto& x, const auto& y) { return path_length(x) < path_length(y); });
+  out.insert(out.end(), swept.begin(), swept.end());
+  return out;
+}
+
+/// How squarely a path along the surface crosses a ring at one of its ends
+/// (at arc position s_at): the sine of the angle between the path's
+/// direction over its first (or last) half edge length h and the ring.
+double crossing_sine(const std::vector<Vec3>& path, const Ring& ring, double s_at, bool at_end, double h) {
+  const Vec3& o = at_end ? path.back() : path.front();
+  Vec3 d = Vec3::Zero();
+  for (size_t k = 1; k < path.size(); ++k) {
+    d = (at_end ? path[path.size() - 1 - k] : path[k]) - o;
+    if (d.norm() >= 0.5 * h)
+      break;
+  }
+  const Vec3 tangent = loop_point(ring, s_at + 1e-3 * ring.perimeter) - loop_point(ring, s_at - 1e-3 * ring.perimeter);
+  return d.norm() > 0 && tangent.norm() > 0 ? d.normalized().cross(tangent.normalized()).norm() : 0.0;
+}
+
+/// Which child of each fork carries the chain on, and the direction the
+/// branch joins face (docs/starter.md, step 6).
+struct Forks {
+  std::map<int, int> series_child; ///< parent ring -> the child joined along the chain
+  std::map<int, Vec3> across;      ///< parent ring -> the direction the join nodes face
+};
+
+Forks fork_layout(const std::vector<Ring>& rings, const std::map<int, std::vector<int>>& children) {
+  // A parent with one child ring, or the child that carries its trunk on
+  // (the one ring ahead along its axis and at least 0.6 its size), gets N
+  // profiles along the chain; every other child joins its parent by
+  // profiles that leave it on the two sides of the fork (the back and the
+  // palm of a hand, the front and back of a hip or shoulder).
+  Forks f;
+  for (const auto& [p, list] : children) {
+    const Ring& pr = rings[p];
+    if (list.size() == 1) {
+      f.series_child[p] = list[0];
+      continue;
+    }
+    std::vector<int> ahead;
+    for (int c : list) {
+      const Vec3 d = rings[c].centre - pr.centre;
+      if (d.norm() > 0 && rings[c].perimeter >= 0.6 * pr.perimeter &&
+          d.normalized().dot(pr.axis) > std::cos(35.0 * std::numbers::pi / 180.0))
+        ahead.push_back(c);
+    }
+    if (ahead.size() == 1) // several peers ahead (the fingers of a palm) all join
+      f.series_child[p] = ahead[0];
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int c : list) {
+      Vec3 d = rings[c].centre - pr.centre;
+      d -= d.dot(pr.axis) * pr.axis;
+      cov += d * d.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+    Vec3 w = pr.axis.cross(es.eigenvectors().col(2));
+    if (w.norm() < 1e-9)
+      w = pr.ref;
+    w.normalize();
+    if (w.dot(pr.ref) < 0 || (w.dot(pr.ref) == 0 && w.dot(pr.axis.cross(pr.ref)) < 0))
+      w = -w; // a sign from the skeleton, not from the eigen solver
+    f.across[p] = w;
+  }
+  return f;
+}
+
+struct Join {
+  int child, parent, slot, child_node;
+  std::string target;
+  Vec3 to;
+  std::optional<std::vector<Vec3>> path;
+};
+
+/// The path of a join from `from` on the child ring to `jn.to` on the parent
+/// ring: the first candidate that meets the parent ring where the join is
+/// meant to, keeps clear of every ring away from its ends, and leaves and
+/// meets its rings at a clear angle (or the squarest such). Sets jn.path
+/// and jn.to, and `landing` (the arc position on the parent) for a new node.
+void route_join(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active, Join& jn,
+                const Vec3& from, double& landing) {
+  const Ring &pr = rings[jn.parent], &cr = rings[jn.child];
+  // The plane holds the outward direction at the target, so the join meets
+  // the parent ring square rather than glancing along it; the first plane
+  // tried also holds the child's axis at its node, so the join leaves the
+  // child ring square too.
+  Vec3 out = jn.to - pr.centre;
+  out -= out.dot(pr.axis) * pr.axis;
+  double best_sin = -1;
+  for (auto& path :
+       surface_paths(c.sm, from, jn.to, {from - cr.radius() * cr.axis, jn.to + out, (pr.centre + cr.centre) / 2}, c.tol)) {
+    double s_hit = -1;
+    size_t cut = path.size() - 1;
+    for (size_t i = 0; i + 1 < path.size() && s_hit < 0; ++i) {
+      Vec3 hit = Vec3::Zero();
+      for (size_t q = 0; q < pr.loop.size(); ++q)
+        if (segment_distance(path[i], path[i + 1], pr.loop[q], pr.loop[(q + 1) % pr.loop.size()], &hit) < c.tol) {
+          s_hit = closest_on_loop(pr, hit);
+          cut = i;
+          break;
+        }
+    }
+    if (s_hit < 0)
+      continue;
+    if (!jn.target.empty() && (loop_point(pr, s_hit) - jn.to).norm() > c.tol)
+      continue; // it would cross the ring before reaching its node
+    const Vec3 end = jn.target.empty() ? loop_point(pr, s_hit) : jn.to;
+    path.resize(cut + 1);
+    path.push_back(end);
+    // It must keep clear of every other ring, its own child ring included,
+    // away from its two ends.
+    bool clear = true;
+    for (int o : active) {
+      const double cl = c.profile_clearance(std::min(cr.radius(), rings[o].radius()));
+      std::vector<Vec3> middle;
+      for (const Vec3& q : path)
+        if ((q - from).norm() > 2 * cl && (q - end).norm() > 2 * cl)
+          middle.push_back(q);
+      if (middle.size() >= 2 && polyline_distance(middle, false, rings[o].loop, true) < cl) {
+        clear = false;
+        break;
+      }
+    }
+    if (!clear)
+      continue;
+    // The directions over the first and last half edge length, against the
+    // rings' tangents: the join must leave its ring and meet the other at a
+    // clear angle.
+    const double sine = std::min(crossing_sine(path, pr, s_hit, true, c.h),
+                                 crossing_sine(path, cr, cr.base_nodes[jn.child_node], false, c.h));
+    if (sine > best_sin) {
+      best_sin = sine;
+      jn.path = path;
+      jn.to = end;
+      if (jn.target.empty())
+        landing = s_hit;
+    }
+    if (sine >= kClearSine)
+      break;
+  }
+}
+
+/// The joins of every branch child to its parent: two, from the child's
+/// nodes facing the two sides of the fork, each landing on a new node of
+/// the parent ring (or, on a retry, on the parent's nearest node).
+std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
+                               const std::function<int(int)>& parent_of, const Forks& forks,
+                               const JoinAttempts& attempts,
+                               std::map<int, std::vector<std::pair<double, std::string>>>& extra,
+                               std::vector<int>& unjoined) {
+  const int N = c.N;
+  std::vector<Join> joins;
+  for (int ch : active) {
+    const int p = parent_of(ch);
+    if (p < 0 || (forks.series_child.count(p) && forks.series_child.at(p) == ch))
+      continue;
+    const Ring &pr = rings[p], &cr = rings[ch];
+    std::vector<int> nodes_used;
+    bool any = false;
+    for (int slot = 0; slot < 2; ++slot) {
+      const auto at = attempts.find(2 * ch + slot);
+      const int mode = at == attempts.end() ? 0 : at->second;
+      // The child's node furthest to this slot's side.
+      int best_k = 0;
+      const double side = slot == 0 ? 1 : -1;
+      for (int k = 1; k < N; ++k)
+        if (side * forks.across.at(p).dot(loop_point(cr, cr.base_nodes[k]) - cr.centre) >
+            side * forks.across.at(p).dot(loop_point(cr, cr.base_nodes[best_k]) - cr.centre))
+          best_k = k;
+      if (std::find(nodes_used.begin(), nodes_used.end(), best_k) != nodes_used.end())
+        continue;
+      nodes_used.push_back(best_k);
+      if (mode >= 2)
+        continue;
+      any = true;
+      const Vec3 from = loop_point(cr, cr.base_nodes[best_k]);
+      double best_s = closest_on_loop(pr, from);
+      Join jn{ch, p, slot, best_k, "", Vec3::Zero(), std::nullopt};
+      // A landing next to one of the parent's nodes (or another join's)
+      // lands on that node.
+      int near_node = -1;
+      std::string near_extra;
+      for (int k = 0; k < N; ++k)
+        if ((loop_point(pr, pr.base_nodes[k]) - loop_point(pr, best_s)).norm() < c.options.ring_gap * pr.radius())
+          near_node = k;
+      for (const auto& [s_extra, id] : extra[p])
+        if (near_node < 0 &&
+            (loop_point(pr, s_extra) - loop_point(pr, best_s)).norm() < c.options.ring_gap * pr.radius())
+          near_extra = id, best_s = s_extra;
+      if (mode == 0 && !near_extra.empty()) {
+        jn.target = near_extra;
+        jn.to = loop_point(pr, best_s);
+      } else if (mode == 0 && near_node < 0) {
+        jn.to = loop_point(pr, best_s);
+      } else {
+        int nk = mode == 0 ? near_node : 0;
+        for (int k = 1; k < N && mode > 0; ++k)
+          if ((loop_point(pr, pr.base_nodes[k]) - from).norm() < (loop_point(pr, pr.base_nodes[nk]) - from).norm())
+            nk = k;
+        jn.target = pr.id + "_" + std::to_string(nk);
+        jn.to = loop_point(pr, pr.base_nodes[nk]);
+      }
+      route_join(c, rings, active, jn, from, best_s);
+      if (jn.target.empty()) {
+        jn.target = pr.id + "_" + cr.id + (slot == 0 ? "_a" : "_b"); // named by the child: the same on every mesh
+        extra[p].emplace_back(best_s, jn.target);
+      }
+      joins.push_back(jn);
+    }
+    if (!any)
+      unjoined.push_back(ch);
+  }
+  return joins;
+}
+
+/// N profiles from ring p to ring ch, node k to node k: the first path
+/// that meets both rings at a clear angle, or the squarest.
+void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, int p, int ch, NetResult& net) {
+  const Vec3 mid = (rings[p].centre + rings[ch].centre) / 2;
+  for (int k = 0; k < c.N; ++k) {
+    const Vec3 a = loop_point(rings[p], rings[p].base_nodes[k]), b = loop_point(rings[ch], rings[ch].base_nodes[k]);
+    Profile pr;
+    pr.id = rings[p].id + "-" + rings[ch].id + "_" + std::to_string(k);
+    pr.from = rings[p].id + "_" + std::to_string(k);
+    pr.to = rings[ch].id + "_" + std::to_string(k);
+    std::optional<std::vector<Vec3>> path;
+    double best_sine = -1;
+    for (auto& candidate : surface_paths(c.sm, a, b, {mid}, c.tol)) {
+      const double sine = std::min(crossing_sine(candidate, rings[p], rings[p].base_nodes[k], false, c.h),
+                                   crossing_sine(candidate, rings[ch], rings[ch].base_nodes[k], true, c.h));
+      if (sine > best_sine) {
+        best_sine = sine;
+        path = std::move(candidate);
+      }
+      if (best_sine >= kClearSine)
+        break;
+    }
+    if (!path && net.failure.empty())
+      net.failure = "no plane section joins the ends of profile '" + pr.id + "' along the surface";
+    pr.curve.points = path ? *path : std::vector<Vec3>{a, b};
+    net.owner[pr.id] = {'l', ch};
+    net.scale[pr.id] = std::min(rings[p].radius(), rings[ch].radius());
+    net.rig.profiles.push_back(std::move(pr));
+  }
+}
+
+} // namespace
+
+NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
+                    const std::function<int(int)>& parent_of, const JoinAttempts& attempts) {
+  NetResult net;
+  net.rig.coverage = c.options.coverage;
+  net.rig.has_skeleton = true;
+  net.rig.joints = c.joints;
+  std::map<int, std::vector<int>> children;
+  for (int i : active)
+    if (parent_of(i) >= 0)
+      children[parent_of(i)].push_back(i);
+  const Forks forks = fork_layout(rings, children);
+  std::map<int, std::vector<std::pair<double, std::string>>> extra; // ring -> (arc pos, node id) where joins land
+  const std::vector<Join> joins = branch_joins(c, rings, active, parent_of, forks, attempts, extra, net.unjoined);
+  net.joins = static_cast<int>(joins.size());
+  // Nodes and arcs of every ring.
+  for (int i : active) {
+    const Ring& r = rings[i];
+    std::vector<std::pair<double, std::string>> nodes;
+    for (int k = 0; k < c.N; ++k)
+      nodes.emplace_back(r.base_nodes[k], r.id + "_" + std::to_string(k));
+    for (const auto& e : extra[i])
+      nodes.push_back(e);
+    std::sort(nodes.begin(), nodes.end());
+    for (const auto& [s, id] : nodes)
+      net.rig.nodes.push_back({id, loop_point(r, s)});
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const auto& a = nodes[k];
+      const auto& b = nodes[(k + 1) % nodes.size()];
+      Profile pr;
+      pr.id = r.id + "_arc" + std::to_string(k);
+      pr.from = a.second;
+      pr.to = b.second;
+      pr.curve.points = loop_between(r, a.first, b.first);
+      net.owner[pr.id] = {'a', i};
+      net.scale[pr.id] = r.radius();
+      net.rig.profiles.push_back(std::move(pr));
+    }
+  }
+  for (const auto& [p, ch] : forks.series_child)
+    chain_profiles(c, rings, p, ch, net);
+  for (const Join& jn : joins) {
+    Profile pr;
+    pr.id = rings[jn.child].id + "-" + rings[jn.parent].id + (jn.slot == 0 ? "_join" : "_join1");
+    pr.from = rings[jn.child].id + "_" + std::to_string(jn.child_node);
+    pr.to = jn.target;
+    if (!jn.path && net.failure.empty())
+      net.failure = "no plane section joins the ends of profile '" + pr.id + "' along the surface";
+    pr.curve.points =
+        jn.path ? *jn.path
+                : std::vector<Vec3>{loop_point(rings[jn.child], rings[jn.child].base_nodes[jn.child_node]), jn.to};
+    net.owner[pr.id] = {'j', 2 * jn.child + jn.slot};
+    net.scale[pr.id] = std::min(rings[jn.child].radius(), rings[jn.parent].radius());
+    net.rig.profiles.push_back(std::move(pr));
+  }
+  return net;
+}
+
+std::string check_net(const StarterContext& c, const NetResult& net) {
+  const Rig& rig = net.rig;
+  // Profiles that share no node keep a clearance that scales with the limbs they are on.
+  std::map<std::string, Vec3> node_at;
+  for (const Node& n : rig.nodes)
+    node_at[n.id] = n.position;
+  std::vector<Eigen::AlignedBox3d> box(rig.profiles.size());
+  for (size_t a = 0; a < rig.profiles.size(); ++a)
+    for (const auto& q : rig.profiles[a].curve.points)
+      box[a].extend(q);
+  // The part of a profile that keeps away from the given nodes.
+  auto away_from = [&](const std::vector<Vec3>& pts, const std::vector<Vec3>& shared, double cl) {
+    std::vector<Vec3> out;
+    for (const Vec3& q : pts)
+      if (std::all_of(shared.begin(), shared.end(), [&](const Vec3& n) { return (q - n).norm() > 2 * cl; }))
+        out.push_back(q);
+    return out;
+  };
+  for (size_t a = 0; a < rig.profiles.size(); ++a)
+    for (size_t b = a + 1; b < rig.profiles.size(); ++b) {
+      const Profile &pa = rig.profiles[a], &pb = rig.profiles[b];
+      const auto oa = net.owner.at(pa.id), ob = net.owner.at(pb.id);
+      if (oa.first == 'a' && ob.first == 'a' && oa.second == ob.second)
+        continue; // pieces of one plane section: they cannot cross
+      const double cl = c.profile_clearance(std::min(net.scale.at(pa.id), net.scale.at(pb.id)));
+      if (box[a].exteriorDistance(box[b]) >= cl)
+        continue;
+      std::vector<Vec3> shared;
+      for (const std::string& n : {pa.from, pa.to})
+        if (n == pb.from || n == pb.to)
+          shared.push_back(node_at[n]);
+      const auto qa = away_from(pa.curve.points, shared, cl), qb = away_from(pb.curve.points, shared, cl);
+      if (qa.size() < 2 || qb.size() < 2)
+        continue;
+      if (polyline_distance(qa, false, qb, false) < cl)
+        return "profiles '" + pa.id + "' and '" + pb.id + "' come closer than " + std::to_string(cl);
+    }
+  // Profiles that leave one node must part at a clear angle.
+  std::map<std::string, std::vector<std::pair<Vec3, std::string>>> leaving;
+  auto direction = [&](const std::vector<Vec3>& pts, bool from_start) {
+    const Vec3 o = from_start ? pts.front() : pts.back();
+    for (size_t i = 1; i < pts.size(); ++i) {
+      const Vec3& q = from_start ? pts[i] : pts[pts.size() - 1 - i];
+      if ((q - o).norm() >= 0.5 * c.h || i + 1 == pts.size())
+        return Vec3((q - o).normalized());
+    }
+    return Vec3(Vec3::Zero());
+  };
+  for (const Profile& pr : rig.profiles) {
+    leaving[pr.from].emplace_back(direction(pr.curve.points, true), pr.id);
+    leaving[pr.to].emplace_back(direction(pr.curve.points, false), pr.id);
+  }
+  const double min_cos = std::cos(20.0 * std::numbers::pi / 180.0);
+  for (const auto& [node, dirs] : leaving)
+    for (size_t a = 0; a < dirs.size(); ++a)
+      for (size_t b = a + 1; b < dirs.size(); ++b)
+        if (dirs[a].first.dot(dirs[b].first) > min_cos)
+          return "profiles '" + dirs[a].second + "' and '" + dirs[b].second + "' leave node '" + node +
+                 "' less than 20 degrees apart";
+  return {};
+}
+
+} // namespace curvenet::detail

@@ -1,0 +1,179 @@
+#pragma once
+// The starter net's stages (docs/starter.md), each a function with its own
+// options and result, run in order by make_starter (starter.cpp):
+//
+//   rings     (rings.cpp)     a candidate ring local to each joint's bone
+//   trunks    (rings.cpp)     one ring across a trunk that several joints share
+//   clearance (rings.cpp)     keep rings smallest first, moving or dropping those too close
+//   chains    (rings.cpp)     each ring's parent ring, and its nodes at consistent angles
+//   net       (net.cpp)       arcs, profiles along chains, joins on both sides of a fork
+//   check     (net.cpp)       clearances and angles between profiles, and the embedding
+//   weights   (starter.cpp)   automatic weights on every node
+
+#include "curvenet/rig.hpp"
+#include "curvenet/starter.hpp"
+#include "curvenet/surface_mesh.hpp"
+#include "starter/plane_section.hpp"
+
+#include <functional>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace curvenet::detail {
+
+struct Skeleton {
+  std::vector<Vec3> origin;
+  std::vector<int> parent;
+  std::vector<std::vector<int>> kids;
+  std::vector<Eigen::Matrix3d> rotation;
+  std::vector<int> subtree; ///< joints in the subtree, the joint included
+  explicit Skeleton(const std::vector<Joint>& joints);
+};
+
+/// Where a ring may sit: the plane through base + t * step, with normal
+/// `along` (or `start_axis` at t = 0), for t in [t_min, t_max]. Moving a ring
+/// along its bone raises t.
+struct Placement {
+  Vec3 base = Vec3::Zero(), step = Vec3::Zero();
+  Vec3 along = Vec3::UnitZ(), start_axis = Vec3::UnitZ();
+  double t_min = 0, t_max = 0;
+  [[nodiscard]] Vec3 point(double t) const { return base + t * step; }
+  [[nodiscard]] Vec3 axis(double t) const { return t == 0 ? start_axis : along; }
+};
+
+/// A ring: a closed section around a limb (or around several, a trunk).
+struct Ring {
+  std::string id;
+  int joint = -1;  ///< the joint it belongs to
+  double frac = 1; ///< its order among the rings of `joint` (1: the joint's own ring; 0: a shared trunk's)
+  std::vector<int> own; ///< the joints whose bones it may enclose: `joint`, or a trunk's joints
+  Placement place;
+  double t = 0; ///< where in `place` it sits
+  Vec3 centre = Vec3::Zero();
+  Vec3 axis = Vec3::UnitZ(); ///< the plane's normal, along the bone
+  std::vector<Vec3> loop;    ///< counter-clockwise about `axis`
+  std::vector<double> at;    ///< arc length of each loop point
+  double perimeter = 0;
+  int replaced_by = -1; ///< dropped: the ring that stands for it
+  bool active = false;
+  Vec3 ref = Vec3::Zero();        ///< direction of node 0 from the centre
+  std::vector<double> base_nodes; ///< arc-length positions of nodes 0..N-1
+  [[nodiscard]] double radius() const { return perimeter / (2 * std::numbers::pi); }
+};
+
+/// What every stage reads: the mesh, its sections, the skeleton, the scale.
+struct StarterContext {
+  const SurfaceMesh& mesh;
+  const std::vector<Joint>& joints;
+  const StarterOptions& options;
+  Skeleton sk;
+  SectionMesh sm;
+  double diag = 1, h = 1, tol = 1e-6;
+  int N = 4;
+  std::function<void(const std::string&)> say;
+  StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, const StarterOptions& o,
+                 std::function<void(const std::string&)> message);
+  [[nodiscard]] std::string bone_name(int c) const;
+  /// Profiles that share no node keep half the ring gap of the limb they are
+  /// on, and at most 0.75 % of the diagonal on a thick body.
+  [[nodiscard]] double profile_clearance(double radius) const;
+  /// Rings closer than this are too close.
+  [[nodiscard]] double gap(const Ring& a, const Ring& b) const;
+};
+
+// ---- loops --------------------------------------------------------------
+
+Vec3 loop_point(const Ring& r, double s);
+/// The loop between arc positions s0 and s1 (going forward), ends included.
+std::vector<Vec3> loop_between(const Ring& r, double s0, double s1);
+/// Arc-length position of the loop point closest to p.
+double closest_on_loop(const Ring& r, const Vec3& p, double* distance = nullptr);
+/// The smallest closed section of the plane (point, axis) that winds around
+/// `point`, as a ring: counter-clockwise about the axis, with its area
+/// centroid and arc lengths.
+std::optional<Ring> section_ring(const SectionMesh& sm, const Vec3& point, const Vec3& axis);
+/// Nodes at angles 2 pi k / N about the axis from r.ref; spread by arc
+/// length when the rays do not meet the loop in order (returns false then).
+bool place_nodes(Ring& r, int N, double first_angle_deg);
+std::string percent(double t);
+
+// ---- stage 1: rings -----------------------------------------------------
+
+/// A joint's section through the joint, where it is not local: where its
+/// bones meet other joints', for the shared trunks.
+struct SharedStart {
+  Vec3 point, axis;
+  double radius;
+  std::vector<int> inside; ///< bones (by child joint) through the section
+};
+
+struct RingsResult {
+  std::vector<Ring> rings;
+  std::map<int, std::string> ringless; ///< joint -> why it has no ring
+  std::map<int, SharedStart> shared_start;
+};
+
+/// A candidate ring local to each joint's bone (and rings_per_bone - 1
+/// more along each bone).
+RingsResult candidate_rings(const StarterContext& c);
+
+/// Whether a ring at t of its placement is local, and if so, the ring there.
+bool place_ring_at(const StarterContext& c, Ring& r, double t);
+
+// ---- stage 2: trunks ------------------------------------------------------
+
+/// Rings across trunks that several joints share (the knuckles of a palm):
+/// appended to `rings`.
+void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shared_start, std::vector<Ring>& rings);
+
+// ---- stage 3: clearance ---------------------------------------------------
+
+/// Keeps rings greedily, smallest first; a ring too close to one already
+/// kept is moved along its bone, and dropped only when that does not clear
+/// it. Sets `active` and `replaced_by`; returns the kept rings.
+std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& rings,
+                                  std::map<int, std::string>& ringless);
+
+/// The first ring of `among` (but `self`) that `r` comes too close to, or -1.
+int ring_conflict(const StarterContext& c, const Ring& r, const std::vector<Ring>& rings, const std::vector<int>& among,
+                  int self);
+
+/// Moves a ring a tenth of its range's bone further along, to the next local section.
+bool move_ring_on(const StarterContext& c, Ring& r);
+
+// ---- stage 4: chains ------------------------------------------------------
+
+/// Each kept ring's parent ring (the ring at the nearest position up the
+/// skeleton), and its nodes, node 0 carried from the parent.
+std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings, const std::vector<int>& kept);
+
+// ---- stages 5 and 6: the net and its check -------------------------------
+
+/// How far each branch join has been given up: per 2 * child ring + slot,
+/// 0 a new node on the parent ring, 1 the parent's nearest node, 2 none.
+using JoinAttempts = std::map<int, int>;
+
+struct NetResult {
+  Rig rig;
+  /// profile -> (kind: 'a' arc, 'l' longitudinal, 'j' join; ring, or 2 * child ring + slot for a join)
+  std::map<std::string, std::pair<char, int>> owner;
+  std::map<std::string, double> scale; ///< profile -> the radius of the limb it is on
+  std::vector<int> unjoined;           ///< child rings with no join left
+  int joins = 0;
+  std::string failure; ///< the first reason the net cannot be used, or empty
+};
+
+/// The net of the active rings: their arcs, N profiles along each chain,
+/// and joins on both sides of each fork.
+NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
+                    const std::function<int(int)>& parent_of, const JoinAttempts& attempts);
+
+/// Profiles that share no node keep their clearance, profiles leaving one
+/// node part at a clear angle. The first fault, or empty.
+std::string check_net(const StarterContext& c, const NetResult& net);
+
+} // namespace curvenet::detail
