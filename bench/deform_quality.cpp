@@ -246,7 +246,9 @@ Case skinned(const std::string& name, const std::string& path, const std::vector
     s = std::make_unique<SkinnedMesh>(load_skinned_mesh(path));
   c.skin_joints = s->joints;
   c.skin = weights_of(*s);
-  c.rig = make_starter(c.mesh, s->joints).rig;
+  StarterOptions so;
+  so.deforming = weighted_joints(*s);
+  c.rig = make_starter(c.mesh, s->joints, so).rig;
   c.clips = s.get();
   c.normalise = s->skinning_matrices(-1, 0)[0].inverse();
   for (const auto& n : clip_names) {

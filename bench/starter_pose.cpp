@@ -24,6 +24,7 @@
 #include "curvenet/starter.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -40,6 +41,7 @@ const std::string kOwnData = CURVENET_OWN_DATA_DIR; // tests/data: meshes made h
 struct Character {
   std::string mesh, clips;
   int samples_per_clip = 1; ///< 1: each clip's last key; more: evenly over the clip
+  std::vector<std::string> only; ///< clip names to pose by (by their last part after '|' or '_'); empty for all
 };
 
 std::vector<std::array<int, 3>> triangles(const SurfaceMesh& m) {
@@ -82,16 +84,38 @@ struct Scores {
   int poses = 0, most_turned = 0, volume_ok = 0, turned_ok = 0, mean_ok = 0;
 };
 
-Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip) {
+Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const std::vector<std::string>& only) {
+  // The similarity a file's armature puts around its whole skeleton (Blender's
+  // exports scale it by 100), taken off every frame so that volumes and
+  // distances compare with the rest mesh.
+  const Mat4 undo = c.skin.skinning_matrices(-1, 0)[0].inverse();
+  auto normalised = [&](std::vector<Mat4> m) {
+    for (auto& x : m)
+      x = undo * x;
+    return m;
+  };
+  auto wanted = [&](int k) {
+    if (only.empty())
+      return true;
+    const std::string& n = c.clips.clip_names[k];
+    for (const auto& w : only)
+      for (const std::string tail : {w, "|" + w, "_" + w})
+        if (n.size() >= tail.size() && n.compare(n.size() - tail.size(), tail.size(), tail) == 0)
+          return true;
+    return false;
+  };
   Scores sc;
   double sum = 0;
   std::vector<Vec3> ours(b.num_input_vertices());
   for (int k = 0; k < c.clips.num_clips(); ++k) {
+    if (!wanted(k))
+      continue;
     const auto [t0, t1] = c.clips.clip_range(k);
     for (int s = 0; s < samples_per_clip; ++s) {
       const double t = samples_per_clip == 1 ? t1 : t0 + (t1 - t0) * s / (samples_per_clip - 1);
-      b.deform(clip_skinning_matrices(b.joints(), c.clips, k, t), ours);
-      const auto theirs = skin_positions(c.skin, c.raw.positions, clip_skinning_matrices(c.skin.joints, c.clips, k, t));
+      b.deform(normalised(clip_skinning_matrices(b.joints(), c.clips, k, t)), ours);
+      const auto theirs =
+          skin_positions(c.skin, c.raw.positions, normalised(clip_skinning_matrices(c.skin.joints, c.clips, k, t)));
       double d = 0;
       for (size_t i = 0; i < ours.size(); ++i) {
         const double e = (ours[i] - theirs[i]).norm();
@@ -125,16 +149,21 @@ void measure(const Character& ch) {
   std::printf("%s (%d faces, %zu joints), clips from %s\n", name_of(ch.mesh).c_str(), c.mesh.num_faces(),
               c.skin.joints.size(), name_of(ch.clips).c_str());
   StarterResult st;
+  double starter_ms = 0;
   try {
-    st = make_starter(c.mesh, c.skin.joints);
+    const auto t0 = std::chrono::steady_clock::now();
+    StarterOptions so;
+    so.deforming = weighted_joints(c.skin);
+    st = make_starter(c.mesh, c.skin.joints, so);
+    starter_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   } catch (const Error& e) {
     std::printf("  starter refused: %s\n\n", e.what());
     return;
   }
   std::printf("  net: %d rings, %zu nodes, %zu profiles; %zu of %zu joints have a ring; %d components, %d joins, %d "
-              "unjoined\n",
+              "unjoined; made in %.0f ms\n",
               st.rings, st.rig.nodes.size(), st.rig.profiles.size(), c.skin.joints.size() - st.ringless.size(),
-              c.skin.joints.size(), st.net_components, st.joins, st.unjoined);
+              c.skin.joints.size(), st.net_components, st.joins, st.unjoined, starter_ms);
   for (const auto& [joint, why] : st.ringless)
     std::printf("    no ring at %s: %s\n", joint.c_str(), why.c_str());
   for (const auto& m : st.messages)
@@ -144,13 +173,12 @@ void measure(const Character& ch) {
   std::printf("  | mode | mean distance to the skin | max | worst volume change vs the skin's | most turned > 120 deg "
               "| poses within the goals: volume, 0 turned, mean < 1%% |\n"
               "  |---|---|---|---|---|---|\n");
-  for (const auto method : {DeformMethod::Harmonic, DeformMethod::Gradient}) {
+  for (const auto method : {DeformMethod::DualQuaternion, DeformMethod::Harmonic, DeformMethod::Gradient}) {
     BindOptions o;
     o.method = method;
-    const Scores sc = pose_all(c, bind(c.mesh, st.rig, o), ch.samples_per_clip);
-    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d, %d, %d of %d |\n",
-                method == DeformMethod::Harmonic ? "harmonic" : "gradient", sc.mean, sc.max, sc.worst_volume,
-                sc.most_turned, sc.volume_ok, sc.turned_ok, sc.mean_ok, sc.poses);
+    const Scores sc = pose_all(c, bind(c.mesh, st.rig, o), ch.samples_per_clip, ch.only);
+    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d, %d, %d of %d |\n", to_string(method), sc.mean, sc.max,
+                sc.worst_volume, sc.most_turned, sc.volume_ok, sc.turned_ok, sc.mean_ok, sc.poses);
   }
   std::printf("\n");
 }
@@ -167,6 +195,7 @@ void measure_rules(const Character& ch) {
                                     std::pair{WeightRule::BlendZone, 0.2}, std::pair{WeightRule::BlendZone, 0.3},
                                     std::pair{WeightRule::BlendZone, 0.5}}) {
     StarterOptions so;
+    so.deforming = weighted_joints(c.skin);
     so.weights.rule = rule;
     so.weights.blend = blend;
     const std::string name = rule == WeightRule::Segment ? "segment" : "blend-zone";
@@ -174,7 +203,7 @@ void measure_rules(const Character& ch) {
       const StarterResult st = make_starter(c.mesh, c.skin.joints, so);
       BindOptions bo;
       bo.weights = so.weights;
-      const Scores sc = pose_all(c, bind(c.mesh, st.rig, bo), ch.samples_per_clip);
+      const Scores sc = pose_all(c, bind(c.mesh, st.rig, bo), ch.samples_per_clip, ch.only);
       std::printf("  | %s | %.1f | %.3f%% | %.3f%% | %+.2f | %d of %d |\n", name.c_str(), blend, sc.mean, sc.max,
                   sc.worst_volume, sc.volume_ok, sc.poses);
     } catch (const Error& e) {
@@ -202,6 +231,10 @@ int main(int argc, char** argv) {
              {kOwnData + "/hand/hand_l_decimated.glb", h + "hand_l_poses.glb", 1},
              {kData + "/cesium_man/CesiumMan.glb", kData + "/cesium_man/CesiumMan.glb", 6},
              {kData + "/rigged_simple/RiggedSimple.glb", kData + "/rigged_simple/RiggedSimple.glb", 6}};
+    for (const char* a : {"Horse", "Wolf", "Trex", "Apatosaurus"}) {
+      const std::string path = kData + "/quaternius/" + a + ".glb";
+      chars.push_back({path, path, 6, {"Walk", "Gallop", "TRex_Walk", "Apatosaurus_Walk"}});
+    }
   }
   for (const auto& c : chars) {
     try {

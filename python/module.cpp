@@ -777,9 +777,25 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def(
       "starter",
       [](const SurfaceMesh& mesh, const py::object& skeleton, int nodes_per_ring, int rings_per_bone,
-         const std::string& coverage, double first_angle, const std::string& weight_rule, double blend) {
+         const std::string& coverage, double first_angle, const std::string& weight_rule, double blend,
+         const py::object& deforming) {
         const std::vector<Joint> joints = joints_from(skeleton);
         StarterOptions o;
+        if (!deforming.is_none())
+          for (const auto& name : deforming.cast<std::vector<std::string>>())
+            o.deforming.insert(name);
+        else if (py::isinstance<SkinnedMesh>(skeleton)) // a skin says which joints deform
+          o.deforming = weighted_joints(skeleton.cast<const SkinnedMesh&>());
+        else if (py::isinstance<py::str>(skeleton)) {
+          const std::string path = skeleton.cast<std::string>();
+          const auto dot = path.find_last_of('.');
+          std::string ext = dot == std::string::npos ? "" : path.substr(dot);
+          std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+          if (ext == ".gltf" || ext == ".glb" || ext == ".fbx") {
+            py::gil_scoped_release release;
+            o.deforming = weighted_joints(load_skinned_mesh(path));
+          }
+        }
         if (nodes_per_ring < 3 || nodes_per_ring > 64)
           throw py::value_error("nodes_per_ring: expected 3 to 64");
         if (rings_per_bone < 1 || rings_per_bone > 16)
@@ -796,7 +812,7 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("mesh"), py::arg("skeleton"), py::kw_only(), py::arg("nodes_per_ring") = 4, py::arg("rings_per_bone") = 1,
       py::arg("coverage") = "full", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "blend-zone",
-      py::arg("blend") = 0.3);
+      py::arg("blend") = 0.3, py::arg("deforming") = py::none());
 
   py::class_<TransferResult>(m, "TransferResult")
       .def_readonly("rig", &TransferResult::rig)

@@ -505,17 +505,22 @@ int run_compare(const CompareArgs& a) {
 int run_starter(const StarterArgs& a) {
   const SurfaceMesh mesh = load_mesh(a.mesh);
   std::vector<Joint> joints;
+  StarterOptions opt;
   if (!a.skeleton.empty()) {
     joints = load_skeleton(a.skeleton);
+    const std::string ext = lower_ext(a.skeleton);
+    if (ext == ".gltf" || ext == ".glb" || ext == ".fbx") // a skin says which joints deform
+      opt.deforming = weighted_joints(load_skinned_mesh(a.skeleton));
   } else {
     const std::string ext = lower_ext(a.mesh);
     if (ext != ".gltf" && ext != ".glb" && ext != ".fbx")
       throw InputError(
           a.mesh, "",
           "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
-    joints = load_skinned_mesh(a.mesh).joints;
+    const SkinnedMesh skin = load_skinned_mesh(a.mesh);
+    joints = skin.joints;
+    opt.deforming = weighted_joints(skin);
   }
-  StarterOptions opt;
   opt.nodes_per_ring = a.nodes_per_ring;
   opt.rings_per_bone = a.rings_per_bone;
   opt.first_angle_deg = a.first_angle;

@@ -441,8 +441,18 @@ def make_armature(obj, name=None):
     return arm
 
 
+def deforming_bones(obj, arm):
+    """The armature's bones that deform this mesh: Deform set, and a vertex
+    group of the mesh's with that name (or every Deform bone when the mesh
+    has no groups yet)."""
+    groups = {g.name for g in obj.vertex_groups}
+    bones = [b.name for b in arm.data.bones if b.use_deform]
+    return [b for b in bones if b in groups] if groups else bones
+
+
 def starter(obj, arm, **options):
     """A starter net from the armature's bones (rest pose), set as the object's rig."""
+    options.setdefault("deforming", deforming_bones(obj, arm))
     result = curvenet.starter(engine_mesh(obj), armature_joints(obj, arm), **options)
     set_rig(obj, result.rig)
     state(obj).paths.clear()

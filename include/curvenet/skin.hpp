@@ -8,6 +8,7 @@
 
 #include <array>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,9 @@ public:
   std::shared_ptr<const detail::GltfScene> scene;
   std::vector<int> joint_node; ///< glTF node of each joint
 };
+
+/// The names of the skin's joints that some vertex gives a weight above zero.
+std::set<std::string> weighted_joints(const SkinnedMesh& skin);
 
 /// Reads the skin of the first skinned mesh of a glTF/GLB file (tinygltf,
 /// with its clips), or the bones of an FBX file (assimp, no clips).

@@ -10,6 +10,7 @@
 #include "curvenet/weights.hpp"
 
 #include <functional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,6 +34,13 @@ struct StarterOptions {
   /// 0.75 % of the bounding-box diagonal, on thick bodies).
   double ring_gap = 0.25;
   std::function<void(const std::string&)> message; ///< what was moved, dropped or not joined
+  /// The joints that carry skin weight (by name), when the skeleton comes
+  /// with a skin; empty: every joint may. Only joints that carry weight and
+  /// lie inside the mesh, or have descendants that do, are rigged: IK pole
+  /// targets, helper bones and a root on the floor are left out, and a
+  /// second root (an IK chain of its own) is attached to the joint it
+  /// lies nearest to.
+  std::set<std::string> deforming;
 };
 
 struct StarterResult {
@@ -42,7 +50,8 @@ struct StarterResult {
   int joins = 0;          ///< branch joins made
   int unjoined = 0;       ///< chains that could not be joined to their parent
   int net_components = 0; ///< connected components of the net
-  /// Joints with no ring of their own, each with the reason.
+  /// Joints with no ring of their own, each with the reason (joints left
+  /// out of the net among them: "carries no skin weight", "lies outside the mesh").
   std::vector<std::pair<std::string, std::string>> ringless;
 };
 

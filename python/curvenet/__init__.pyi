@@ -303,8 +303,13 @@ def starter(
     first_angle: float = 0.0,
     weight_rule: str = "blend-zone",
     blend: float = 0.3,
+    deforming: Optional[list[str]] = None,
 ) -> StarterResult:
-    """A starter net for the skeleton (bind matrices in the mesh's object space), checked to embed."""
+    """A starter net for the skeleton (bind matrices in the mesh's object space), checked to embed.
+
+    deforming: the names of the joints that carry skin weight; by default taken from the skin when `skeleton` is a
+    SkinnedMesh or a skinned file, else every joint may. Joints that deform nothing (IK poles, helpers, a root on the
+    floor) are left out of the net, with the reason in `ringless`."""
 
 class TransferResult:
     rig: Rig

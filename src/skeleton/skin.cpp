@@ -216,6 +216,17 @@ std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::
   return out;
 }
 
+std::set<std::string> weighted_joints(const SkinnedMesh& skin) {
+  std::set<std::string> out;
+  for (size_t v = 0; v < skin.vertex_joint.size(); ++v)
+    for (int k = 0; k < 4; ++k) {
+      const int j = skin.vertex_joint[v][k];
+      if (j >= 0 && static_cast<size_t>(j) < skin.joints.size() && skin.vertex_weight[v][k] > 0)
+        out.insert(skin.joints[j].name);
+    }
+  return out;
+}
+
 std::vector<Joint> load_skeleton(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });

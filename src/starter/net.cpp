@@ -10,6 +10,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <queue>
+#include <cstdio>
+#include <cstdlib>
 
 namespace curvenet::detail {
 
@@ -152,6 +155,99 @@ struct Join {
   std::optional<std::vector<Vec3>> path;
 };
 
+/// A join along the mesh's edges, where no plane section makes one: the
+/// shortest path from `from` (on the child ring) to the first vertex next
+/// to the parent ring, through vertices that keep the limb's clearance from
+/// every other ring (and from the child ring, away from `from`), then on to
+/// the parent ring's nearest point. Empty when there is none.
+std::vector<Vec3> edge_path_join(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
+                                 int child, int parent, const Vec3& from, const std::optional<Vec3>& node) {
+  const auto& P = c.mesh.positions;
+  const int nv = c.mesh.num_vertices();
+  const Ring &pr = rings[parent], &cr = rings[child];
+  const double cl = c.profile_clearance(std::min(cr.radius(), pr.radius()));
+  std::vector<Eigen::AlignedBox3d> box(rings.size());
+  for (int o : active)
+    for (const Vec3& q : rings[o].loop)
+      box[o].extend(q);
+  auto near_ring = [&](int o, const Vec3& x, double d) {
+    Eigen::AlignedBox3d b = box[o];
+    b.extend(b.min() - Vec3::Constant(d)).extend(b.max() + Vec3::Constant(d));
+    if (!b.contains(x))
+      return false;
+    double dist = 0;
+    closest_on_loop(rings[o], x, &dist);
+    return dist < d;
+  };
+  auto blocked = [&](int v) {
+    const Vec3& x = P[v];
+    for (int o : active) {
+      if (o == parent)
+        continue;
+      if (o == child && (x - from).norm() < 3 * cl)
+        continue;
+      if (near_ring(o, x, cl))
+        return true;
+    }
+    return false;
+  };
+  // The first vertex next to the parent ring, or next to its given node.
+  auto target = [&](int v) {
+    return node ? (P[v] - *node).norm() < std::max(cl, c.h) : near_ring(parent, P[v], std::max(cl, c.h));
+  };
+  // Start from the vertices of the edge `from` lies on (the nearest two).
+  std::vector<double> dist(nv, INFINITY);
+  std::vector<int> prev(nv, -1);
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  std::vector<std::pair<double, int>> nearest;
+  for (int v = 0; v < nv; ++v)
+    nearest.emplace_back((P[v] - from).norm(), v);
+  std::partial_sort(nearest.begin(), nearest.begin() + std::min<size_t>(2, nearest.size()), nearest.end());
+  for (size_t k = 0; k < std::min<size_t>(2, nearest.size()); ++k) {
+    const int v = nearest[k].second;
+    dist[v] = nearest[k].first;
+    queue.push({dist[v], v});
+  }
+  int end = -1;
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > dist[v])
+      continue;
+    if (target(v) && (P[v] - from).norm() > 2 * cl) {
+      end = v;
+      break;
+    }
+    for (int k = c.next_offset[v]; k < c.next_offset[v + 1]; ++k) {
+      const int u = c.next_vertex[k];
+      const double nd = d + (P[u] - P[v]).norm();
+      if (nd < dist[u] && !blocked(u)) {
+        dist[u] = nd;
+        prev[u] = v;
+        queue.push({nd, u});
+      }
+    }
+  }
+  if (end < 0) {
+    if (std::getenv("CURVENET_JOIN_DEBUG")) {
+      int reached = 0;
+      for (double x : dist)
+        reached += std::isfinite(x);
+      std::fprintf(stderr, "edge path %s -> %s: none (%d vertices reached, cl %g, h %g)\n", cr.id.c_str(), pr.id.c_str(),
+                   reached, cl, c.h);
+    }
+    return {};
+  }
+  std::vector<Vec3> path;
+  for (int v = end; v >= 0; v = prev[v])
+    path.push_back(P[v]);
+  path.push_back(from);
+  std::reverse(path.begin(), path.end());
+  path.push_back(node ? *node : loop_point(pr, closest_on_loop(pr, P[end])));
+  return path;
+}
+
 /// The path of a join from `from` on the child ring to `jn.to` on the parent
 /// ring: the first candidate that meets the parent ring where the join is
 /// meant to, keeps clear of every ring away from its ends, and leaves and
@@ -217,6 +313,16 @@ void route_join(const StarterContext& c, const std::vector<Ring>& rings, const s
     }
     if (sine >= kClearSine)
       break;
+  }
+  if (!jn.path) { // no plane section joins them: along the mesh's edges
+    std::vector<Vec3> path = edge_path_join(c, rings, active, jn.child, jn.parent, from,
+                                            jn.target.empty() ? std::nullopt : std::optional<Vec3>(jn.to));
+    if (!path.empty()) {
+      jn.to = path.back();
+      if (jn.target.empty())
+        landing = closest_on_loop(pr, jn.to);
+      jn.path = std::move(path);
+    }
   }
 }
 

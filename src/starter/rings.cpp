@@ -35,7 +35,26 @@ Skeleton::Skeleton(const std::vector<Joint>& joints) {
 StarterContext::StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, const StarterOptions& o,
                                std::function<void(const std::string&)> message)
     : mesh(m), joints(j), options(o), sk(j), sm(m), diag(m.bbox_diagonal()), h(m.mean_edge_length()),
-      tol(1e-6 * m.bbox_diagonal()), N(o.nodes_per_ring), say(std::move(message)) {}
+      tol(1e-6 * m.bbox_diagonal()), N(o.nodes_per_ring), say(std::move(message)) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto c = m.face(f);
+    for (size_t k = 0; k < c.size(); ++k) {
+      pairs.emplace_back(c[k], c[(k + 1) % c.size()]);
+      pairs.emplace_back(c[(k + 1) % c.size()], c[k]);
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  next_offset.assign(static_cast<size_t>(m.num_vertices()) + 1, 0);
+  for (const auto& [a, b] : pairs)
+    ++next_offset[a + 1];
+  for (int v = 0; v < m.num_vertices(); ++v)
+    next_offset[v + 1] += next_offset[v];
+  next_vertex.reserve(pairs.size());
+  for (const auto& [a, b] : pairs)
+    next_vertex.push_back(b);
+}
 
 std::string StarterContext::bone_name(int c) const {
   return "'" + joints[sk.parent[c]].name + "'-'" + joints[c].name + "'";
@@ -474,6 +493,18 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
     }
     q.ring->id = c.joints[list.front()].name + "_trunk";
     q.ring->frac = 0;
+    // Joints that fork from one parent whose own ring already crosses the
+    // trunk there (the bones of a palm from its wrist) need no other.
+    const int common = sk.parent[list.front()];
+    if (common >= 0 && std::all_of(list.begin(), list.end(), [&](int j) { return sk.parent[j] == common; })) {
+      const auto parents_ring = std::find_if(rings.begin(), rings.end(), [&](const Ring& r) {
+        return r.joint == common && r.frac == 1 && polyline_distance(r.loop, true, q.ring->loop, true) < c.gap(r, *q.ring);
+      });
+      if (parents_ring != rings.end()) {
+        c.say("no trunk ring for " + names + ": the ring of '" + c.joints[common].name + "' crosses it");
+        continue;
+      }
+    }
     c.say("ring '" + q.ring->id + "' crosses the trunk that joints " + names + " share");
     rings.push_back(std::move(*q.ring));
   }
@@ -546,9 +577,22 @@ std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& ri
 
 std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings, const std::vector<int>& kept) {
   const Skeleton& sk = c.sk;
-  auto resolve = [&](int i) {
-    for (int guard = 0; i >= 0 && !rings[i].active && guard < static_cast<int>(rings.size()); ++guard)
-      i = rings[i].replaced_by;
+  auto is_ancestor = [&](int a, int j) { // a is j or one of its ancestors
+    for (int x = j, guard = 0; x >= 0 && guard <= static_cast<int>(sk.parent.size()); x = sk.parent[x], ++guard)
+      if (x == a)
+        return true;
+    return false;
+  };
+  // A dropped ring stands for the ring that replaced it, as long as that
+  // one belongs up the same chain (a trunk's, or an ancestor's): a ring
+  // dropped for coming close to another limb's does not make that limb its parent.
+  auto resolve = [&](int i, int below) {
+    for (int guard = 0; i >= 0 && !rings[i].active && guard < static_cast<int>(rings.size()); ++guard) {
+      const int r = rings[i].replaced_by;
+      if (r < 0 || !std::any_of(rings[r].own.begin(), rings[r].own.end(), [&](int j) { return is_ancestor(j, below); }))
+        return -1;
+      i = r;
+    }
     return i >= 0 && rings[i].active ? i : -1;
   };
   // Each ring's parent: the ring at the nearest position up the skeleton.
@@ -560,15 +604,16 @@ std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings
     std::sort(list.begin(), list.end(), [&](int a, int b) { return rings[a].frac > rings[b].frac; });
   std::map<int, int> parent_ring;
   for (int i : kept) {
+    const int below = rings[i].joint;
     int found = -1;
-    for (int k : at_joint[rings[i].joint])
-      if (rings[k].frac < rings[i].frac && (found = resolve(k)) >= 0 && found != i)
+    for (int k : at_joint[below])
+      if (rings[k].frac < rings[i].frac && (found = resolve(k, below)) >= 0 && found != i)
         break;
       else
         found = -1;
-    for (int a = sk.parent[rings[i].joint]; a >= 0 && found < 0; a = sk.parent[a])
+    for (int a = sk.parent[below]; a >= 0 && found < 0; a = sk.parent[a])
       for (int k : at_joint[a]) {
-        const int r = resolve(k);
+        const int r = resolve(k, below);
         if (r >= 0 && r != i) {
           found = r;
           break;
@@ -584,6 +629,51 @@ std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings
         break;
       }
       p = parent_ring[p];
+    }
+  }
+  // Every chain joined: a ring left with no parent (its ancestors' rings
+  // are dropped, or a second root's chain) joins the nearest ring of those
+  // already joined to the first, the ring highest up the skeleton.
+  auto depth_of = [&](int j) {
+    int d = 0;
+    for (int x = sk.parent[j]; x >= 0 && d <= static_cast<int>(sk.parent.size()); x = sk.parent[x])
+      ++d;
+    return d;
+  };
+  std::vector<int> orphans;
+  for (int i : kept)
+    if (parent_ring[i] < 0)
+      orphans.push_back(i);
+  std::stable_sort(orphans.begin(), orphans.end(), [&](int a, int b) {
+    const int da = depth_of(rings[a].joint), db = depth_of(rings[b].joint);
+    if (da != db)
+      return da < db;
+    return sk.subtree[rings[a].joint] > sk.subtree[rings[b].joint];
+  });
+  if (orphans.size() > 1) {
+    auto root_of = [&](int i) {
+      for (size_t steps = 0; parent_ring[i] >= 0 && steps <= kept.size(); ++steps)
+        i = parent_ring[i];
+      return i;
+    };
+    for (size_t k = 1; k < orphans.size(); ++k) {
+      const int o = orphans[k];
+      int best = -1;
+      double best_d = INFINITY;
+      for (int i : kept) {
+        const int r = root_of(i);
+        if (r == o || std::find(orphans.begin() + static_cast<long>(k), orphans.end(), r) != orphans.end())
+          continue; // not joined to the first yet
+        const double d = polyline_distance(rings[o].loop, true, rings[i].loop, true);
+        if (d < best_d) {
+          best_d = d;
+          best = i;
+        }
+      }
+      if (best >= 0) {
+        parent_ring[o] = best;
+        c.say("ring '" + rings[o].id + "' has no ring up its chain: it joins the nearest ring, '" + rings[best].id + "'");
+      }
     }
   }
   // Nodes at consistent angles: node 0's direction is carried from each

@@ -75,6 +75,8 @@ struct StarterContext {
   double diag = 1, h = 1, tol = 1e-6;
   int N = 4;
   std::function<void(const std::string&)> say;
+  /// The mesh's vertex neighbours (compressed rows), for paths along edges.
+  std::vector<int> next_offset, next_vertex;
   StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, const StarterOptions& o,
                  std::function<void(const std::string&)> message);
   [[nodiscard]] std::string bone_name(int c) const;

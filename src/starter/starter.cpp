@@ -9,6 +9,8 @@
 #include "starter/stages.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <regex>
 
 namespace curvenet {
@@ -54,22 +56,160 @@ std::string starter_extension(const std::vector<Ring>& rings, const std::vector<
   return ext + "]}";
 }
 
+/// The winding number of the mesh about p (1 inside a closed mesh, 0
+/// outside): the solid angles of its triangles over 4 pi.
+double winding_number_at(const SurfaceMesh& mesh, const Vec3& p) {
+  double sum = 0;
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    const auto c = mesh.face(f);
+    for (size_t k = 1; k + 1 < c.size(); ++k) {
+      const Vec3 a = mesh.positions[c[0]] - p, b = mesh.positions[c[k]] - p, d = mesh.positions[c[k + 1]] - p;
+      const double la = a.norm(), lb = b.norm(), ld = d.norm();
+      const double num = a.dot(b.cross(d));
+      const double den = la * lb * ld + a.dot(b) * ld + b.dot(d) * la + d.dot(a) * lb;
+      sum += 2 * std::atan2(num, den);
+    }
+  }
+  return sum / (4 * std::numbers::pi);
+}
+
+/// The skeleton the net is made for (docs/starter.md, "Joints that
+/// deform"). When the skin's weights are known: the joints that carry
+/// weight, the tips that end a weighted bone inside the mesh, and joints
+/// inside the mesh with descendants in the net; otherwise the joints inside
+/// the mesh (their origin, or the middle of their bone) and those with
+/// descendants in the net. Each goes under its nearest ancestor in the net,
+/// parents first; a second root (an IK chain of its own, a foot) under the
+/// joint of the rest it lies nearest to. The joints left out come with the
+/// reason.
+std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<Joint>& joints,
+                                    const StarterOptions& opt, std::vector<std::pair<std::string, std::string>>& skipped) {
+  const Skeleton sk(joints);
+  const int n = static_cast<int>(joints.size());
+  const bool known = !opt.deforming.empty();
+  auto weighted = [&](int j) { return j >= 0 && opt.deforming.count(joints[j].name) > 0; };
+  std::vector<char> inside(n, 0), rigged(n, 0);
+  for (int j = 0; j < n; ++j) {
+    const int p = sk.parent[j];
+    inside[j] = winding_number_at(mesh, sk.origin[j]) >= 0.5 ||
+                (p >= 0 && winding_number_at(mesh, (sk.origin[p] + sk.origin[j]) / 2) >= 0.5);
+  }
+  for (int pass = 0; pass <= n; ++pass) { // from the leaves up, until nothing changes
+    bool changed = false;
+    for (int j = n - 1; j >= 0; --j) {
+      if (rigged[j])
+        continue;
+      const bool below = std::any_of(sk.kids[j].begin(), sk.kids[j].end(), [&](int k) { return rigged[k] != 0; });
+      const bool tip = sk.kids[j].empty() && inside[j] && weighted(sk.parent[j]);
+      const bool keep = known ? weighted(j) || tip || (inside[j] && below) : inside[j] || below;
+      if (keep)
+        rigged[j] = changed = 1;
+    }
+    if (!changed)
+      break;
+  }
+  std::vector<std::string> why(n);
+  for (int j = 0; j < n; ++j)
+    why[j] = known && !weighted(j) ? (inside[j] ? "carries no skin weight" : "carries no skin weight and lies outside the mesh")
+                                   : "lies outside the mesh";
+  std::vector<int> parent(n, -1);
+  for (int j = 0; j < n; ++j) {
+    int a = sk.parent[j];
+    while (a >= 0 && !rigged[a])
+      a = sk.parent[a];
+    parent[j] = a;
+  }
+  // Roots of what is left: the one with the most joints below it keeps its
+  // place; each other goes under the joint nearest to it.
+  std::vector<int> size(n, 0), roots;
+  for (int j = 0; j < n; ++j)
+    if (rigged[j]) {
+      int r = j;
+      while (parent[r] >= 0)
+        r = parent[r];
+      ++size[r];
+      if (r == j)
+        roots.push_back(j);
+    }
+  if (roots.empty())
+    return joints; // nothing deforms inside the mesh: the stages say so
+  const int main_root = *std::max_element(roots.begin(), roots.end(), [&](int a, int b) { return size[a] < size[b]; });
+  std::vector<char> placed(n, 0);
+  auto mark = [&](int root) {
+    for (int j = 0; j < n; ++j) {
+      int r = j;
+      while (r >= 0 && r != root)
+        r = parent[r];
+      if (rigged[j] && r == root)
+        placed[j] = 1;
+    }
+  };
+  mark(main_root);
+  // Under the nearest joint it reaches through the body (the middle of the
+  // segment between them inside the mesh: a hoof's chain goes under its
+  // leg, not under the other hoof); or the nearest at all.
+  std::vector<int> order = roots;
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return (sk.origin[a] - sk.origin[main_root]).norm() < (sk.origin[b] - sk.origin[main_root]).norm();
+  });
+  for (int r : order) {
+    if (r == main_root)
+      continue;
+    int best = -1, any = -1;
+    for (int j = 0; j < n; ++j) {
+      if (!placed[j])
+        continue;
+      const double d = (sk.origin[j] - sk.origin[r]).norm();
+      if (any < 0 || d < (sk.origin[any] - sk.origin[r]).norm())
+        any = j;
+      if ((best < 0 || d < (sk.origin[best] - sk.origin[r]).norm()) &&
+          winding_number_at(mesh, (sk.origin[j] + sk.origin[r]) / 2) >= 0.5)
+        best = j;
+    }
+    parent[r] = best >= 0 ? best : any;
+    mark(r);
+  }
+  // Parents first.
+  std::vector<Joint> out;
+  std::vector<char> done(n, 0);
+  for (int pass = 0; pass <= n && out.size() < static_cast<size_t>(std::count(rigged.begin(), rigged.end(), 1)); ++pass)
+    for (int j = 0; j < n; ++j)
+      if (rigged[j] && !done[j] && (parent[j] < 0 || done[parent[j]])) {
+        Joint jt = joints[j];
+        jt.parent = parent[j] >= 0 ? std::optional<std::string>(joints[parent[j]].name) : std::nullopt;
+        out.push_back(jt);
+        done[j] = 1;
+      }
+  for (int j = 0; j < n; ++j)
+    if (!rigged[j])
+      skipped.emplace_back(joints[j].name, "left out of the net: it " + why[j]);
+  return out;
+}
+
 } // namespace
 
-StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& joints, const StarterOptions& opt) {
-  if (joints.empty())
+StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& all_joints, const StarterOptions& opt) {
+  if (all_joints.empty())
     throw InputError(mesh.source, "skeleton", "has no joints");
   if (opt.nodes_per_ring < 2)
     throw Error("starter: at least 2 nodes per ring are needed");
   if (opt.rings_per_bone < 1)
     throw Error("starter: at least 1 ring per bone is needed");
-  if (joints.size() > 1 &&
-      std::all_of(joints.begin(), joints.end(), [](const Joint& j) { return !j.parent.has_value(); }))
+  if (all_joints.size() > 1 &&
+      std::all_of(all_joints.begin(), all_joints.end(), [](const Joint& j) { return !j.parent.has_value(); }))
     throw InputError(mesh.source, "skeleton",
-                     "its " + std::to_string(joints.size()) +
+                     "its " + std::to_string(all_joints.size()) +
                          " joints are all roots (a flat hierarchy, as some XR hand assets have): the starter needs "
                          "bones from parent to child; give a skeleton with --skeleton");
   StarterResult result;
+  std::vector<std::pair<std::string, std::string>> skipped;
+  const std::vector<Joint> work = working_skeleton(mesh, all_joints, opt, skipped);
+  for (const auto& [name, reason] : skipped) {
+    result.messages.push_back("joint '" + name + "' " + reason);
+    if (opt.message)
+      opt.message(result.messages.back());
+  }
+  const std::vector<Joint>& joints = work;
   const StarterContext c(mesh, joints, opt, [&](const std::string& m) {
     result.messages.push_back(m);
     if (opt.message)
@@ -88,6 +228,10 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
   const std::vector<int> kept = keep_clear_rings(c, rings, ringless);
   const std::map<int, int> parent_ring = chain_rings(c, rings, kept);
+  if (std::getenv("CURVENET_STARTER_DEBUG"))
+    for (int i : kept)
+      std::fprintf(stderr, "ring %s parent %s\n", rings[i].id.c_str(),
+                   parent_ring.at(i) >= 0 ? rings[parent_ring.at(i)].id.c_str() : "-");
 
   // 5 to 7: build the net, check it, embed it; on a failure move or drop
   // what failed, and repeat.
@@ -115,6 +259,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
           for (const auto& [j, w] : auto_weights(joints, n.position, opt.weights))
             net.rig.weights[n.id][joints[j].name] = w;
         result.rig = std::move(net.rig);
+        result.rig.joints = all_joints; // the rig drives the whole skeleton; the net was made for the part that deforms
         result.rings = static_cast<int>(active.size());
         result.joins = net.joins;
         result.unjoined = static_cast<int>(net.unjoined.size());
@@ -133,6 +278,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& jo
         for (int j = 0; j < nj; ++j)
           if (!ringed.count(j))
             result.ringless.emplace_back(joints[j].name, ringless.count(j) ? ringless[j] : "its ring was dropped");
+        for (const auto& entry : skipped)
+          result.ringless.push_back(entry);
         result.rig.extensions["x_starter"] = starter_extension(rings, active, net.unjoined, result);
         return result;
       }
