@@ -35,6 +35,17 @@
 namespace curvenet::cli {
 namespace {
 
+/// A mesh, with a line for each repair made on load that changes the
+/// surface the engine works on (degenerate faces left out, faces turned).
+SurfaceMesh load_mesh_noting(const std::string& path, std::ostream& notes = std::cout) {
+  SurfaceMesh m = load_mesh(path);
+  for (const auto& n : m.notes)
+    if (n.rfind("left out", 0) == 0 || n.rfind("repaired", 0) == 0)
+      notes << "note: " << std::filesystem::path(path).filename().string() << ": " << n << "\n";
+  return m;
+}
+
+
 Coverage parse_coverage(const std::string& s) {
   if (s == "full")
     return Coverage::Full;
@@ -104,7 +115,7 @@ int run_embed(const EmbedArgs& a) {
   const Progress progress{a.progress.value_or(::isatty(2) != 0)};
   const auto t0 = std::chrono::steady_clock::now();
   progress.stage("reading " + a.mesh);
-  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   progress.stage("reading " + a.rig);
   const Rig rig = read_rig(a.rig);
   const double load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -188,7 +199,7 @@ void print_bind(std::ostream& out, const Binding& b) {
 } // namespace
 
 int run_bind(const BindArgs& a) {
-  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   const Rig rig = rig_for(a);
   const Binding b = bind_for(mesh, rig, a);
   Rig out = rig;
@@ -211,7 +222,7 @@ void check_posed(const std::vector<Vec3>& positions, const std::string& file, co
 } // namespace
 
 int run_pose(const PoseArgs& a) {
-  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   const InputTopology topo = read_input_topology(a.mesh);
   const Rig rig = rig_for(a);
   const Pose pose = read_pose(a.pose);
@@ -228,7 +239,7 @@ int run_pose(const PoseArgs& a) {
 }
 
 int run_animate(const AnimateArgs& a) {
-  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   const Rig rig = rig_for(a);
   const SkinnedMesh clips = load_skinned_mesh(a.clip_file);
   if (clips.num_clips() == 0)
@@ -338,7 +349,7 @@ std::vector<std::vector<Mat4>> clip_poses(const std::vector<Joint>& joints, cons
 }
 
 int run_bake(const BakeArgs& a) {
-  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   const Rig rig = rig_for(a);
   std::optional<SkinnedMesh> clips, fit;
   if (!a.clip_file.empty()) {
@@ -423,7 +434,7 @@ Mat4 parse_matrix(const std::string& text, const char* option) {
 
 int run_transfer(const TransferArgs& a) {
   const Rig rig = read_rig(a.rig);
-  const SurfaceMesh source = load_mesh(a.from), target = load_mesh(a.to);
+  const SurfaceMesh source = load_mesh_noting(a.from), target = load_mesh_noting(a.to);
   TransferOptions opt;
   if (!a.source_frame.empty())
     opt.source_frame = parse_matrix(a.source_frame, "--source-frame");
@@ -467,7 +478,7 @@ int run_transfer(const TransferArgs& a) {
 }
 
 int run_subdivide(const SubdivideArgs& a) {
-  const SurfaceMesh cage = load_mesh(a.cage);
+  const SurfaceMesh cage = load_mesh_noting(a.cage);
   const SurfaceMesh s = catmull_clark(cage, a.levels, a.max_faces);
   write_file_atomic(a.out, mesh_to_obj(s.positions, s.face_offsets, s.face_vertices));
   std::cout << "Catmull-Clark, " << a.levels << (a.levels == 1 ? " level: " : " levels: ") << cage.num_faces()
@@ -477,7 +488,8 @@ int run_subdivide(const SubdivideArgs& a) {
 }
 
 int run_compare(const CompareArgs& a) {
-  const SurfaceMesh ma = load_mesh(a.a), mb = load_mesh(a.b);
+  std::ostream& notes = a.json ? std::cerr : std::cout; // JSON alone on standard output
+  const SurfaceMesh ma = load_mesh_noting(a.a, notes), mb = load_mesh_noting(a.b, notes);
   const SurfaceDistance d = surface_distance(ma, mb);
   std::ostringstream out;
   out << std::setprecision(6);
@@ -503,7 +515,7 @@ int run_compare(const CompareArgs& a) {
 }
 
 int run_starter(const StarterArgs& a) {
-  const SurfaceMesh mesh = load_mesh(a.mesh);
+  const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   std::vector<Joint> joints;
   StarterOptions opt;
   if (!a.skeleton.empty()) {

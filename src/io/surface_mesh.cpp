@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <numeric>
 #include <queue>
@@ -92,73 +93,97 @@ double SurfaceMesh::enclosed_volume(const std::vector<Vec3>& welded_positions) c
 
 namespace {
 
-struct EdgeUse {
-  int face;
-  bool forward; // the face runs a -> b with a < b
+/// The undirected edges of a polygon soup, with the faces that use them: a
+/// flat table sorted by edge (no node-based map). Edge e's uses are
+/// use_face[start[e] .. start[e + 1]), in face order.
+struct EdgeTable {
+  std::vector<std::uint64_t> key; ///< per edge: (smaller vertex << 32) | larger
+  std::vector<int> start;         ///< per edge + 1
+  std::vector<int> use_face;
+  std::vector<char> use_forward; ///< the face runs smaller -> larger
+  [[nodiscard]] int num_edges() const { return static_cast<int>(key.size()); }
+  [[nodiscard]] int uses(int e) const { return start[e + 1] - start[e]; }
+  [[nodiscard]] int lo(int e) const { return static_cast<int>(key[e] >> 32); }
+  [[nodiscard]] int hi(int e) const { return static_cast<int>(key[e] & 0xffffffffu); }
 };
 
-using EdgeKey = std::pair<int, int>;
-EdgeKey edge_key(int a, int b) {
-  return a < b ? EdgeKey{a, b} : EdgeKey{b, a};
+std::uint64_t edge_key(int a, int b) {
+  const auto lo = static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b)));
+  const auto hi = static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::max(a, b)));
+  return (lo << 32) | hi;
 }
 
-/// Undirected edges of a polygon soup, with the faces that use them.
-std::map<EdgeKey, std::vector<EdgeUse>> edge_uses(const std::vector<int>& offsets, const std::vector<int>& verts) {
-  std::map<EdgeKey, std::vector<EdgeUse>> uses;
+EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& verts) {
+  struct Use {
+    std::uint64_t key;
+    int face;
+    char forward;
+  };
+  std::vector<Use> all;
+  all.reserve(verts.size());
   for (size_t f = 0; f + 1 < offsets.size(); ++f) {
     const int n = offsets[f + 1] - offsets[f];
     for (int i = 0; i < n; ++i) {
-      const int a = verts[offsets[f] + i];
-      const int b = verts[offsets[f] + (i + 1) % n];
-      uses[edge_key(a, b)].push_back({static_cast<int>(f), a < b});
+      const int a = verts[offsets[f] + i], b = verts[offsets[f] + (i + 1) % n];
+      all.push_back({edge_key(a, b), static_cast<int>(f), static_cast<char>(a < b)});
     }
   }
-  return uses;
+  std::sort(all.begin(), all.end(), [](const Use& x, const Use& y) { return x.key != y.key ? x.key < y.key : x.face < y.face; });
+  EdgeTable t;
+  t.use_face.reserve(all.size());
+  t.use_forward.reserve(all.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (i == 0 || all[i].key != all[i - 1].key) {
+      t.key.push_back(all[i].key);
+      t.start.push_back(static_cast<int>(i));
+    }
+    t.use_face.push_back(all[i].face);
+    t.use_forward.push_back(all[i].forward);
+  }
+  t.start.push_back(static_cast<int>(all.size()));
+  return t;
 }
 
 /// Vertices whose incident faces form more than one fan (non-manifold
-/// vertices), given manifold edges.
+/// vertices), given manifold edges: a union-find over the (vertex, face)
+/// corners, joined across every edge two faces share.
 std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, const std::vector<int>& verts,
-                                       const std::map<EdgeKey, std::vector<EdgeUse>>& uses) {
-  // For each vertex, union-find over its incident face corners, joined when
-  // two faces share an edge at that vertex.
-  std::vector<std::vector<int>> vfaces(nv);
+                                       const EdgeTable& edges) {
+  // Each vertex's faces, sorted (compressed rows).
+  std::vector<int> vstart(static_cast<size_t>(nv) + 1, 0);
+  for (int v : verts)
+    ++vstart[v + 1];
+  for (int v = 0; v < nv; ++v)
+    vstart[v + 1] += vstart[v];
+  std::vector<int> vface(verts.size()), fill(vstart.begin(), vstart.end() - 1);
   for (size_t f = 0; f + 1 < offsets.size(); ++f)
     for (int k = offsets[f]; k < offsets[f + 1]; ++k)
-      vfaces[verts[k]].push_back(static_cast<int>(f));
+      vface[fill[verts[k]]++] = static_cast<int>(f);
+  for (int v = 0; v < nv; ++v)
+    std::sort(vface.begin() + vstart[v], vface.begin() + vstart[v + 1]);
+  std::vector<int> parent(vface.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  auto node = [&](int v, int f) {
+    return static_cast<int>(std::lower_bound(vface.begin() + vstart[v], vface.begin() + vstart[v + 1], f) - vface.begin());
+  };
+  for (int e = 0; e < edges.num_edges(); ++e)
+    if (edges.uses(e) == 2) {
+      const int f1 = edges.use_face[edges.start[e]], f2 = edges.use_face[edges.start[e] + 1];
+      for (const int v : {edges.lo(e), edges.hi(e)})
+        parent[find(node(v, f1))] = find(node(v, f2));
+    }
+  // Unions join only nodes of one vertex, so each fan's root is one of its own nodes.
   std::vector<int> bad;
   for (int v = 0; v < nv; ++v) {
-    auto& fs = vfaces[v];
-    if (fs.size() <= 1)
-      continue;
-    std::sort(fs.begin(), fs.end());
-    fs.erase(std::unique(fs.begin(), fs.end()), fs.end());
-    std::vector<int> parent(fs.size());
-    std::iota(parent.begin(), parent.end(), 0);
-    auto find = [&](int x) {
-      while (parent[x] != x)
-        x = parent[x] = parent[parent[x]];
-      return x;
-    };
-    auto index_of = [&](int f) { return static_cast<int>(std::lower_bound(fs.begin(), fs.end(), f) - fs.begin()); };
-    for (int f : fs) {
-      const int n = offsets[f + 1] - offsets[f];
-      for (int i = 0; i < n; ++i) {
-        if (verts[offsets[f] + i] != v)
-          continue;
-        for (int nb : {verts[offsets[f] + (i + 1) % n], verts[offsets[f] + (i + n - 1) % n]}) {
-          auto it = uses.find(edge_key(v, nb));
-          if (it == uses.end())
-            continue;
-          for (const auto& u : it->second)
-            parent[find(index_of(u.face))] = find(index_of(f));
-        }
-      }
-    }
-    int roots = 0;
-    for (size_t i = 0; i < fs.size(); ++i)
-      roots += find(static_cast<int>(i)) == static_cast<int>(i);
-    if (roots > 1)
+    int fans = 0;
+    for (int k = vstart[v]; k < vstart[v + 1]; ++k)
+      fans += find(k) == k;
+    if (fans > 1)
       bad.push_back(v);
   }
   return bad;
@@ -186,35 +211,34 @@ struct VecHash {
 
 std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<int>* face_component) {
   const int nf = mesh.num_faces();
-  auto uses = edge_uses(mesh.face_offsets, mesh.face_vertices);
-  std::vector<std::vector<int>> adj(nf);
-  for (const auto& [k, u] : uses)
-    if (u.size() == 2) {
-      adj[u[0].face].push_back(u[1].face);
-      adj[u[1].face].push_back(u[0].face);
+  const EdgeTable edges = edge_table(mesh.face_offsets, mesh.face_vertices);
+  // Faces joined across shared edges: union-find.
+  std::vector<int> parent(nf);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (int e = 0; e < edges.num_edges(); ++e)
+    if (edges.uses(e) == 2) {
+      const int a = find(edges.use_face[edges.start[e]]), b = find(edges.use_face[edges.start[e] + 1]);
+      if (a != b)
+        parent[std::max(a, b)] = std::min(a, b);
     }
-  std::vector<int> comp(nf, -1);
+  // Components in order of their lowest face.
+  std::vector<int> comp(nf, -1), id_of_root(nf, -1);
   std::vector<ComponentInfo> out;
-  for (int s = 0; s < nf; ++s) {
-    if (comp[s] >= 0)
-      continue;
-    const int c = static_cast<int>(out.size());
-    out.emplace_back();
-    std::vector<int> stack{s};
-    comp[s] = c;
-    while (!stack.empty()) {
-      int f = stack.back();
-      stack.pop_back();
-      for (int g : adj[f])
-        if (comp[g] < 0) {
-          comp[g] = c;
-          stack.push_back(g);
-        }
+  for (int f = 0; f < nf; ++f) {
+    const int r = find(f);
+    if (id_of_root[r] < 0) {
+      id_of_root[r] = static_cast<int>(out.size());
+      out.emplace_back();
     }
+    comp[f] = id_of_root[r];
   }
-  std::vector<std::vector<char>> seen_vertex(out.size());
   std::vector<int> nverts(out.size(), 0), nedges(out.size(), 0);
-  std::vector<char> vseen(mesh.num_vertices(), 0);
+  std::vector<char> vseen(mesh.num_vertices(), 0), open(out.size(), 0);
   for (int f = 0; f < nf; ++f) {
     out[comp[f]].faces++;
     for (int v : mesh.face(f))
@@ -223,11 +247,11 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
         nverts[comp[f]]++;
       }
   }
-  std::vector<char> open(out.size(), 0);
-  for (const auto& [k, u] : uses) {
-    nedges[comp[u[0].face]]++;
-    if (u.size() == 1)
-      open[comp[u[0].face]] = 1;
+  for (int e = 0; e < edges.num_edges(); ++e) {
+    const int c = comp[edges.use_face[edges.start[e]]];
+    nedges[c]++;
+    if (edges.uses(e) == 1)
+      open[c] = 1;
   }
   for (size_t c = 0; c < out.size(); ++c) {
     out[c].closed = !open[c];
@@ -240,13 +264,13 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
 
 SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   const int nin = static_cast<int>(raw.positions.size());
-  const int nf = static_cast<int>(raw.face_offsets.size()) - 1;
-  if (nf <= 0)
+  const int nraw = static_cast<int>(raw.face_offsets.size()) - 1;
+  if (nraw <= 0)
     throw InputError(source, "", "the mesh has no faces");
   for (int v = 0; v < nin; ++v)
     if (!raw.positions[v].allFinite())
       throw InputError(source, "vertex " + std::to_string(v), "non-finite coordinate " + vec_str(raw.positions[v]));
-  for (int f = 0; f < nf; ++f) {
+  for (int f = 0; f < nraw; ++f) {
     const int n = raw.face_offsets[f + 1] - raw.face_offsets[f];
     if (n < 3)
       throw InputError(source, "face " + std::to_string(f),
@@ -257,40 +281,54 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
                          "refers to vertex " + std::to_string(raw.face_vertices[k]) + ", which does not exist");
   }
 
-  // Faces that are degenerate in the input itself (before any weld).
-  auto check_degenerate = [&](const std::vector<Vec3>& pos, const std::vector<int>& verts, const char* what) {
-    for (int f = 0; f < nf; ++f) {
-      const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
-      for (int i = 0; i < n; ++i)
-        for (int j = i + 1; j < n; ++j)
-          if (verts[b + i] == verts[b + j] || pos[verts[b + i]] == pos[verts[b + j]])
-            throw InputError(source, "face " + std::to_string(f),
-                             std::string("degenerate: corners ") + std::to_string(i) + " and " + std::to_string(j) +
-                                 " are the same " + what);
-      bool all_collinear = true;
-      for (int i = 1; i + 1 < n && all_collinear; ++i)
-        all_collinear = detail::collinear3d(pos[verts[b]], pos[verts[b + i]], pos[verts[b + i + 1]]);
-      if (all_collinear)
-        throw InputError(source, "face " + std::to_string(f), "degenerate: its corners are collinear (zero area)");
+  // Degenerate faces (two corners at one point, or no area), which game
+  // meshes have, are left out of the surface the engine works on; the
+  // output keeps them (it is written on the file's own topology).
+  std::vector<int> offsets{0}, verts;
+  int dropped = 0;
+  std::string first_reason; // of the first degenerate face, for a mesh with no other
+  for (int f = 0; f < nraw; ++f) {
+    const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
+    bool degenerate = false;
+    for (int i = 0; i < n && !degenerate; ++i)
+      for (int j = i + 1; j < n && !degenerate; ++j)
+        degenerate = raw.face_vertices[b + i] == raw.face_vertices[b + j] ||
+                     raw.positions[raw.face_vertices[b + i]] == raw.positions[raw.face_vertices[b + j]];
+    bool all_collinear = true;
+    for (int i = 1; i + 1 < n && all_collinear && !degenerate; ++i)
+      all_collinear = detail::collinear3d(raw.positions[raw.face_vertices[b]], raw.positions[raw.face_vertices[b + i]],
+                                          raw.positions[raw.face_vertices[b + i + 1]]);
+    if (degenerate || all_collinear) {
+      if (dropped++ == 0)
+        first_reason = "face " + std::to_string(f) + (degenerate ? ": degenerate: two of its corners are one point"
+                                                                  : ": degenerate: its corners are collinear (no area)");
+      continue;
     }
-  };
-  check_degenerate(raw.positions, raw.face_vertices, "point");
+    verts.insert(verts.end(), raw.face_vertices.begin() + b, raw.face_vertices.begin() + b + n);
+    offsets.push_back(static_cast<int>(verts.size()));
+  }
+  const int nf = static_cast<int>(offsets.size()) - 1;
+  if (nf == 0) {
+    const auto colon = first_reason.find(": ");
+    throw InputError(source, first_reason.substr(0, colon), first_reason.substr(colon + 2) + ", as is every face");
+  }
 
   // Non-manifold edges in the input as given (no weld) are refused. A vertex
   // that is non-manifold as given may be mended by welding (a glTF seam can
   // split a fan); that is judged after the weld.
   {
-    auto uses = edge_uses(raw.face_offsets, raw.face_vertices);
-    for (const auto& [k, u] : uses)
-      if (u.size() > 2)
-        throw InputError(source, "edge " + std::to_string(k.first) + "-" + std::to_string(k.second),
-                         "non-manifold: shared by " + std::to_string(u.size()) + " faces");
+    const EdgeTable edges = edge_table(offsets, verts);
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) > 2)
+        throw InputError(source, "edge " + std::to_string(edges.lo(e)) + "-" + std::to_string(edges.hi(e)),
+                         "non-manifold: shared by " + std::to_string(edges.uses(e)) + " faces");
   }
 
   // Weld by exact position, then undo welds that break manifoldness.
   std::vector<int> group(nin);
   {
     std::unordered_map<Vec3, int, VecHash> first;
+    first.reserve(static_cast<size_t>(nin));
     for (int v = 0; v < nin; ++v)
       group[v] = first.emplace(raw.positions[v], v).first->second;
   }
@@ -308,17 +346,17 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
         id_of_rep[r] = next++;
       to_welded[v] = id_of_rep[r];
     }
-    fverts.resize(raw.face_vertices.size());
+    fverts.resize(verts.size());
     for (size_t k = 0; k < fverts.size(); ++k)
-      fverts[k] = to_welded[raw.face_vertices[k]];
-    auto uses = edge_uses(raw.face_offsets, fverts);
+      fverts[k] = to_welded[verts[k]];
+    const EdgeTable edges = edge_table(offsets, fverts);
     std::vector<char> unweld(next, 0);
     bool any = false;
-    for (const auto& [k, u] : uses)
-      if (u.size() > 2)
-        unweld[k.first] = unweld[k.second] = any = true;
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) > 2)
+        unweld[edges.lo(e)] = unweld[edges.hi(e)] = any = true;
     for (int f = 0; f < nf; ++f) { // a weld that collapses a face
-      const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
+      const int b = offsets[f], n = offsets[f + 1] - b;
       for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j)
           if (fverts[b + i] == fverts[b + j])
@@ -329,7 +367,7 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
       std::vector<int> members(next, 0);
       for (int v = 0; v < nin; ++v)
         members[to_welded[v]]++;
-      for (int w : non_manifold_vertices(next, raw.face_offsets, fverts, uses)) {
+      for (int w : non_manifold_vertices(next, offsets, fverts, edges)) {
         if (members[w] > 1) {
           unweld[w] = any = true;
           continue;
@@ -351,17 +389,48 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
       }
   }
 
+  // Welded vertices that no face uses (a degenerate face's corners away
+  // from every other face) follow their nearest neighbour that one does,
+  // so that the welded vertices are exactly the surface's.
+  std::vector<char> used(static_cast<size_t>(*std::max_element(to_welded.begin(), to_welded.end())) + 1, 0);
+  for (int w : fverts)
+    used[w] = 1;
+  std::vector<int> compact(used.size(), -1);
+  int nw = 0;
+  for (size_t w = 0; w < used.size(); ++w)
+    if (used[w])
+      compact[w] = nw++;
+  std::vector<Vec3> welded_pos(nw);
+  for (int v = 0; v < nin; ++v)
+    if (compact[to_welded[v]] >= 0)
+      welded_pos[compact[to_welded[v]]] = raw.positions[v];
+  int followers = 0;
+  for (int v = 0; v < nin; ++v) {
+    if (compact[to_welded[v]] >= 0)
+      continue;
+    int best = 0;
+    for (int w = 1; w < nw; ++w)
+      if ((welded_pos[w] - raw.positions[v]).squaredNorm() < (welded_pos[best] - raw.positions[v]).squaredNorm())
+        best = w;
+    to_welded[v] = -2 - best; // resolved below
+    ++followers;
+  }
+  for (int v = 0; v < nin; ++v)
+    to_welded[v] = to_welded[v] <= -2 ? -2 - to_welded[v] : compact[to_welded[v]];
+  for (auto& w : fverts)
+    w = compact[w];
+
   SurfaceMesh mesh;
   mesh.source = source;
   mesh.input_to_welded = to_welded;
-  int nw = 0;
-  for (int w : to_welded)
-    nw = std::max(nw, w + 1);
-  mesh.positions.resize(nw);
-  for (int v = 0; v < nin; ++v)
-    mesh.positions[to_welded[v]] = raw.positions[v];
-  mesh.face_offsets = raw.face_offsets;
+  mesh.positions = std::move(welded_pos);
+  mesh.face_offsets = offsets;
   mesh.face_vertices = fverts;
+  if (dropped > 0)
+    mesh.notes.push_back("left out " + std::to_string(dropped) +
+                         " degenerate faces (two corners at one point, or no area) of the surface it works on" +
+                         (followers > 0 ? "; " + std::to_string(followers) + " of their vertices follow their nearest neighbour"
+                                        : ""));
   if (nw < nin)
     mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) +
                          " by position");
@@ -370,13 +439,14 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
                          " coincident vertices apart, where welding would break manifoldness");
 
   // Orientation: make every component consistent with its lowest face.
-  auto uses = edge_uses(mesh.face_offsets, mesh.face_vertices);
+  const EdgeTable edges = edge_table(mesh.face_offsets, mesh.face_vertices);
   std::vector<std::vector<std::pair<int, bool>>> adj(nf); // neighbour, same-direction use
-  for (const auto& [k, u] : uses)
-    if (u.size() == 2) {
-      const bool conflict = u[0].forward == u[1].forward;
-      adj[u[0].face].push_back({u[1].face, conflict});
-      adj[u[1].face].push_back({u[0].face, conflict});
+  for (int e = 0; e < edges.num_edges(); ++e)
+    if (edges.uses(e) == 2) {
+      const int k = edges.start[e];
+      const bool conflict = edges.use_forward[k] == edges.use_forward[k + 1];
+      adj[edges.use_face[k]].push_back({edges.use_face[k + 1], conflict});
+      adj[edges.use_face[k + 1]].push_back({edges.use_face[k], conflict});
     }
   std::vector<int> flip(nf, -1);
   int flipped = 0;
@@ -419,7 +489,6 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
                      mesh.face_vertices.begin() + mesh.face_offsets[f + 1]);
     mesh.notes.push_back("repaired inconsistent orientation: reversed " + std::to_string(flipped) + " faces");
   }
-  // A weld can make a face degenerate in welded terms only when positions coincide, which was checked above.
   return mesh;
 }
 

@@ -9,6 +9,7 @@
 #include "starter/stages.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <regex>
@@ -238,15 +239,18 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
   std::set<int> dropped;
   JoinAttempts join_attempt;
   std::map<int, std::string> join_failure; // child ring -> why its last join was given up
+  std::map<int, int> parent_override;       // child ring -> the ring it joins instead of its own parent
+  std::map<int, std::set<int>> tried;       // child ring -> the parents whose joins were given up
   for (int attempt = 0;; ++attempt) {
     std::vector<int> active;
     for (int i : kept)
       if (!dropped.count(i))
         active.push_back(i);
-    auto effective_parent = [&](int i) {
-      int p = parent_ring.at(i);
+    std::function<int(int)> effective_parent = [&](int i) {
+      const auto o = parent_override.find(i);
+      int p = o != parent_override.end() ? o->second : parent_ring.at(i);
       while (p >= 0 && dropped.count(p))
-        p = parent_ring.at(p);
+        p = parent_override.count(p) ? parent_override.at(p) : parent_ring.at(p);
       return p;
     };
     NetResult net = build_net(c, rings, active, effective_parent, join_attempt);
@@ -321,6 +325,33 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
             (m >= 2 ? "abandoned" : "moved to an existing node") + ": " + failure);
       if (m >= 2)
         join_failure[culprit / 2] = failure;
+      // Both joins given up: join the nearest other ring, a few times over.
+      const int ch = culprit / 2;
+      if (join_attempt[2 * ch] >= 2 && join_attempt[2 * ch + 1] >= 2 && tried[ch].size() < 3) {
+        tried[ch].insert(effective_parent(ch));
+        auto below = [&](int i) { // i is ch or hangs from it
+          for (size_t steps = 0; i >= 0 && steps <= rings.size(); ++steps, i = effective_parent(i))
+            if (i == ch)
+              return true;
+          return false;
+        };
+        int best = -1;
+        double best_d = INFINITY;
+        for (int i : active) {
+          if (below(i) || tried[ch].count(i))
+            continue;
+          const double d = polyline_distance(rings[ch].loop, true, rings[i].loop, true);
+          if (d < best_d) {
+            best_d = d;
+            best = i;
+          }
+        }
+        if (best >= 0) {
+          parent_override[ch] = best;
+          join_attempt[2 * ch] = join_attempt[2 * ch + 1] = 0;
+          c.say("ring '" + rings[ch].id + "' joins ring '" + rings[best].id + "' instead");
+        }
+      }
       continue;
     }
     Ring& r = rings[culprit];
