@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 
 using namespace curvenet::detail;
 
@@ -29,4 +30,50 @@ TEST(Predicates, ExactWhereFloatingPointIsNot) {
   EXPECT_EQ(orient2d({0, 0}, {1e-300, 1e-300}, {1, 1}), 0);
   EXPECT_TRUE(collinear3d({0, 0, 0}, {1, 2, 3}, {2, 4, 6}));
   EXPECT_FALSE(collinear3d({0, 0, 0}, {1, 2, 3}, {2, 4, 6.000000000001}));
+}
+
+TEST(Predicates, Orient3dIsExactNearThePlaneWhereTheQuickDeterminantIsNot) {
+  // Integer points up to 2^24 (their products overflow a double's 53 bits,
+  // so the quick floating-point determinant can round the wrong way), with
+  // the fourth on the plane of the first three or one unit off it: the
+  // exact sign, computed with 128-bit integers, is what orient3d must give.
+  std::uint64_t state = 42;
+  auto next = [&]() {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<std::int64_t>((state >> 33) % (1 << 24)) - (1 << 23);
+  };
+  int checked = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const std::int64_t a[3] = {next(), next(), next()};
+    std::int64_t u[3], v[3];
+    for (int k = 0; k < 3; ++k) {
+      u[k] = next() / 64;
+      v[k] = next() / 64;
+    }
+    const std::int64_t s = next() % 5, t = next() % 5, e = next() % 3 - 1;
+    std::int64_t b[3], c[3], d[3];
+    for (int k = 0; k < 3; ++k) {
+      b[k] = a[k] + u[k];
+      c[k] = a[k] + v[k];
+      d[k] = a[k] + s * u[k] + t * v[k] + (k == 2 ? e : 0);
+    }
+    auto exact = [&]() {
+      __int128 m[3][3];
+      for (int k = 0; k < 3; ++k) {
+        m[0][k] = b[k] - a[k];
+        m[1][k] = c[k] - a[k];
+        m[2][k] = d[k] - a[k];
+      }
+      const __int128 det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                           m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+      return det > 0 ? 1 : det < 0 ? -1 : 0;
+    };
+    auto vec = [](const std::int64_t* p) {
+      return Eigen::Vector3d(static_cast<double>(p[0]), static_cast<double>(p[1]), static_cast<double>(p[2]));
+    };
+    ASSERT_EQ(orient3d(vec(a), vec(b), vec(c), vec(d)), exact()) << trial;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 20000);
 }

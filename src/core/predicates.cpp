@@ -2,6 +2,8 @@
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
+#include <cmath>
+
 namespace curvenet::detail {
 namespace {
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -21,6 +23,22 @@ int orient2d(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Ve
 }
 
 int orient3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+  // First the determinant in floating point, with Shewchuk's static error
+  // bound for it (Robust Adaptive Floating-Point Geometric Predicates,
+  // 1997): where its sign is certain, it is the answer; only the rest go to
+  // CGAL's exact predicate.
+  const double ux = b.x() - a.x(), uy = b.y() - a.y(), uz = b.z() - a.z();
+  const double vx = c.x() - a.x(), vy = c.y() - a.y(), vz = c.z() - a.z();
+  const double wx = d.x() - a.x(), wy = d.y() - a.y(), wz = d.z() - a.z();
+  const double m1 = vy * wz, m2 = vz * wy, m3 = vz * wx, m4 = vx * wz, m5 = vx * wy, m6 = vy * wx;
+  const double det = ux * (m1 - m2) + uy * (m3 - m4) + uz * (m5 - m6);
+  const double permanent = std::abs(ux) * (std::abs(m1) + std::abs(m2)) + std::abs(uy) * (std::abs(m3) + std::abs(m4)) +
+                           std::abs(uz) * (std::abs(m5) + std::abs(m6));
+  const double bound = 7.7715611723761027e-16 * permanent;
+  if (det > bound)
+    return 1;
+  if (-det > bound)
+    return -1;
   // CGAL's orientation(p,q,r,s) is POSITIVE when s lies on the side of the
   // plane (p,q,r) that (q-p)x(r-p) points to (tested in predicates_test).
   return sign_of(CGAL::orientation(p3(a), p3(b), p3(c), p3(d)));

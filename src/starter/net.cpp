@@ -66,8 +66,8 @@ double path_length(const std::vector<Vec3>& p) {
 /// Paths along the surface from a to b: the sections through the preferred
 /// third points first, then those of planes turned about the line through a
 /// and b, shortest first.
-std::vector<std::vector<Vec3>> surface_paths(const SectionMesh& sm, const Vec3& a, const Vec3& b,
-                                             const std::vector<Vec3>& preferred, double tol) {
+std::vector<std::vector<Vec3>> surface_paths_uncached(const SectionMesh& sm, const Vec3& a, const Vec3& b,
+                                                      const std::vector<Vec3>& preferred, double tol) {
   std::vector<std::vector<Vec3>> out;
   const Vec3 d = b - a;
   for (const Vec3& m : preferred)
@@ -84,6 +84,17 @@ std::vector<std::vector<Vec3>> surface_paths(const SectionMesh& sm, const Vec3& 
   std::sort(swept.begin(), swept.end(), [](const auto& x, const auto& y) { return path_length(x) < path_length(y); });
   out.insert(out.end(), swept.begin(), swept.end());
   return out;
+}
+
+const std::vector<std::vector<Vec3>>& surface_paths(const StarterContext& c, const Vec3& a, const Vec3& b,
+                                                    const std::vector<Vec3>& preferred) {
+  std::vector<double> key{a.x(), a.y(), a.z(), b.x(), b.y(), b.z()};
+  for (const Vec3& m : preferred)
+    key.insert(key.end(), {m.x(), m.y(), m.z()});
+  auto it = c.path_cache.find(key);
+  if (it == c.path_cache.end())
+    it = c.path_cache.emplace(std::move(key), surface_paths_uncached(c.sm, a, b, preferred, c.tol)).first;
+  return it->second;
 }
 
 /// How squarely a path along the surface crosses a ring at one of its ends
@@ -263,8 +274,8 @@ void route_join(const StarterContext& c, const std::vector<Ring>& rings, const s
   Vec3 out = jn.to - pr.centre;
   out -= out.dot(pr.axis) * pr.axis;
   double best_sin = -1;
-  for (auto& path :
-       surface_paths(c.sm, from, jn.to, {from - cr.radius() * cr.axis, jn.to + out, (pr.centre + cr.centre) / 2}, c.tol)) {
+  for (std::vector<Vec3> path :
+       surface_paths(c, from, jn.to, {from - cr.radius() * cr.axis, jn.to + out, (pr.centre + cr.centre) / 2})) {
     double s_hit = -1;
     size_t cut = path.size() - 1;
     for (size_t i = 0; i + 1 < path.size() && s_hit < 0; ++i) {
@@ -411,12 +422,12 @@ void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, int
     pr.to = rings[ch].id + "_" + std::to_string(k);
     std::optional<std::vector<Vec3>> path;
     double best_sine = -1;
-    for (auto& candidate : surface_paths(c.sm, a, b, {mid}, c.tol)) {
+    for (const auto& candidate : surface_paths(c, a, b, {mid})) {
       const double sine = std::min(crossing_sine(candidate, rings[p], rings[p].base_nodes[k], false, c.h),
                                    crossing_sine(candidate, rings[ch], rings[ch].base_nodes[k], true, c.h));
       if (sine > best_sine) {
         best_sine = sine;
-        path = std::move(candidate);
+        path = candidate;
       }
       if (best_sine >= kClearSine)
         break;
@@ -507,13 +518,23 @@ std::string check_net(const StarterContext& c, const NetResult& net) {
         out.push_back(q);
     return out;
   };
+  std::vector<std::pair<char, int>> owner(rig.profiles.size());
+  std::vector<double> scale(rig.profiles.size());
+  double largest = 0;
+  for (size_t a = 0; a < rig.profiles.size(); ++a) {
+    owner[a] = net.owner.at(rig.profiles[a].id);
+    scale[a] = net.scale.at(rig.profiles[a].id);
+    largest = std::max(largest, c.profile_clearance(scale[a]));
+  }
   for (size_t a = 0; a < rig.profiles.size(); ++a)
     for (size_t b = a + 1; b < rig.profiles.size(); ++b) {
+      if (box[a].exteriorDistance(box[b]) >= largest)
+        continue;
       const Profile &pa = rig.profiles[a], &pb = rig.profiles[b];
-      const auto oa = net.owner.at(pa.id), ob = net.owner.at(pb.id);
+      const auto oa = owner[a], ob = owner[b];
       if (oa.first == 'a' && ob.first == 'a' && oa.second == ob.second)
         continue; // pieces of one plane section: they cannot cross
-      const double cl = c.profile_clearance(std::min(net.scale.at(pa.id), net.scale.at(pb.id)));
+      const double cl = c.profile_clearance(std::min(scale[a], scale[b]));
       if (box[a].exteriorDistance(box[b]) >= cl)
         continue;
       std::vector<Vec3> shared;

@@ -77,6 +77,9 @@ struct StarterContext {
   std::function<void(const std::string&)> say;
   /// The mesh's vertex neighbours (compressed rows), for paths along edges.
   std::vector<int> next_offset, next_vertex;
+  /// Paths along the surface found so far, by their ends and third points:
+  /// the net is built again after each repair, mostly between the same nodes.
+  mutable std::map<std::vector<double>, std::vector<std::vector<Vec3>>> path_cache;
   StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, const StarterOptions& o,
                  std::function<void(const std::string&)> message);
   [[nodiscard]] std::string bone_name(int c) const;
