@@ -1,12 +1,14 @@
 // Starter nets, measured by how they pose (issue 14's yardstick): for each
 // skinned character, the starter net made from its own skeleton, bound in
-// the harmonic and the gradient mode, posed by every clip, against the
+// the dq, harmonic and gradient modes, posed by every clip, against the
 // file's own skin posed by the same clip.
 //
 //   build/bin/starter_pose [--rules] [MESH.glb [CLIPS.glb]]...
 //     default: the shared hand (its 35 clips), its low-resolution version
 //     and our decimated one (tests/data/hand/hand_l_decimated.glb, 610 faces; the
-//     same clips), CesiumMan (its walk, 6 frames) and RiggedSimple
+//     same clips), CesiumMan (its walk, 6 frames), RiggedSimple, and the
+//     four Quaternius animals and our decimations of them (tests/data/
+//     quaternius; their walks and gallops, 6 frames each)
 //
 // Per character: the net's counts (rings, bending joints, components,
 // joins, messages), then per mode the mean and max distance to the skin
@@ -36,7 +38,7 @@ using namespace curvenet;
 namespace {
 
 const std::string kData = CURVENET_DATA_DIR;
-const std::string kOwnData = CURVENET_OWN_DATA_DIR; // tests/data: meshes made here (scripts/make_decimated_hand.py)
+const std::string kOwnData = CURVENET_OWN_DATA_DIR; // tests/data: meshes made here (scripts/make_decimated.py)
 
 struct Character {
   std::string mesh, clips;
@@ -88,7 +90,7 @@ Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const s
   // The similarity a file's armature puts around its whole skeleton (Blender's
   // exports scale it by 100), taken off every frame so that volumes and
   // distances compare with the rest mesh.
-  const Mat4 undo = c.skin.skinning_matrices(-1, 0)[0].inverse();
+  const Mat4 undo = c.clips.skinning_matrices(-1, 0)[0].inverse();
   auto normalised = [&](std::vector<Mat4> m) {
     for (auto& x : m)
       x = undo * x;
@@ -231,10 +233,9 @@ int main(int argc, char** argv) {
              {kOwnData + "/hand/hand_l_decimated.glb", h + "hand_l_poses.glb", 1},
              {kData + "/cesium_man/CesiumMan.glb", kData + "/cesium_man/CesiumMan.glb", 6},
              {kData + "/rigged_simple/RiggedSimple.glb", kData + "/rigged_simple/RiggedSimple.glb", 6}};
-    for (const char* a : {"Horse", "Wolf", "Trex", "Apatosaurus"}) {
-      const std::string path = kData + "/quaternius/" + a + ".glb";
-      chars.push_back({path, path, 6, {"Walk", "Gallop", "TRex_Walk", "Apatosaurus_Walk"}});
-    }
+    for (const char* a : {"Horse", "Wolf", "Trex", "Apatosaurus"})
+      for (const std::string& path : {kData + "/quaternius/" + a + ".glb", kOwnData + "/quaternius/" + a + "_decimated.glb"})
+        chars.push_back({path, path, 6, {"Walk", "Gallop", "TRex_Walk", "Apatosaurus_Walk"}});
   }
   for (const auto& c : chars) {
     try {

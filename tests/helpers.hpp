@@ -5,7 +5,11 @@
 #include "curvenet/surface_mesh.hpp"
 #include "generate/tube.hpp"
 
+#include <algorithm>
+#include <array>
 #include <filesystem>
+#include <functional>
+#include <map>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -69,6 +73,88 @@ inline std::filesystem::path temp_dir(const std::string& name) {
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p;
+}
+
+} // namespace curvenet::test
+
+namespace curvenet::test {
+
+/// A closed surface where `f` changes sign (inside where f < 0), by marching
+/// tetrahedra on an n x m x k grid over `box` (each cube in six tetrahedra
+/// around its diagonal): the same edge gives the same vertex, so the mesh
+/// is closed and manifold; faces point outwards.
+inline RawMesh implicit_surface(const std::function<double(const Vec3&)>& f, const Eigen::AlignedBox3d& box, int n,
+                                int m, int k) {
+  RawMesh out;
+  const Vec3 step = box.diagonal().cwiseQuotient(Vec3(n, m, k));
+  auto at = [&](int i, int j, int l) { return Vec3(box.min() + step.cwiseProduct(Vec3(i, j, l))); };
+  std::vector<double> value(static_cast<size_t>(n + 1) * (m + 1) * (k + 1));
+  auto id = [&](int i, int j, int l) { return (static_cast<size_t>(l) * (m + 1) + j) * (n + 1) + i; };
+  for (int l = 0; l <= k; ++l)
+    for (int j = 0; j <= m; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const double v = f(at(i, j, l));
+        value[id(i, j, l)] = v == 0 ? 1e-12 : v; // never exactly on the surface
+      }
+  std::map<std::pair<size_t, size_t>, int> edge_vertex;
+  auto vertex_on = [&](size_t a, size_t b, const Vec3& pa, const Vec3& pb) {
+    const auto key = std::minmax(a, b);
+    auto it = edge_vertex.find(key);
+    if (it != edge_vertex.end())
+      return it->second;
+    const double t = value[a] / (value[a] - value[b]);
+    out.positions.push_back(pa + t * (pb - pa));
+    return edge_vertex[key] = static_cast<int>(out.positions.size()) - 1;
+  };
+  // Cube corner c (bits x, y, z); the six tetrahedra share the diagonal 0-7.
+  static const int tets[6][4] = {{0, 1, 3, 7}, {0, 3, 2, 7}, {0, 2, 6, 7}, {0, 6, 4, 7}, {0, 4, 5, 7}, {0, 5, 1, 7}};
+  for (int l = 0; l < k; ++l)
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < n; ++i)
+        for (const auto& tet : tets) {
+          size_t g[4];
+          Vec3 p[4];
+          for (int q = 0; q < 4; ++q) {
+            const int c = tet[q], di = c & 1, dj = (c >> 1) & 1, dl = (c >> 2) & 1;
+            g[q] = id(i + di, j + dj, l + dl);
+            p[q] = at(i + di, j + dj, l + dl);
+          }
+          std::vector<int> in, outside;
+          for (int q = 0; q < 4; ++q)
+            (value[g[q]] < 0 ? in : outside).push_back(q);
+          if (in.empty() || outside.empty())
+            continue;
+          // Triangles between the inside corners and the outside ones, then
+          // turned to face away from the inside.
+          std::vector<std::array<int, 3>> tris;
+          auto v = [&](int a, int b) { return vertex_on(g[a], g[b], p[a], p[b]); };
+          if (in.size() == 1)
+            tris.push_back({v(in[0], outside[0]), v(in[0], outside[1]), v(in[0], outside[2])});
+          else if (in.size() == 3)
+            tris.push_back({v(outside[0], in[0]), v(outside[0], in[1]), v(outside[0], in[2])});
+          else {
+            const int a = v(in[0], outside[0]), b = v(in[0], outside[1]), c = v(in[1], outside[1]), d = v(in[1], outside[0]);
+            tris.push_back({a, b, c});
+            tris.push_back({a, c, d});
+          }
+          Vec3 inside_point = Vec3::Zero();
+          for (int q : in)
+            inside_point += p[q] / static_cast<double>(in.size());
+          for (auto& t : tris) {
+            const Vec3 nrm = (out.positions[t[1]] - out.positions[t[0]]).cross(out.positions[t[2]] - out.positions[t[0]]);
+            if (nrm.dot(out.positions[t[0]] - inside_point) < 0)
+              std::swap(t[1], t[2]);
+            out.add_face(std::vector<int>{t[0], t[1], t[2]});
+          }
+        }
+  return out;
+}
+
+/// The signed distance to the capsule from a to b of radius r.
+inline double capsule(const Vec3& p, const Vec3& a, const Vec3& b, double r) {
+  const Vec3 d = b - a;
+  const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+  return (p - a - t * d).norm() - r;
 }
 
 } // namespace curvenet::test

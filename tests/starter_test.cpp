@@ -16,6 +16,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -369,4 +371,163 @@ TEST(Starter, TheHandsFistsKeepTheirVolumeWithinThreePointsOfTheSkin) {
     if (skin.clip_names[c] == "Grip")
       std::printf("Grip: the net changes the volume by %+.2f points, the skin by %+.2f\n", vo, vs);
   }
+}
+
+// --- any body plan (quadrupeds, tails, necks, game assets as shipped) --------
+
+namespace {
+
+Joint joint(const std::string& name, const std::optional<std::string>& parent, const Vec3& at) {
+  Joint j;
+  j.name = name;
+  j.parent = parent;
+  j.bind.block<3, 1>(0, 3) = at;
+  return j;
+}
+
+/// A generated quadruped: a horizontal trunk (a capsule along x) with four
+/// vertical legs, a tail and a neck and head, closed by marching
+/// tetrahedra; and its skeleton, with what game rigs add: a root on the
+/// floor outside the body, a zero-length twist bone, and a pole target for
+/// a leg's IK, outside the body. The root and the pole carry no skin weight.
+struct Quadruped {
+  SurfaceMesh mesh;
+  std::vector<Joint> joints;
+  std::set<std::string> weighted;
+};
+const Quadruped& quadruped() {
+  static const Quadruped q = [] {
+    auto body = [](const Vec3& p) {
+      double d = test::capsule(p, {-1.2, 0, 1.2}, {1.2, 0, 1.2}, 0.45);
+      for (const double x : {-0.9, 0.9})
+        for (const double y : {-0.25, 0.25})
+          d = std::min(d, test::capsule(p, {x, y, 1.1}, {x, y, 0.12}, 0.15));
+      d = std::min(d, test::capsule(p, {-1.4, 0, 1.3}, {-2.45, 0, 1.62}, 0.11));
+      d = std::min(d, test::capsule(p, {1.3, 0, 1.35}, {1.9, 0, 2.1}, 0.2));
+      d = std::min(d, test::capsule(p, {1.9, 0, 2.1}, {2.45, 0, 2.0}, 0.24));
+      return d;
+    };
+    Quadruped out;
+    out.mesh = make_surface_mesh(
+        test::implicit_surface(body, Eigen::AlignedBox3d(Vec3(-2.7, -0.6, -0.1), Vec3(2.8, 0.6, 2.5)), 61, 13, 29),
+        "quadruped");
+    auto add = [&](const std::string& name, const std::optional<std::string>& parent, const Vec3& at, bool weight) {
+      out.joints.push_back(joint(name, parent, at));
+      if (weight)
+        out.weighted.insert(name);
+    };
+    add("ground", std::nullopt, {0, 0, -0.6}, false);
+    add("hips", "ground", {-0.9, 0, 1.2}, true);
+    add("spine", "hips", {0, 0, 1.2}, true);
+    add("spine_twist", "spine", {0, 0, 1.2}, true); // a zero-length bone
+    add("chest", "spine_twist", {0.9, 0, 1.2}, true);
+    add("neck", "chest", {1.35, 0, 1.4}, true);
+    add("head", "neck", {1.9, 0, 2.1}, true);
+    add("head_tip", "head", {2.4, 0, 2.0}, false);
+    for (const std::string side : {"L", "R"}) {
+      const double y = side == "L" ? 0.25 : -0.25;
+      add("thigh." + side, "hips", {-0.9, y, 1.1}, true);
+      add("knee." + side, "thigh." + side, {-0.9, y, 0.62}, true);
+      add("hoof." + side, "knee." + side, {-0.9, y, 0.16}, true);
+      add("shoulder." + side, "chest", {0.9, y, 1.1}, true);
+      add("elbow." + side, "shoulder." + side, {0.9, y, 0.62}, true);
+      add("forefoot." + side, "elbow." + side, {0.9, y, 0.16}, true);
+    }
+    add("tail1", "hips", {-1.45, 0, 1.32}, true);
+    add("tail2", "tail1", {-1.9, 0, 1.45}, true);
+    add("tail_tip", "tail2", {-2.35, 0, 1.59}, false);
+    add("pole.L", "ground", {-0.9, 1.6, 0.6}, false); // an IK pole target beside the knee
+    return out;
+  }();
+  return q;
+}
+
+std::set<std::string> rings_of(const StarterResult& r) {
+  std::set<std::string> out;
+  const auto ext = nlohmann::json::parse(r.rig.extensions.at("x_starter"));
+  for (const auto& id : ext["rings"])
+    out.insert(id.get<std::string>());
+  return out;
+}
+
+/// Every joint has a ring or a reason; no joint that carries no skin weight
+/// (but a tip ending a weighted bone) has a ring.
+void expect_every_joint_accounted(const StarterResult& r, const std::vector<Joint>& joints,
+                                  const std::set<std::string>& weighted) {
+  const std::set<std::string> rings = rings_of(r);
+  std::map<std::string, std::string> why(r.ringless.begin(), r.ringless.end());
+  for (const Joint& j : joints) {
+    const bool ringed = rings.count(j.name) > 0;
+    EXPECT_TRUE(ringed || !why[j.name].empty()) << j.name << " has neither a ring nor a reason";
+    const bool tip = std::none_of(joints.begin(), joints.end(), [&](const Joint& k) { return k.parent == j.name; });
+    if (!weighted.count(j.name) && !tip)
+      EXPECT_FALSE(ringed) << j.name << " carries no skin weight but has a ring";
+  }
+}
+
+} // namespace
+
+TEST(Starter, AGeneratedQuadrupedGetsOneNetWithItsHelpersLeftOut) {
+  const Quadruped& q = quadruped();
+  StarterOptions o;
+  o.deforming = q.weighted;
+  const StarterResult r = make_starter(q.mesh, q.joints, o);
+  EXPECT_EQ(r.net_components, 1);
+  EXPECT_EQ(r.unjoined, 0);
+  expect_every_joint_accounted(r, q.joints, q.weighted);
+  std::map<std::string, std::string> why(r.ringless.begin(), r.ringless.end());
+  // The root on the floor and the pole target: left out, and why.
+  EXPECT_NE(why["ground"].find("carries no skin weight"), std::string::npos) << why["ground"];
+  EXPECT_NE(why["ground"].find("outside the mesh"), std::string::npos) << why["ground"];
+  EXPECT_NE(why["pole.L"].find("carries no skin weight"), std::string::npos) << why["pole.L"];
+  // The zero-length bone: no ring of its own, with its reason.
+  EXPECT_FALSE(why["spine_twist"].empty());
+  // Rings on the legs, the tail and the neck, whose bones leave the trunk.
+  const auto rings = rings_of(r);
+  for (const std::string j : {"knee.L", "knee.R", "elbow.L", "elbow.R", "tail1", "neck"})
+    EXPECT_TRUE(rings.count(j)) << j << (why.count(j) ? ": " + why[j] : "");
+  expect_embeds(q.mesh, r.rig);
+  // Without the skin's weights every joint inside the body may be rigged,
+  // but the root and the pole lie outside it.
+  const StarterResult blind = make_starter(q.mesh, q.joints);
+  std::map<std::string, std::string> blind_why(blind.ringless.begin(), blind.ringless.end());
+  EXPECT_NE(blind_why["pole.L"].find("outside the mesh"), std::string::npos) << blind_why["pole.L"];
+  EXPECT_FALSE(rings_of(blind).count("ground"));
+}
+
+TEST(Starter, EveryQuaterniusAnimalGetsOneConnectedNet) {
+  // As a game team ships them (flat-shaded, several primitives per skin,
+  // IK helper bones, tails, long necks, degenerate triangles), and our own
+  // decimations of them to half the faces (scripts/make_decimated.py).
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  for (const char* a : {"Horse", "Wolf", "Trex", "Apatosaurus"})
+    for (const std::string path : {test::data("quaternius/" + std::string(a) + ".glb"),
+                                   std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + a + "_decimated.glb"}) {
+      SCOPED_TRACE(path);
+      const SurfaceMesh mesh = load_mesh(path);
+      const SkinnedMesh skin = load_skinned_mesh(path);
+      StarterOptions o;
+      o.deforming = weighted_joints(skin);
+      const StarterResult r = make_starter(mesh, skin.joints, o);
+      EXPECT_EQ(r.net_components, 1);
+      EXPECT_EQ(r.unjoined, 0);
+      expect_every_joint_accounted(r, skin.joints, o.deforming);
+      EXPECT_GE(r.rings, 10);
+    }
+}
+
+TEST(Starter, TheApatosaurusIsAcceptedWithItsDegenerateFacesNoted) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SurfaceMesh mesh = load_mesh(test::data("quaternius/Apatosaurus.glb"));
+  const auto note = std::find_if(mesh.notes.begin(), mesh.notes.end(),
+                                 [](const std::string& n) { return n.find("degenerate faces") != std::string::npos; });
+  ASSERT_NE(note, mesh.notes.end());
+  EXPECT_NE(note->find("left out 4 degenerate faces"), std::string::npos) << *note;
+  // The surface it works on is closed and manifold without them; the file
+  // keeps them (the input topology, which outputs are written on).
+  EXPECT_LT(mesh.num_faces(), read_raw_mesh(test::data("quaternius/Apatosaurus.glb")).face_offsets.size() - 1);
+  for (const auto& comp : mesh_components(mesh))
+    EXPECT_TRUE(comp.closed);
 }

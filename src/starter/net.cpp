@@ -241,13 +241,6 @@ std::vector<Vec3> edge_path_join(const StarterContext& c, const std::vector<Ring
     }
   }
   if (end < 0) {
-    if (std::getenv("CURVENET_JOIN_DEBUG")) {
-      int reached = 0;
-      for (double x : dist)
-        reached += std::isfinite(x);
-      std::fprintf(stderr, "edge path %s -> %s: none (%d vertices reached, cl %g, h %g)\n", cr.id.c_str(), pr.id.c_str(),
-                   reached, cl, c.h);
-    }
     return {};
   }
   std::vector<Vec3> path;
@@ -367,7 +360,7 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
       if (std::find(nodes_used.begin(), nodes_used.end(), best_k) != nodes_used.end())
         continue;
       nodes_used.push_back(best_k);
-      if (mode >= 2)
+      if (mode >= kJoinTries)
         continue;
       any = true;
       const Vec3 from = loop_point(cr, cr.base_nodes[best_k]);
@@ -388,6 +381,16 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
         jn.target = near_extra;
         jn.to = loop_point(pr, best_s);
       } else if (mode == 0 && near_node < 0) {
+        jn.to = loop_point(pr, best_s);
+      } else if (mode >= 2) { // the middle of the (mode - 1)-th nearest arc
+        std::vector<std::pair<double, double>> mids; // (distance from `from`, arc position)
+        for (int k = 0; k < N; ++k) {
+          const double a = pr.base_nodes[k], b = pr.base_nodes[(k + 1) % N];
+          const double s = a + std::fmod(b - a + pr.perimeter, pr.perimeter) / 2;
+          mids.emplace_back((loop_point(pr, s) - from).norm(), s);
+        }
+        std::sort(mids.begin(), mids.end());
+        best_s = mids[std::min<size_t>(mode - 2, mids.size() - 1)].second;
         jn.to = loop_point(pr, best_s);
       } else {
         int nk = mode == 0 ? near_node : 0;
@@ -411,8 +414,10 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
 }
 
 /// N profiles from ring p to ring ch, node k to node k: the first path
-/// that meets both rings at a clear angle, or the squarest.
-void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, int p, int ch, NetResult& net) {
+/// that meets both rings at a clear angle, or the squarest; where no plane
+/// section makes one, along the mesh's edges.
+void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active, int p,
+                    int ch, NetResult& net) {
   const Vec3 mid = (rings[p].centre + rings[ch].centre) / 2;
   for (int k = 0; k < c.N; ++k) {
     const Vec3 a = loop_point(rings[p], rings[p].base_nodes[k]), b = loop_point(rings[ch], rings[ch].base_nodes[k]);
@@ -431,6 +436,13 @@ void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, int
       }
       if (best_sine >= kClearSine)
         break;
+    }
+    if (!path) {
+      std::vector<Vec3> edges = edge_path_join(c, rings, active, ch, p, b, a);
+      if (!edges.empty()) {
+        std::reverse(edges.begin(), edges.end());
+        path = std::move(edges);
+      }
     }
     if (!path && net.failure.empty())
       net.failure = "no plane section joins the ends of profile '" + pr.id + "' along the surface";
@@ -482,7 +494,7 @@ NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, con
     }
   }
   for (const auto& [p, ch] : forks.series_child)
-    chain_profiles(c, rings, p, ch, net);
+    chain_profiles(c, rings, active, p, ch, net);
   for (const Join& jn : joins) {
     Profile pr;
     pr.id = rings[jn.child].id + "-" + rings[jn.parent].id + (jn.slot == 0 ? "_join" : "_join1");

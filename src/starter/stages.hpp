@@ -159,8 +159,11 @@ std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings
 // ---- stages 5 and 6: the net and its check -------------------------------
 
 /// How far each branch join has been given up: per 2 * child ring + slot,
-/// 0 a new node on the parent ring, 1 the parent's nearest node, 2 none.
+/// 0 a new node on the parent ring where it comes nearest, 1 the parent's
+/// nearest node, 2 and 3 a new node in the middle of the parent's nearest
+/// and second-nearest arcs, kJoinTries none.
 using JoinAttempts = std::map<int, int>;
+inline constexpr int kJoinTries = 4;
 
 struct NetResult {
   Rig rig;

@@ -76,10 +76,10 @@ double winding_number_at(const SurfaceMesh& mesh, const Vec3& p) {
 
 /// The skeleton the net is made for (docs/starter.md, "Joints that
 /// deform"). When the skin's weights are known: the joints that carry
-/// weight, the tips that end a weighted bone inside the mesh, and joints
-/// inside the mesh with descendants in the net; otherwise the joints inside
-/// the mesh (their origin, or the middle of their bone) and those with
-/// descendants in the net. Each goes under its nearest ancestor in the net,
+/// weight, and the tips that end a weighted bone inside the mesh; otherwise
+/// the joints inside the mesh (their origin, or the middle of their bone)
+/// and those with descendants in the net. A joint on its parent (a bone of
+/// no length: a twist helper) goes too, its children under the parent. Each goes under its nearest ancestor in the net,
 /// parents first; a second root (an IK chain of its own, a foot) under the
 /// joint of the rest it lies nearest to. The joints left out come with the
 /// reason.
@@ -102,7 +102,7 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
         continue;
       const bool below = std::any_of(sk.kids[j].begin(), sk.kids[j].end(), [&](int k) { return rigged[k] != 0; });
       const bool tip = sk.kids[j].empty() && inside[j] && weighted(sk.parent[j]);
-      const bool keep = known ? weighted(j) || tip || (inside[j] && below) : inside[j] || below;
+      const bool keep = known ? weighted(j) || tip : inside[j] || below;
       if (keep)
         rigged[j] = changed = 1;
     }
@@ -113,6 +113,15 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
   for (int j = 0; j < n; ++j)
     why[j] = known && !weighted(j) ? (inside[j] ? "carries no skin weight" : "carries no skin weight and lies outside the mesh")
                                    : "lies outside the mesh";
+  for (int j = 0; j < n; ++j) {
+    int a = sk.parent[j];
+    while (a >= 0 && !rigged[a])
+      a = sk.parent[a];
+    if (rigged[j] && a >= 0 && sk.origin[j] == sk.origin[a]) {
+      rigged[j] = 0;
+      why[j] = "sits on '" + joints[a].name + "' (a bone of no length)";
+    }
+  }
   std::vector<int> parent(n, -1);
   for (int j = 0; j < n; ++j) {
     int a = sk.parent[j];
@@ -120,6 +129,13 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
       a = sk.parent[a];
     parent[j] = a;
   }
+  // A bone that runs outside the body (a foot parented to a root on the
+  // floor, as IK rigs do) does not hold its joint: the joint goes where a
+  // second root goes.
+  auto through_body = [&](const Vec3& a, const Vec3& b) { return winding_number_at(mesh, (a + b) / 2) >= 0.5; };
+  for (int j = 0; j < n; ++j)
+    if (rigged[j] && parent[j] >= 0 && !through_body(sk.origin[parent[j]], sk.origin[j]))
+      parent[j] = -1;
   // Roots of what is left: the one with the most joints below it keeps its
   // place; each other goes under the joint nearest to it.
   std::vector<int> size(n, 0), roots;
@@ -163,8 +179,7 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
       const double d = (sk.origin[j] - sk.origin[r]).norm();
       if (any < 0 || d < (sk.origin[any] - sk.origin[r]).norm())
         any = j;
-      if ((best < 0 || d < (sk.origin[best] - sk.origin[r]).norm()) &&
-          winding_number_at(mesh, (sk.origin[j] + sk.origin[r]) / 2) >= 0.5)
+      if ((best < 0 || d < (sk.origin[best] - sk.origin[r]).norm()) && through_body(sk.origin[j], sk.origin[r]))
         best = j;
     }
     parent[r] = best >= 0 ? best : any;
@@ -227,12 +242,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     throw InputError(
         mesh.source, "skeleton",
         "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
-  const std::vector<int> kept = keep_clear_rings(c, rings, ringless);
-  const std::map<int, int> parent_ring = chain_rings(c, rings, kept);
-  if (std::getenv("CURVENET_STARTER_DEBUG"))
-    for (int i : kept)
-      std::fprintf(stderr, "ring %s parent %s\n", rings[i].id.c_str(),
-                   parent_ring.at(i) >= 0 ? rings[parent_ring.at(i)].id.c_str() : "-");
+  std::vector<int> kept = keep_clear_rings(c, rings, ringless);
+  std::map<int, int> parent_ring = chain_rings(c, rings, kept);
 
   // 5 to 7: build the net, check it, embed it; on a failure move or drop
   // what failed, and repeat.
@@ -249,8 +260,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     std::function<int(int)> effective_parent = [&](int i) {
       const auto o = parent_override.find(i);
       int p = o != parent_override.end() ? o->second : parent_ring.at(i);
-      while (p >= 0 && dropped.count(p))
-        p = parent_override.count(p) ? parent_override.at(p) : parent_ring.at(p);
+      while (p >= 0 && dropped.count(p)) // a dropped ring's children go up its own chain
+        p = parent_ring.at(p);
       return p;
     };
     NetResult net = build_net(c, rings, active, effective_parent, join_attempt);
@@ -322,23 +333,25 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
       const int m = ++join_attempt[culprit];
       const std::string& child = rings[culprit / 2].id;
       c.say("join " + std::string(culprit % 2 ? "1 " : "") + "of ring '" + child + "' " +
-            (m >= 2 ? "abandoned" : "moved to an existing node") + ": " + failure);
-      if (m >= 2)
+            (m >= kJoinTries ? "abandoned"
+             : m == 1        ? "moved to an existing node"
+                             : "moved to the middle of an arc") +
+            ": " + failure);
+      if (m >= kJoinTries)
         join_failure[culprit / 2] = failure;
-      // Both joins given up: join the nearest other ring, a few times over.
+      // Both joins given up: join the nearest other ring up its chain or
+      // hanging from one (the trunk it hangs from, the limb beside it; never
+      // further down another limb), a few times over.
       const int ch = culprit / 2;
-      if (join_attempt[2 * ch] >= 2 && join_attempt[2 * ch + 1] >= 2 && tried[ch].size() < 3) {
+      if (join_attempt[2 * ch] >= kJoinTries && join_attempt[2 * ch + 1] >= kJoinTries && tried[ch].size() < 3) {
         tried[ch].insert(effective_parent(ch));
-        auto below = [&](int i) { // i is ch or hangs from it
-          for (size_t steps = 0; i >= 0 && steps <= rings.size(); ++steps, i = effective_parent(i))
-            if (i == ch)
-              return true;
-          return false;
-        };
+        std::set<int> up;
+        for (int i = parent_ring.at(ch); i >= 0 && up.size() <= rings.size(); i = parent_ring.at(i))
+          up.insert(i);
         int best = -1;
         double best_d = INFINITY;
         for (int i : active) {
-          if (below(i) || tried[ch].count(i))
+          if (i == ch || tried[ch].count(i) || !(up.count(i) || up.count(parent_ring.at(i))))
             continue;
           const double d = polyline_distance(rings[ch].loop, true, rings[i].loop, true);
           if (d < best_d) {
@@ -380,6 +393,39 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
       ringless[r.joint] = m;
     if (dropped.size() == kept.size())
       throw EmbedError("starter: could not make a net that embeds: " + failure);
+    // Rings dropped for coming too close to this one come back, where they
+    // now keep clear of every ring left.
+    std::vector<int> left;
+    for (int i : kept)
+      if (!dropped.count(i))
+        left.push_back(i);
+    bool back = false;
+    for (size_t i = 0; i < rings.size(); ++i) {
+      Ring& q = rings[i];
+      if (q.active || q.replaced_by != culprit)
+        continue;
+      if (ring_conflict(c, q, rings, left, static_cast<int>(i)) >= 0)
+        continue;
+      q.active = true;
+      q.replaced_by = -1;
+      left.push_back(static_cast<int>(i));
+      back = true;
+      c.say("ring '" + q.id + "' comes back: ring '" + r.id + "', which it came too close to, is dropped");
+      if (q.frac == 1)
+        ringless.erase(q.joint);
+    }
+    if (back) { // chains and nodes again, over the rings left
+      rings[culprit].active = false;
+      for (int i : kept)
+        if (dropped.count(i))
+          rings[i].active = false;
+      kept = left;
+      dropped.clear();
+      parent_ring = chain_rings(c, rings, kept);
+      join_attempt.clear();
+      parent_override.clear();
+      tried.clear();
+    }
   }
 }
 
