@@ -38,6 +38,13 @@ struct AutoWeightOptions {
 std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
                                                  const AutoWeightOptions& options = {});
 
+/// The same from the nearest of `bones` only (each named by the index of
+/// its child joint; all bones when empty): a point on a ring around a limb
+/// takes its weights from that limb, never from a bone that merely passes
+/// near (a tail hanging beside a thigh, a head lowered to a foreleg).
+std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
+                                                 const AutoWeightOptions& options, const std::vector<int>& bones);
+
 /// How far linear blend skinning with automatic weights lands from the same
 /// skinning with a file's own skin weights, over a set of poses (skinning
 /// matrices per joint). Distances are in the units of `positions`.

@@ -10,6 +10,11 @@ const char* to_string(WeightRule rule) { return rule == WeightRule::Segment ? "s
 
 std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
                                                  const AutoWeightOptions& opt) {
+  return auto_weights(joints, p, opt, {});
+}
+
+std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
+                                                 const AutoWeightOptions& opt, const std::vector<int>& bones) {
   const int n = static_cast<int>(joints.size());
   std::map<std::string, int> index;
   for (int j = 0; j < n; ++j)
@@ -24,8 +29,12 @@ std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joint
   // The nearest bone (parent[c] -> c), or the nearest lone joint.
   int best_c = -1;
   double best_d = std::numeric_limits<double>::infinity(), best_t = 0, best_raw = 0;
+  std::vector<char> allowed(n, bones.empty() ? 1 : 0);
+  for (int c : bones)
+    if (c >= 0 && c < n)
+      allowed[c] = 1;
   for (int c = 0; c < n; ++c) {
-    if (parent[c] < 0)
+    if (parent[c] < 0 || !allowed[c])
       continue;
     const Eigen::Vector3d a = origin(parent[c]), b = origin(c);
     const double len2 = (b - a).squaredNorm();

@@ -478,8 +478,10 @@ NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, con
     for (const auto& e : extra[i])
       nodes.push_back(e);
     std::sort(nodes.begin(), nodes.end());
-    for (const auto& [s, id] : nodes)
+    for (const auto& [s, id] : nodes) {
       net.rig.nodes.push_back({id, loop_point(r, s)});
+      net.node_ring.push_back(i);
+    }
     for (size_t k = 0; k < nodes.size(); ++k) {
       const auto& a = nodes[k];
       const auto& b = nodes[(k + 1) % nodes.size()];

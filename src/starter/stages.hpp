@@ -171,6 +171,7 @@ struct NetResult {
   std::map<std::string, std::pair<char, int>> owner;
   std::map<std::string, double> scale; ///< profile -> the radius of the limb it is on
   std::vector<int> unjoined;           ///< child rings with no join left
+  std::vector<int> node_ring;          ///< per node of `rig`, the ring it lies on
   int joins = 0;
   std::string failure; ///< the first reason the net cannot be used, or empty
 };

@@ -269,10 +269,33 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     try {
       const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
       if (failure.empty() && e.report().ok) {
-        // 8: weights.
-        for (const Node& n : net.rig.nodes)
-          for (const auto& [j, w] : auto_weights(joints, n.position, opt.weights))
+        // 8: weights, from the bones near the ring's joints in the
+        // skeleton (those that meet at them, at their parents or at their
+        // children): a node follows the limb it lies on, whatever passes
+        // near it.
+        for (size_t k = 0; k < net.rig.nodes.size(); ++k) {
+          const Node& n = net.rig.nodes[k];
+          std::set<int> near;
+          for (int j : rings[net.node_ring[k]].own) {
+            near.insert(j);
+            if (c.sk.parent[j] >= 0)
+              near.insert(c.sk.parent[j]);
+            near.insert(c.sk.kids[j].begin(), c.sk.kids[j].end());
+          }
+          // The ring of a joint that ends its chain and carries weight (a
+          // foot, a head): what lies beyond it is that joint's alone.
+          const Ring& r = rings[net.node_ring[k]];
+          if (r.frac == 1 && c.sk.kids[r.joint].empty() && opt.deforming.count(joints[r.joint].name)) {
+            net.rig.weights[n.id][joints[r.joint].name] = 1;
+            continue;
+          }
+          std::vector<int> bones;
+          for (int b = 0; b < nj; ++b)
+            if (c.sk.parent[b] >= 0 && (near.count(b) || near.count(c.sk.parent[b])))
+              bones.push_back(b);
+          for (const auto& [j, w] : auto_weights(joints, n.position, opt.weights, bones))
             net.rig.weights[n.id][joints[j].name] = w;
+        }
         result.rig = std::move(net.rig);
         result.rig.joints = all_joints; // the rig drives the whole skeleton; the net was made for the part that deforms
         result.rings = static_cast<int>(active.size());
