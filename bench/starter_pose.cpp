@@ -22,6 +22,7 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
+#include "curvenet/quality.hpp"
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
 
@@ -73,17 +74,22 @@ struct Loaded {
   SkinnedMesh skin, clips;
   RawMesh raw;
   std::vector<std::array<int, 3>> tris;
+  std::vector<int> dominant; ///< per welded vertex, its strongest joint in the skin
   double diag = 0, v0 = 0;
   explicit Loaded(const Character& ch)
       : mesh(load_mesh(ch.mesh)), skin(load_skinned_mesh(ch.mesh)), clips(load_skinned_mesh(ch.clips)),
-        raw(read_raw_mesh(ch.mesh)), tris(triangles(mesh)), diag(mesh.bbox_diagonal()),
-        v0(mesh.enclosed_volume(mesh.positions)) {}
+        raw(read_raw_mesh(ch.mesh)), tris(triangles(mesh)), dominant(dominant_joints(mesh, skin)),
+        diag(mesh.bbox_diagonal()), v0(mesh.enclosed_volume(mesh.positions)) {}
 };
 
 /// A binding posed by every clip against the skin posed by the same clip.
 struct Scores {
   double mean = 0, max = 0, worst_volume = 0; ///< % of the diagonal; points against the skin's change
   int poses = 0, most_turned = 0, volume_ok = 0, turned_ok = 0, mean_ok = 0;
+  /// Folded triangles (turned over against their rest normal carried by
+  /// their joint) in the pose where ours fold most beyond the skin's, and
+  /// the poses where ours fold no more than the skin's.
+  int folds = 0, skin_folds = 0, folds_ok = 0;
 };
 
 Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const std::vector<std::string>& only) {
@@ -116,8 +122,8 @@ Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const s
     for (int s = 0; s < samples_per_clip; ++s) {
       const double t = samples_per_clip == 1 ? t1 : t0 + (t1 - t0) * s / (samples_per_clip - 1);
       b.deform(normalised(clip_skinning_matrices(b.joints(), c.clips, k, t)), ours);
-      const auto theirs =
-          skin_positions(c.skin, c.raw.positions, normalised(clip_skinning_matrices(c.skin.joints, c.clips, k, t)));
+      const std::vector<Mat4> skinning = normalised(clip_skinning_matrices(c.skin.joints, c.clips, k, t));
+      const auto theirs = skin_positions(c.skin, c.raw.positions, skinning);
       double d = 0;
       for (size_t i = 0; i < ours.size(); ++i) {
         const double e = (ours[i] - theirs[i]).norm();
@@ -137,6 +143,13 @@ Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const s
       const int n = turned(c.tris, wo, wt);
       sc.most_turned = std::max(sc.most_turned, n);
       sc.turned_ok += n == 0;
+      const int fo = turned_triangles(c.mesh, wo, skinning, c.dominant),
+                ft = turned_triangles(c.mesh, wt, skinning, c.dominant);
+      if (sc.poses == 1 || fo - ft > sc.folds - sc.skin_folds) {
+        sc.folds = fo;
+        sc.skin_folds = ft;
+      }
+      sc.folds_ok += fo <= ft;
     }
   }
   sc.mean = 100 * sum / std::max(sc.poses, 1) / c.diag;
@@ -173,14 +186,16 @@ void measure(const Character& ch) {
         m.find("abandoned") != std::string::npos)
       std::printf("    %s\n", m.c_str());
   std::printf("  | mode | mean distance to the skin | max | worst volume change vs the skin's | most turned > 120 deg "
-              "| poses within the goals: volume, 0 turned, mean < 1%% |\n"
-              "  |---|---|---|---|---|---|\n");
+              "against the skin | folded, ours / the skin's | poses within the goals: volume, 0 turned, mean < 1%%, "
+              "folding no more than the skin |\n"
+              "  |---|---|---|---|---|---|---|\n");
   for (const auto method : {DeformMethod::DualQuaternion, DeformMethod::Harmonic, DeformMethod::Gradient}) {
     BindOptions o;
     o.method = method;
     const Scores sc = pose_all(c, bind(c.mesh, st.rig, o), ch.samples_per_clip, ch.only);
-    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d, %d, %d of %d |\n", to_string(method), sc.mean, sc.max,
-                sc.worst_volume, sc.most_turned, sc.volume_ok, sc.turned_ok, sc.mean_ok, sc.poses);
+    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d / %d | %d, %d, %d, %d of %d |\n", to_string(method), sc.mean,
+                sc.max, sc.worst_volume, sc.most_turned, sc.folds, sc.skin_folds, sc.volume_ok, sc.turned_ok,
+                sc.mean_ok, sc.folds_ok, sc.poses);
   }
   std::printf("\n");
 }

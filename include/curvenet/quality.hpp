@@ -6,6 +6,7 @@
 /// and edge stretch (docs/deform.md, "Against the skins").
 
 #include "curvenet/rig.hpp"
+#include "curvenet/skin.hpp"
 #include "curvenet/surface_mesh.hpp"
 
 #include <span>
@@ -49,6 +50,17 @@ struct DeformationQuality {
 DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const Vec3> posed,
                                        const std::vector<Joint>& joints, std::span<const Mat4> skinning,
                                        std::span<const int> dominant_joint, const QualityOptions& options = {});
+
+/// The triangles (polygons as fans) whose posed normal turns by more than
+/// `degrees` against their rest normal carried by the rotation of their
+/// dominant joint (of their corners', the one two share, or the first's):
+/// where a deformation folds the surface over.
+int turned_triangles(const SurfaceMesh& mesh, std::span<const Vec3> posed, std::span<const Mat4> skinning,
+                     std::span<const int> dominant_joint, double degrees = 90);
+
+/// Each welded vertex's strongest joint in a skinned file's own weights
+/// (`skin` over the input vertices `mesh` was welded from).
+std::vector<int> dominant_joints(const SurfaceMesh& mesh, const SkinnedMesh& skin);
 
 /// Pairs of the mesh's triangles (polygons as fans) that share no vertex and
 /// intersect, with the given welded positions. Exact: decided by orientation

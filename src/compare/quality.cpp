@@ -184,6 +184,45 @@ double section_area(const SurfaceMesh& mesh, std::span<const Vec3> positions, co
   return best;
 }
 
+int turned_triangles(const SurfaceMesh& mesh, std::span<const Vec3> posed, std::span<const Mat4> skinning,
+                     std::span<const int> dominant, double degrees) {
+  const int nj = static_cast<int>(skinning.size());
+  const std::vector<Vec3>& rest = mesh.positions;
+  if (posed.size() != rest.size() || dominant.size() != rest.size())
+    throw Error("turned_triangles: the positions and dominant joints do not fit the mesh");
+  std::vector<Eigen::Matrix3d> rot(nj);
+  for (int j = 0; j < nj; ++j)
+    rot[j] = nearest_rotation(skinning[j].topLeftCorner<3, 3>());
+  const double limit = std::cos(degrees * std::numbers::pi / 180);
+  int turned = 0;
+  for (const Tri& t : fan_triangles(mesh)) {
+    const int a = dominant[t[0]], b = dominant[t[1]], c = dominant[t[2]];
+    const int j = (b == c && a != b) ? b : a;
+    if (j < 0 || j >= nj)
+      continue;
+    const Vec3 n0 = rot[j] * (rest[t[1]] - rest[t[0]]).cross(rest[t[2]] - rest[t[0]]);
+    const Vec3 n1 = (posed[t[1]] - posed[t[0]]).cross(posed[t[2]] - posed[t[0]]);
+    if (n0.norm() > 0 && !(n1.normalized().dot(n0.normalized()) >= limit))
+      ++turned;
+  }
+  return turned;
+}
+
+std::vector<int> dominant_joints(const SurfaceMesh& mesh, const SkinnedMesh& skin) {
+  std::vector<int> d(mesh.num_vertices(), 0);
+  std::vector<double> best(mesh.num_vertices(), -1);
+  const size_t n = std::min(skin.vertex_joint.size(), mesh.input_to_welded.size());
+  for (size_t i = 0; i < n; ++i) {
+    const int v = mesh.input_to_welded[i];
+    for (int k = 0; k < 4; ++k)
+      if (skin.vertex_joint[i][k] >= 0 && skin.vertex_weight[i][k] > best[v]) {
+        best[v] = skin.vertex_weight[i][k];
+        d[v] = skin.vertex_joint[i][k];
+      }
+  }
+  return d;
+}
+
 DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const Vec3> posed,
                                        const std::vector<Joint>& joints, std::span<const Mat4> skinning,
                                        std::span<const int> dominant, const QualityOptions& opt) {
@@ -263,21 +302,7 @@ DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const 
 
   q.self_intersections = self_intersecting_pairs(mesh, posed);
 
-  // Turned triangles: against the rest normal carried by the dominant joint.
-  std::vector<Eigen::Matrix3d> rot(nj);
-  for (int j = 0; j < nj; ++j)
-    rot[j] = nearest_rotation(skinning[j].topLeftCorner<3, 3>());
-  const double limit = std::cos(opt.turn_degrees * std::numbers::pi / 180);
-  for (const Tri& t : fan_triangles(mesh)) {
-    const int a = dominant[t[0]], b = dominant[t[1]], c = dominant[t[2]];
-    const int j = (b == c && a != b) ? b : a;
-    if (j < 0 || j >= nj)
-      continue;
-    const Vec3 n0 = rot[j] * (rest[t[1]] - rest[t[0]]).cross(rest[t[2]] - rest[t[0]]);
-    const Vec3 n1 = (posed[t[1]] - posed[t[0]]).cross(posed[t[2]] - posed[t[0]]);
-    if (n0.norm() > 0 && !(n1.normalized().dot(n0.normalized()) >= limit))
-      ++q.turned;
-  }
+  q.turned = turned_triangles(mesh, posed, skinning, dominant, opt.turn_degrees);
 
   // Edge stretch.
   double sum = 0;

@@ -370,6 +370,53 @@ Placement joint_placement(const StarterContext& c, int j, std::optional<Ring>& o
   return pl;
 }
 
+/// A ring across the cap beyond ring `own` of leaf joint j (the part of
+/// the surface past its plane, reached from it without crossing back: a
+/// foot past the shin's ring, a head past the neck's), half-way from the
+/// joint to the cap's furthest point and square to that line; none when the
+/// cap is short or no local section crosses it.
+std::optional<Ring> cap_ring(const StarterContext& c, int j, const Ring& own) {
+  const auto& P = c.mesh.positions;
+  const int nv = c.mesh.num_vertices();
+  const Vec3& n = own.axis; // along the bone, out of the body
+  auto beyond = [&](int v) { return (P[v] - own.centre).dot(n) > 0; };
+  Eigen::AlignedBox3d box;
+  for (const Vec3& q : own.loop)
+    box.extend(q);
+  box.extend(box.min() - Vec3::Constant(2 * c.h)).extend(box.max() + Vec3::Constant(2 * c.h));
+  std::vector<char> seen(nv, 0);
+  std::vector<int> stack;
+  for (int v = 0; v < nv; ++v)
+    if (beyond(v) && box.contains(P[v]) && (P[v] - own.centre).dot(n) < 2 * c.h) {
+      double d = 0;
+      closest_on_loop(own, P[v], &d);
+      if (d < 2 * c.h) {
+        seen[v] = 1;
+        stack.push_back(v);
+      }
+    }
+  const Vec3& o = c.sk.origin[j];
+  int far = -1;
+  while (!stack.empty()) {
+    const int v = stack.back();
+    stack.pop_back();
+    if (far < 0 || (P[v] - o).norm() > (P[far] - o).norm())
+      far = v;
+    for (int k = c.next_offset[v]; k < c.next_offset[v + 1]; ++k)
+      if (const int u = c.next_vertex[k]; !seen[u] && beyond(u)) {
+        seen[u] = 1;
+        stack.push_back(u);
+      }
+  }
+  if (far < 0)
+    return std::nullopt;
+  const Vec3 step = P[far] - o;
+  if (step.norm() < 2 * own.radius()) // too short for a ring of its own
+    return std::nullopt;
+  std::string why;
+  return first_local(c, j, {o, step, step.normalized(), step.normalized(), 0.4, 0.7}, why);
+}
+
 } // namespace
 
 RingsResult candidate_rings(const StarterContext& c) {
@@ -406,6 +453,15 @@ RingsResult candidate_rings(const StarterContext& c) {
       own = first_local(c, j, pl, why);
     if (!own && !sk.kids[j].empty() && pl.step.norm() > 0)
       own = tilted_local(c, j, pl);
+    // A weighted joint that ends its chain (a foot, a head) gets a second
+    // ring out in what lies beyond its own (step 8 gives it that joint's
+    // weight alone).
+    if (own && p >= 0 && sk.kids[j].empty() && c.options.deforming.count(name))
+      if (auto end = cap_ring(c, j, *own)) {
+        end->id = name + "_end";
+        end->frac = 2;
+        out.rings.push_back(std::move(*end));
+      }
     if (own) {
       own->id = name + suffix(R);
       own->frac = 1;

@@ -273,6 +273,13 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
         // skeleton (those that meet at them, at their parents or at their
         // children): a node follows the limb it lies on, whatever passes
         // near it.
+        std::map<int, bool> end_of; // weighted joint ending its chain -> whether its end ring is in the net
+        for (int j = 0; j < nj; ++j)
+          if (c.sk.kids[j].empty() && c.sk.parent[j] >= 0 && opt.deforming.count(joints[j].name))
+            end_of[j] = false;
+        for (int i : active)
+          if (rings[i].frac > 1)
+            end_of[rings[i].joint] = true;
         for (size_t k = 0; k < net.rig.nodes.size(); ++k) {
           const Node& n = net.rig.nodes[k];
           std::set<int> near;
@@ -282,10 +289,11 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
               near.insert(c.sk.parent[j]);
             near.insert(c.sk.kids[j].begin(), c.sk.kids[j].end());
           }
-          // The ring of a joint that ends its chain and carries weight (a
-          // foot, a head): what lies beyond it is that joint's alone.
+          // The ring out beyond a weighted joint that ends its chain (a
+          // foot, a head): what lies there is that joint's alone. Without
+          // that ring, the joint's own ring is the last, and takes it.
           const Ring& r = rings[net.node_ring[k]];
-          if (r.frac == 1 && c.sk.kids[r.joint].empty() && opt.deforming.count(joints[r.joint].name)) {
+          if (r.frac > 1 || (r.frac == 1 && end_of.count(r.joint) && !end_of.at(r.joint))) {
             net.rig.weights[n.id][joints[r.joint].name] = 1;
             continue;
           }
@@ -311,7 +319,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
                 std::to_string(result.net_components) + " components, and the expected region count accounts for them");
         std::set<int> ringed;
         for (int i : active)
-          if (rings[i].frac > 0) // a trunk's ring is not a joint's own
+          if (rings[i].frac > 0 && rings[i].frac <= 1) // a trunk's ring is not a joint's own, nor one out beyond it
             ringed.insert(rings[i].joint);
         for (int j = 0; j < nj; ++j)
           if (!ringed.count(j))
