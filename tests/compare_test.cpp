@@ -2,12 +2,15 @@
 // deformation's quality (curvenet/quality.hpp).
 
 #include "curvenet/compare.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
 #include "curvenet/quality.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -141,4 +144,65 @@ TEST(Quality, MeasuresVolumeStretchGrowthAndTurnedTriangles) {
   const Mat4 half = Eigen::Affine3d(Eigen::AngleAxisd(std::numbers::pi, Vec3::UnitX())).matrix();
   d = measure_deformation(m, m.positions, joints, std::vector<Mat4>(3, half), dominant, q);
   EXPECT_GT(d.turned, 0);
+}
+
+TEST(Quality, TurnedTrianglesAreThoseAJointsRotationDoesNotCarry) {
+  const SurfaceMesh m = test::tube(24, 16, 4, true);
+  const std::vector<int> dominant(m.num_vertices(), 0);
+  // A rigid turn of the whole mesh, by the joint that carries it: nothing turned over.
+  const Mat4 turn = Eigen::Affine3d(Eigen::AngleAxisd(2.0, Vec3(1, 2, 3).normalized())).matrix();
+  std::vector<Vec3> turned_mesh = m.positions;
+  for (auto& p : turned_mesh)
+    p = (turn * p.homogeneous()).head<3>();
+  EXPECT_EQ(turned_triangles(m, turned_mesh, std::vector<Mat4>{turn}, dominant), 0);
+  // The same positions with the joint left at rest: every triangle whose
+  // normal the turn moves by more than 90 degrees counts, and only those.
+  int expected = 0;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto c = m.face(f);
+    for (size_t k = 1; k + 1 < c.size(); ++k) {
+      const Vec3 n0 = (m.positions[c[k]] - m.positions[c[0]]).cross(m.positions[c[k + 1]] - m.positions[c[0]]);
+      const Vec3 n1 = (turned_mesh[c[k]] - turned_mesh[c[0]]).cross(turned_mesh[c[k + 1]] - turned_mesh[c[0]]);
+      expected += n0.norm() > 0 && n1.normalized().dot(n0.normalized()) < 0;
+    }
+  }
+  EXPECT_GT(expected, 0);
+  EXPECT_EQ(turned_triangles(m, turned_mesh, std::vector<Mat4>{Mat4::Identity()}, dominant), expected);
+  // One triangle turned over in place (two corners swapped on the mesh's
+  // own positions is the same as reflecting it): exactly one fan triangle
+  // of a quad flips when one corner crosses the opposite diagonal.
+  std::vector<Vec3> dented = m.positions;
+  const auto c = m.face(0);
+  const Vec3 centre = (m.positions[c[0]] + m.positions[c[2]]) / 2;
+  dented[c[1]] = centre + 1.5 * (centre - m.positions[c[1]]);
+  const int n = turned_triangles(m, dented, std::vector<Mat4>{Mat4::Identity()}, dominant);
+  EXPECT_GE(n, 1);
+  EXPECT_LE(n, 6); // the dented corner's own triangles at most
+}
+
+TEST(Quality, ADominantJointIsTheStrongestOfAWeldedVertex) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string path = test::data("quaternius/Trex.glb");
+  const SurfaceMesh m = load_mesh(path);
+  const SkinnedMesh s = load_skinned_mesh(path);
+  const std::vector<int> d = dominant_joints(m, s);
+  ASSERT_EQ(d.size(), static_cast<size_t>(m.num_vertices()));
+  // No input vertex of a welded vertex weighs another joint more.
+  std::vector<double> strongest(m.num_vertices(), 0);
+  for (size_t i = 0; i < s.vertex_joint.size(); ++i)
+    for (int k = 0; k < 4; ++k)
+      if (s.vertex_joint[i][k] == d[m.input_to_welded[i]])
+        strongest[m.input_to_welded[i]] = std::max(strongest[m.input_to_welded[i]], s.vertex_weight[i][k]);
+  for (size_t i = 0; i < s.vertex_joint.size(); ++i)
+    for (int k = 0; k < 4; ++k)
+      if (s.vertex_joint[i][k] >= 0)
+        EXPECT_LE(s.vertex_weight[i][k], strongest[m.input_to_welded[i]]) << "input vertex " << i;
+  // The head's vertices: the Head joint, for the most part.
+  int head = -1;
+  for (size_t j = 0; j < s.joints.size(); ++j)
+    if (s.joints[j].name == "Head")
+      head = static_cast<int>(j);
+  ASSERT_GE(head, 0);
+  EXPECT_GT(std::count(d.begin(), d.end(), head), 100);
 }

@@ -1,6 +1,8 @@
 // The starter Curvenet: plane sections, rings, joins, and the nets it makes
 // on real characters.
 
+#include "curvenet/bake.hpp"
+#include "curvenet/deform.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
@@ -530,4 +532,81 @@ TEST(Starter, TheApatosaurusIsAcceptedWithItsDegenerateFacesNoted) {
   EXPECT_LT(mesh.num_faces(), read_raw_mesh(test::data("quaternius/Apatosaurus.glb")).face_offsets.size() - 1);
   for (const auto& comp : mesh_components(mesh))
     EXPECT_TRUE(comp.closed);
+}
+
+namespace {
+/// Each input vertex's strongest joint in a file's own skin.
+int strongest_joint(const SkinnedMesh& s, size_t v) {
+  int best = 0;
+  for (int k = 1; k < 4; ++k)
+    if (s.vertex_joint[v][k] >= 0 && s.vertex_weight[v][k] > s.vertex_weight[v][best])
+      best = k;
+  return s.vertex_joint[v][best];
+}
+} // namespace
+
+TEST(Starter, AHeadTakesItsWeightFromItsHeadAndNeckNotFromALeg) {
+  // Issue 20: a fox's head took 0.42 of its weight from its front legs.
+  // The skin's head vertices, through the net: the head and neck joints.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  for (const char* a : {"Trex", "Apatosaurus", "Horse", "Wolf"}) {
+    SCOPED_TRACE(a);
+    const std::string path = test::data("quaternius/" + std::string(a) + ".glb");
+    const SurfaceMesh mesh = load_mesh(path);
+    const SkinnedMesh skin = load_skinned_mesh(path);
+    StarterOptions o;
+    o.deforming = weighted_joints(skin);
+    const StarterResult r = make_starter(mesh, skin.joints, o);
+    const SkinWeights w = bake_weights(bind(mesh, r.rig), 8);
+    double head_neck = 0, legs = 0;
+    int n = 0;
+    for (size_t v = 0; v < skin.vertex_joint.size(); ++v) {
+      if (skin.joints[strongest_joint(skin, v)].name != "Head")
+        continue;
+      ++n;
+      for (int k = 0; k < w.influences; ++k) {
+        const int j = w.joint[v * w.influences + k];
+        if (j < 0)
+          continue;
+        const std::string& name = w.joints[j];
+        const double x = w.weight[v * w.influences + k];
+        if (name == "Head" || name.rfind("Neck", 0) == 0)
+          head_neck += x;
+        if (name.find("Leg") != std::string::npos || name.find("Foot") != std::string::npos ||
+            name.find("Shoulder") != std::string::npos)
+          legs += x;
+      }
+    }
+    ASSERT_GT(n, 50);
+    // The horse's and the wolf's ears also share in their heads.
+    EXPECT_GT(head_neck / n, std::string(a) == "Horse" || std::string(a) == "Wolf" ? 0.5 : 0.9);
+    EXPECT_LT(legs / n, 0.02);
+  }
+}
+
+TEST(Starter, ANodeTakesItsWeightsFromTheLimbItLiesOnNotFromOneThatPassesNear) {
+  // The horse's tail hangs beside its hind legs: the thighs' rings take none
+  // of its weight, nor the neck's any of the forelegs'.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string path = test::data("quaternius/Horse.glb");
+  const SkinnedMesh skin = load_skinned_mesh(path);
+  StarterOptions o;
+  o.deforming = weighted_joints(skin);
+  const StarterResult r = make_starter(load_mesh(path), skin.joints, o);
+  int thigh_nodes = 0, neck_nodes = 0;
+  for (const auto& [node, weights] : r.rig.weights) {
+    const bool thigh = node.rfind("BackUpperLeg", 0) == 0, neck = node.rfind("Neck", 0) == 0;
+    thigh_nodes += thigh;
+    neck_nodes += neck;
+    for (const auto& [joint, x] : weights) {
+      if (thigh)
+        EXPECT_FALSE(joint.rfind("Tail", 0) == 0 && x > 0) << node << " takes " << x << " from " << joint;
+      if (neck)
+        EXPECT_FALSE(joint.find("Leg") != std::string::npos && x > 0) << node << " takes " << x << " from " << joint;
+    }
+  }
+  EXPECT_GT(thigh_nodes, 0);
+  EXPECT_GT(neck_nodes, 0);
 }

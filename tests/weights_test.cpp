@@ -59,6 +59,29 @@ TEST(Weights, BlendZoneKeepsMidBoneRigidAndMeetsHalfWayAtJoints) {
   EXPECT_NEAR(weight_of(auto_weights(joints, {3.5, 0.1, 0}), 3), 1.0, 1e-12);
 }
 
+TEST(Weights, GivenBonesOnlyAPointFollowsThoseWhateverLiesNearer) {
+  // Two chains side by side: root -> a -> b along x, and root -> c -> d
+  // 0.1 above it. A point by bone c -> d, told to follow chain a -> b (a
+  // ring around that limb), takes nothing from c or d.
+  std::vector<Joint> j(5);
+  const char* names[] = {"root", "a", "b", "c", "d"};
+  const Vec3 at[] = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {1, 0.1, 0}, {2, 0.1, 0}};
+  const char* parents[] = {nullptr, "root", "a", "root", "c"};
+  for (int i = 0; i < 5; ++i) {
+    j[i].name = names[i];
+    if (parents[i])
+      j[i].parent = parents[i];
+    j[i].bind.block<3, 1>(0, 3) = at[i];
+  }
+  const Vec3 p(1.5, 0.12, 0);
+  EXPECT_NEAR(weight_of(auto_weights(j, p), 3), 1.0, 1e-12); // nearest: c -> d
+  const auto w = auto_weights(j, p, {}, {1, 2});              // bones root -> a, a -> b
+  EXPECT_NEAR(weight_of(w, 1), 1.0, 1e-12);
+  EXPECT_EQ(weight_of(w, 3) + weight_of(w, 4), 0.0);
+  // No bones given: all of them.
+  EXPECT_EQ(auto_weights(j, p, {}, {}), auto_weights(j, p));
+}
+
 TEST(Weights, AlwaysNormalisedAndNonNegative) {
   const auto joints = chain();
   for (const auto rule : {WeightRule::Segment, WeightRule::BlendZone})

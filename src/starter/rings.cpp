@@ -260,21 +260,24 @@ bool is_local(const StarterContext& c, const Probe& q) {
 
 /// The first local ring in the placement's range, moved on past where the
 /// section first becomes local; `why` says why there is none.
-std::optional<Ring> first_local(const StarterContext& c, int j, const Placement& pl, std::string& why) {
+std::optional<Ring> first_local(const StarterContext& c, int j, const Placement& pl, std::string& why,
+                                std::vector<int> own = {}) {
+  if (own.empty())
+    own = {j};
   constexpr int steps = 10;
   const bool range = pl.t_max > pl.t_min;
   double prev = pl.t_min;
   int foreign = -1, small = 0;
   for (int k = 0; k <= (range ? steps : 0); ++k) {
     const double t = pl.t_min + (pl.t_max - pl.t_min) * k / steps;
-    const Probe q = probe(c, {j}, pl, t);
+    const Probe q = probe(c, own, pl, t);
     if (is_local(c, q)) {
       if (k == 0)
         return q.ring;
       double lo = prev, hi = t;
       for (int it = 0; it < 6; ++it) {
         const double mid = (lo + hi) / 2;
-        (is_local(c, probe(c, {j}, pl, mid)) ? hi : lo) = mid;
+        (is_local(c, probe(c, own, pl, mid)) ? hi : lo) = mid;
       }
       // Clear of a fork by a third of the radius, clear of the surface's
       // rounded end (no section before) by a whole radius; by at most a
@@ -283,7 +286,7 @@ std::optional<Ring> first_local(const StarterContext& c, int j, const Placement&
       const double clear = std::min(0.25, (foreign >= 0 ? 1.0 / 3 : 1.0) * q.ring->radius() / len);
       // The furthest of a few steps back from there that is local.
       for (const double back : {0.0, 0.25, 0.5, 0.75})
-        if (Probe m = probe(c, {j}, pl, std::min(pl.t_max, hi + (1 - back) * clear)); is_local(c, m))
+        if (Probe m = probe(c, own, pl, std::min(pl.t_max, hi + (1 - back) * clear)); is_local(c, m))
           return m.ring;
       return q.ring;
     }
@@ -453,6 +456,13 @@ RingsResult candidate_rings(const StarterContext& c) {
       own = first_local(c, j, pl, why);
     if (!own && !sk.kids[j].empty() && pl.step.norm() > 0)
       own = tilted_local(c, j, pl);
+    // A leaf whose siblings' bones start inside it (a head, and the ears
+    // that hang from the neck's last joint): its ring may enclose them
+    // where they leave the joint they share.
+    if (!own && sk.kids[j].empty() && p >= 0 && pl.step.norm() > 0) {
+      std::string shared_why;
+      own = first_local(c, j, pl, shared_why, {j, p});
+    }
     // A weighted joint that ends its chain (a foot, a head) gets a second
     // ring out in what lies beyond its own (step 8 gives it that joint's
     // weight alone).
