@@ -23,6 +23,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <random>
 #include <set>
 
 using namespace curvenet;
@@ -107,6 +108,32 @@ TEST(PlaneSection, CutsATubeIntoOneClosedPolygon) {
   const auto along = detail::plane_sections(sm, {0, 2, 0}, {0, 0, 1});
   ASSERT_EQ(along.size(), 1u);
   EXPECT_NEAR(along[0].length(), 2 * 4 + 4 * 1.0, 1e-9);
+}
+
+TEST(PlaneSection, PolylineDistancesSkipOnlyPairsThatCannotBeNearer) {
+  // Random polylines, open and closed: the pruned distance is the smallest
+  // over every pair of segments, and `polylines_within` agrees with it for
+  // every threshold.
+  std::mt19937 rng(20);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<Vec3> a(3 + trial % 7), b(2 + trial % 5);
+    const Vec3 shift(u(rng), u(rng), u(rng));
+    for (auto& p : a)
+      p = Vec3(u(rng), u(rng), u(rng)) * 0.4;
+    for (auto& p : b)
+      p = Vec3(u(rng), u(rng), u(rng)) * 0.4 + 1.5 * shift;
+    const bool ca = trial % 2 == 0, cb = trial % 3 == 0;
+    double brute = INFINITY;
+    for (size_t i = 0; i < (ca ? a.size() : a.size() - 1); ++i)
+      for (size_t j = 0; j < (cb ? b.size() : b.size() - 1); ++j)
+        brute = std::min(brute, curvenet::detail::segment_distance(a[i], a[(i + 1) % a.size()], b[j],
+                                                                   b[(j + 1) % b.size()]));
+    const double d = curvenet::detail::polyline_distance(a, ca, b, cb);
+    EXPECT_EQ(d, brute);
+    for (const double f : {0.5, 0.99, 1.01, 2.0})
+      EXPECT_EQ(curvenet::detail::polylines_within(a, ca, b, cb, f * brute), f * brute > brute) << trial << " " << f;
+  }
 }
 
 TEST(Starter, TubeGetsARingAtEveryJointAndEmbedsOnOtherTessellations) {

@@ -296,7 +296,7 @@ void route_join(const StarterContext& c, const std::vector<Ring>& rings, const s
       for (const Vec3& q : path)
         if ((q - from).norm() > 2 * cl && (q - end).norm() > 2 * cl)
           middle.push_back(q);
-      if (middle.size() >= 2 && polyline_distance(middle, false, rings[o].loop, true) < cl) {
+      if (middle.size() >= 2 && polylines_within(middle, false, rings[o].loop, true, cl)) {
         clear = false;
         break;
       }
@@ -558,7 +558,7 @@ std::string check_net(const StarterContext& c, const NetResult& net) {
       const auto qa = away_from(pa.curve.points, shared, cl), qb = away_from(pb.curve.points, shared, cl);
       if (qa.size() < 2 || qb.size() < 2)
         continue;
-      if (polyline_distance(qa, false, qb, false) < cl)
+      if (polylines_within(qa, false, qb, false, cl))
         return "profiles '" + pa.id + "' and '" + pb.id + "' come closer than " + std::to_string(cl);
     }
   // Profiles that leave one node must part at a clear angle.

@@ -138,11 +138,56 @@ int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& ori
 
 double polyline_distance(const std::vector<Vec3>& a, bool ca, const std::vector<Vec3>& b, bool cb) {
   double best = std::numeric_limits<double>::infinity();
+  if (a.empty() || b.empty())
+    return best;
   const size_t na = ca ? a.size() : a.size() - 1, nb = cb ? b.size() : b.size() - 1;
-  for (size_t i = 0; i < na; ++i)
+  // Each segment as a ball (its middle, half its length): two segments are
+  // no closer than their middles' distance less both radii, so most pairs
+  // are passed over without the exact distance.
+  std::vector<Vec3> mid(nb);
+  std::vector<double> rad(nb);
+  for (size_t j = 0; j < nb; ++j) {
+    const Vec3 &p = b[j], &q = b[(j + 1) % b.size()];
+    mid[j] = (p + q) / 2;
+    rad[j] = (q - p).norm() / 2;
+  }
+  for (size_t i = 0; i < na; ++i) {
+    const Vec3 &p = a[i], &q = a[(i + 1) % a.size()];
+    const Vec3 m = (p + q) / 2;
+    const double r = (q - p).norm() / 2;
     for (size_t j = 0; j < nb; ++j)
-      best = std::min(best, segment_distance(a[i], a[(i + 1) % a.size()], b[j], b[(j + 1) % b.size()]));
+      if ((m - mid[j]).norm() - r - rad[j] < best)
+        best = std::min(best, segment_distance(p, q, b[j], b[(j + 1) % b.size()]));
+  }
   return best;
+}
+
+bool polylines_within(const std::vector<Vec3>& a, bool ca, const std::vector<Vec3>& b, bool cb, double d) {
+  if (a.empty() || b.empty() || !(d > 0))
+    return false;
+  Eigen::AlignedBox3d ba, bb;
+  for (const Vec3& p : a)
+    ba.extend(p);
+  for (const Vec3& p : b)
+    bb.extend(p);
+  if (ba.exteriorDistance(bb) >= d)
+    return false;
+  const size_t na = ca ? a.size() : a.size() - 1, nb = cb ? b.size() : b.size() - 1;
+  for (size_t i = 0; i < na; ++i) {
+    const Vec3 &p = a[i], &q = a[(i + 1) % a.size()];
+    const Vec3 m = (p + q) / 2;
+    const double r = (q - p).norm() / 2;
+    if (bb.exteriorDistance(Eigen::AlignedBox3d(p.cwiseMin(q), p.cwiseMax(q))) >= d)
+      continue;
+    for (size_t j = 0; j < nb; ++j) {
+      const Vec3 &u = b[j], &v = b[(j + 1) % b.size()];
+      if ((m - (u + v) / 2).norm() - r - (v - u).norm() / 2 >= d)
+        continue;
+      if (segment_distance(p, q, u, v) < d)
+        return true;
+    }
+  }
+  return false;
 }
 
 } // namespace curvenet::detail

@@ -52,4 +52,8 @@ int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& ori
 /// Smallest distance between two polylines (closed when `closed_*`).
 double polyline_distance(const std::vector<Vec3>& a, bool closed_a, const std::vector<Vec3>& b, bool closed_b);
 
+/// Whether polylines a and b come closer than d: polyline_distance(...) < d,
+/// without measuring the pairs of segments that cannot.
+bool polylines_within(const std::vector<Vec3>& a, bool closed_a, const std::vector<Vec3>& b, bool closed_b, double d);
+
 } // namespace curvenet::detail

@@ -564,7 +564,7 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
     const int common = sk.parent[list.front()];
     if (common >= 0 && std::all_of(list.begin(), list.end(), [&](int j) { return sk.parent[j] == common; })) {
       const auto parents_ring = std::find_if(rings.begin(), rings.end(), [&](const Ring& r) {
-        return r.joint == common && r.frac == 1 && polyline_distance(r.loop, true, q.ring->loop, true) < c.gap(r, *q.ring);
+        return r.joint == common && r.frac == 1 && polylines_within(r.loop, true, q.ring->loop, true, c.gap(r, *q.ring));
       });
       if (parents_ring != rings.end()) {
         c.say("no trunk ring for " + names + ": the ring of '" + c.joints[common].name + "' crosses it");
@@ -581,7 +581,7 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
 int ring_conflict(const StarterContext& c, const Ring& r, const std::vector<Ring>& rings, const std::vector<int>& among,
                   int self) {
   for (int k : among)
-    if (k != self && polyline_distance(r.loop, true, rings[k].loop, true) < c.gap(r, rings[k]))
+    if (k != self && polylines_within(r.loop, true, rings[k].loop, true, c.gap(r, rings[k])))
       return k;
   return -1;
 }
