@@ -205,7 +205,7 @@ void measure(const Character& ch) {
 /// where a trunk's ring sits), in the default mode.
 void measure_rules(const Character& ch) {
   const Loaded c(ch);
-  std::printf("%s, starter nets by weight rule (harmonic)\n", name_of(ch.mesh).c_str());
+  std::printf("%s, starter nets by weight rule (%s mode)\n", name_of(ch.mesh).c_str(), to_string(BindOptions{}.method));
   std::printf("  | rule | blend | mean | max | worst volume vs the skin's | poses within the volume goal |\n"
               "  |---|---|---|---|---|---|\n");
   for (const auto& [rule, blend] : {std::pair{WeightRule::Segment, 0.0}, std::pair{WeightRule::BlendZone, 0.1},
