@@ -1,5 +1,6 @@
 #include "curvenet/compare.hpp"
 
+#include "compare/surface_distance.hpp"
 #include "cut/cut_mesh.hpp"
 #include "trace/trace_mesh.hpp"
 
@@ -20,7 +21,21 @@ OneWayDistance one_way(const SurfaceMesh& from, const detail::TraceMesh& to, int
     double w;
   };
   std::vector<Sample> samples;
-  for (int f = 0; f < from.num_faces(); ++f) {
+  if (n <= 1) { // the corners: each vertex once, with a third of the area of the triangles around it
+    samples.resize(from.num_vertices());
+    for (int v = 0; v < from.num_vertices(); ++v)
+      samples[v] = {from.positions[v], 0};
+    for (int f = 0; f < from.num_faces(); ++f) {
+      const auto c = from.face(f);
+      for (size_t k = 1; k + 1 < c.size(); ++k) {
+        const Vec3 &a = from.positions[c[0]], &b = from.positions[c[k]], &d = from.positions[c[k + 1]];
+        const double third = (b - a).cross(d - a).norm() / 6;
+        for (const int v : {c[0], c[k], c[k + 1]})
+          samples[v].w += third;
+      }
+    }
+  }
+  for (int f = 0; f < from.num_faces() && n > 1; ++f) {
     const auto c = from.face(f);
     for (size_t k = 1; k + 1 < c.size(); ++k) {
       const Vec3 &a = from.positions[c[0]], &b = from.positions[c[k]], &d = from.positions[c[k + 1]];
@@ -55,6 +70,13 @@ OneWayDistance one_way(const SurfaceMesh& from, const detail::TraceMesh& to, int
 SurfaceDistance surface_distance(const SurfaceMesh& a, const SurfaceMesh& b, int samples_per_edge) {
   const detail::CutMesh ca = detail::CutMesh::from_surface(a), cb = detail::CutMesh::from_surface(b);
   const detail::TraceMesh ta(a, ca), tb(b, cb);
+  return detail::surface_distance(a, ta, b, tb, samples_per_edge);
+}
+
+namespace detail {
+
+SurfaceDistance surface_distance(const SurfaceMesh& a, const TraceMesh& ta, const SurfaceMesh& b, const TraceMesh& tb,
+                                 int samples_per_edge) {
   SurfaceDistance d;
   d.a_to_b = one_way(a, tb, samples_per_edge);
   d.b_to_a = one_way(b, ta, samples_per_edge);
@@ -64,5 +86,7 @@ SurfaceDistance surface_distance(const SurfaceMesh& a, const SurfaceMesh& b, int
   d.diagonal = a.bbox_diagonal();
   return d;
 }
+
+} // namespace detail
 
 } // namespace curvenet

@@ -95,7 +95,8 @@ DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const s
   return out;
 }
 
-std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points, double tolerance) {
+std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points, double tolerance,
+                                      const std::function<double(const Eigen::Vector3d&)>& off_surface) {
   if (points.size() <= 2) {
     std::vector<size_t> all(points.size());
     for (size_t i = 0; i < all.size(); ++i)
@@ -111,8 +112,13 @@ std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points
     todo.pop_back();
     double worst = -1;
     size_t at = i;
+    const Eigen::Vector3d ab = points[j] - points[i];
     for (size_t k = i + 1; k < j; ++k) {
-      const double d = point_segment_distance(points[k], points[i], points[j]);
+      double d = point_segment_distance(points[k], points[i], points[j]);
+      if (off_surface && d <= tolerance) {
+        const double t = ab.squaredNorm() > 0 ? std::clamp((points[k] - points[i]).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+        d = std::max(d, off_surface(points[i] + t * ab));
+      }
       if (d > worst) {
         worst = d;
         at = k;

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <vector>
 
 namespace curvenet::detail {
@@ -39,8 +40,13 @@ struct DirectedDistance {
 DirectedDistance directed_hausdorff(const std::vector<KeyedPoint>& from, const std::vector<KeyedPoint>& to, int window);
 
 /// Which points of a polyline to keep so that it stays within `tolerance`
-/// of the whole (Douglas-Peucker): the two ends always, in order.
-std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points, double tolerance);
+/// of the whole (Douglas-Peucker): the two ends always, in order. Given
+/// `off_surface` (a point's distance from a surface the polyline lies on),
+/// a chord must also stay within `tolerance` of that surface, measured
+/// where the points it leaves out come nearest to it: a coarse surface's
+/// ridge is not cut across.
+std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points, double tolerance,
+                                      const std::function<double(const Eigen::Vector3d&)>& off_surface = {});
 
 /// The same between two short polylines, every segment against every other.
 double hausdorff(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b);

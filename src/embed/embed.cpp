@@ -18,6 +18,7 @@
 #include <iomanip>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -206,7 +207,22 @@ void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& ri
   progress("trace", 1.0);
 }
 
+namespace {
+Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig& rig, const EmbedOptions& options);
+} // namespace
+
 Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options) {
+  return embed_with(mesh, nullptr, rig, options);
+}
+
+Embedding detail::embed_on(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options) {
+  return embed_with(mesh, &tm, rig, options);
+}
+
+namespace {
+
+/// The embedding, on `given` (the trace mesh of `mesh`) or on one built here.
+Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig& rig, const EmbedOptions& options) {
   auto impl = std::make_shared<Embedding::Impl>();
   EmbedReport& rep = impl->report;
   auto progress = [&](std::string_view stage, double f) {
@@ -245,7 +261,10 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   if (!higher_genus)
     rep.expected_regions = cov == Coverage::Full ? C + K - V + E : E - V + C;
 
-  TraceMesh tm(mesh, impl->cut);
+  std::optional<TraceMesh> built;
+  if (!given)
+    built.emplace(mesh, impl->cut);
+  const TraceMesh& tm = given ? *given : *built;
   clock.lap("bvh");
 
   Traced traced;
@@ -401,6 +420,8 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
   rep.ok = rep.problems.empty();
   return Embedding(impl);
 }
+
+} // namespace
 
 std::string report_to_json(const EmbedReport& r) {
   nlohmann::ordered_json j;

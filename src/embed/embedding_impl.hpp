@@ -22,4 +22,12 @@ struct Embedding::Impl {
   [[nodiscard]] double chain_t(int p, size_t i) const;
 };
 
+namespace detail {
+class TraceMesh;
+/// embed() on the trace mesh of `mesh` already built (TraceMesh(mesh,
+/// CutMesh::from_surface(mesh))): the transfer builds one of each mesh for
+/// placing, and building them is a large part of an embedding's cost.
+Embedding embed_on(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options);
+} // namespace detail
+
 } // namespace curvenet

@@ -373,12 +373,17 @@ Placement joint_placement(const StarterContext& c, int j, std::optional<Ring>& o
   return pl;
 }
 
+constexpr double kSmallestCap = 0.01; ///< of the diagonal: the smallest ring a cap ring goes beyond
+
 /// A ring across the cap beyond ring `own` of leaf joint j (the part of
 /// the surface past its plane, reached from it without crossing back: a
 /// foot past the shin's ring, a head past the neck's), half-way from the
 /// joint to the cap's furthest point and square to that line; none when the
-/// cap is short or no local section crosses it.
+/// ring is under 1 % of the diagonal across, the cap is short, or no local
+/// section crosses it.
 std::optional<Ring> cap_ring(const StarterContext& c, int j, const Ring& own) {
+  if (own.radius() < kSmallestCap * c.diag) // an ear's tip: too small to be worth a ring, and finer than a coarse LOD
+    return std::nullopt;
   const auto& P = c.mesh.positions;
   const int nv = c.mesh.num_vertices();
   const Vec3& n = own.axis; // along the bone, out of the body
@@ -425,7 +430,12 @@ std::optional<Ring> cap_ring(const StarterContext& c, int j, const Ring& own) {
 RingsResult candidate_rings(const StarterContext& c) {
   const Skeleton& sk = c.sk;
   const int R = c.options.rings_per_bone, nj = static_cast<int>(c.joints.size());
-  auto suffix = [&](int i) { return R > 1 ? "_" + std::to_string(i) : std::string(); };
+  auto suffix = [&](int i) { // appended, not "_" + ...: GCC 12 warns falsely on that (its bug 105329)
+    std::string s;
+    if (R > 1)
+      s.append("_").append(std::to_string(i));
+    return s;
+  };
   RingsResult out;
   for (int j = 0; j < nj; ++j) {
     const int p = sk.parent[j];

@@ -6,27 +6,19 @@
 
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
+#include "core/quoted.hpp"
 #include "starter/stages.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <regex>
 
 namespace curvenet {
 
 using namespace detail;
 
 namespace {
-
-std::vector<std::string> quoted(const std::string& text) {
-  std::vector<std::string> out;
-  static const std::regex re("'([^']+)'");
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator(); ++it)
-    out.push_back((*it)[1]);
-  return out;
-}
 
 std::string json_quote(const std::string& t) {
   std::string q = "\"";

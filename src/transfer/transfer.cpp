@@ -8,19 +8,23 @@
 #include "core/polyline_distance.hpp"
 #include "core/tolerances.hpp"
 
+#include "compare/surface_distance.hpp"
 #include "core/polygon.hpp"
+#include "core/quoted.hpp"
 #include "curvenet/errors.hpp"
 #include "embed/embedding_impl.hpp"
 #include "trace/trace_mesh.hpp"
 #include "transfer/cage_map.hpp"
 
 #include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 
 namespace curvenet {
@@ -147,6 +151,11 @@ private:
 /// runs the same way as the step between the same points before placing
 /// (`mapped`); the last point (the end node) is always kept, and takes back
 /// the kept points it would double back over.
+constexpr int kReplacements = 8;  ///< re-placements of the profiles a target's embedding names
+constexpr int kRegionSamples = 20000; ///< faces per region the agreement is measured on, at most
+constexpr double kMinAngle = 10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
+constexpr double kKeptAngle = 0.5; ///< a node whose curves keep less of their angle than this is placed again
+
 std::vector<Vec3> without_folds(const std::vector<Vec3>& placed, const std::vector<Vec3>& mapped) {
   std::vector<size_t> kept{0};
   auto forward = [&](size_t a, size_t b) { return (placed[b] - placed[a]).dot(mapped[b] - mapped[a]) > 0; };
@@ -165,70 +174,288 @@ std::vector<Vec3> without_folds(const std::vector<Vec3>& placed, const std::vect
   return out;
 }
 
+/// The placed polyline without the loops where it comes back within `eps`
+/// of itself (a source curve that doubles back, folded flat on a coarse
+/// target): the points between the two segments that meet are left out.
+std::vector<Vec3> without_loops(std::vector<Vec3> pts, double eps) {
+  for (size_t i = 0; i + 3 < pts.size(); ++i) {
+    size_t last = 0;
+    for (size_t j = i + 2; j + 1 < pts.size(); ++j)
+      if (segment_distance(pts[i], pts[i + 1], pts[j], pts[j + 1]) < eps)
+        last = j;
+    if (last > 0)
+      pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(i + 1), pts.begin() + static_cast<std::ptrdiff_t>(last + 1));
+  }
+  return pts;
+}
+
+/// How a placed profile leaves its end node: towards its first point at
+/// least `reach` from the node (or its far end).
+Vec3 leaving(const std::vector<Vec3>& pts, bool from_start, double reach) {
+  const Vec3& o = from_start ? pts.front() : pts.back();
+  for (size_t i = 1; i < pts.size(); ++i) {
+    const Vec3& q = from_start ? pts[i] : pts[pts.size() - 1 - i];
+    if ((q - o).norm() >= reach || i + 1 == pts.size())
+      return (q - o).norm() > 0 ? Vec3((q - o).normalized()) : Vec3(Vec3::Zero());
+  }
+  return Vec3::Zero();
+}
+
+/// Places a rig's nodes and polyline profiles on the target (see
+/// Projector), the profiles sampled as finely as the target's edges.
+class RigPlacer {
+public:
+  RigPlacer(const Rig& rig, const TraceMesh& source, const TraceMesh& target, const TransferOptions& opt,
+            const CageMap* source_cage)
+      : rig_(rig), target_(target), source_cage_(source_cage),
+        source_to_target_(opt.target_frame.inverse() * opt.source_frame),
+        to_target_(source_to_target_ * rig.frame),
+        scale_(std::cbrt(std::abs(to_target_.topLeftCorner<3, 3>().determinant()))),
+        diag_(target.mesh().bbox_diagonal()), h_(target.mesh().mean_edge_length()), max_off_(opt.max_offset * diag_),
+        project_(source, target, opt.target_frame.inverse() * opt.source_frame, max_off_) {}
+
+  /// A rig point in the source surface's space.
+  [[nodiscard]] Vec3 from_source(const Vec3& p) const { return on_source(apply(rig_.frame, p)); }
+  /// A point of the source mesh (a cage's: then carried to its limit) on the surface placed from.
+  [[nodiscard]] Vec3 on_source(const Vec3& q) const { return source_cage_ ? source_cage_->to_limit(q) : q; }
+  [[nodiscard]] Vec3 mapped(const Vec3& p) const { return apply(to_target_, p); }
+  /// A point of the source mesh, mapped into the target's space.
+  [[nodiscard]] Vec3 mapped_from_mesh(const Vec3& q) const { return apply(source_to_target_, q); }
+  /// The length of the target's edges near a mapped point.
+  [[nodiscard]] double edge_near(const Vec3& q) const {
+    const double e = target_.edge_length(target_.nearest(q).tri);
+    return e > 0 ? e : h_;
+  }
+
+  /// A node along the source normal, or (`closest`) at the target's closest point.
+  [[nodiscard]] Vec3 place_node(const Node& n, bool closest, double& offset) const {
+    if (closest) {
+      const Vec3 q = mapped(n.position);
+      const auto near = target_.nearest(q);
+      offset = near.distance(q);
+      return near.point;
+    }
+    const auto [point, off] = project_.place(from_source(n.position));
+    offset = off;
+    return point;
+  }
+
+  /// A profile as the source's embedding traced it (`pts`, on the source
+  /// mesh), sampled at half the target's local edge length, each sample
+  /// placed; its ends on the given node positions. `mapped_out` gets the
+  /// same samples mapped, not placed.
+  [[nodiscard]] std::vector<Vec3> place_profile(const Profile& p, const std::vector<Vec3>& pts, const Vec3& from,
+                                                const Vec3& to, bool closest, std::vector<Vec3>& mapped_out) const {
+    std::vector<Vec3> samples;
+    for (size_t i = 0; i + 1 < pts.size(); ++i) {
+      const Vec3 a = mapped_from_mesh(pts[i]), b = mapped_from_mesh(pts[i + 1]);
+      const double step = 0.5 * edge_near((a + b) / 2);
+      const int n = std::clamp(static_cast<int>(std::ceil((b - a).norm() / step)), 1, kMaxSamplesPerSegment);
+      for (int k = 0; k < n; ++k)
+        samples.push_back(pts[i] + (pts[i + 1] - pts[i]) * (static_cast<double>(k) / n));
+    }
+    samples.push_back(pts.back());
+    const double tol = detail::Tolerances::fidelity_rel * diag_ / 2;
+    const auto off_target = [&](const Vec3& q) { return target_.nearest(q).distance(q); };
+    auto place_one = [&](const Vec3& sample, bool refinement = false) {
+      const auto [point, offset] = closest ? nearest_on_target(sample) : project_.place(on_source(sample));
+      if (offset > max_off_ && refinement) // a chord's middle deep inside: the chord as it was
+        return std::optional<Vec3>();
+      if (offset > max_off_)
+        throw EmbedError("transfer: profile '" + p.id + "' leaves the surface: a point of it lies " +
+                         percent(offset / diag_) + " of the diagonal off the target");
+      return std::optional<Vec3>(point);
+    };
+    // Each sample placed; where the chord between two placed samples cuts
+    // across the target (over a ridge), the sample half-way between them
+    // is placed too, until every chord lies within the tolerance.
+    std::vector<Vec3> placed, rig_at;
+    mapped_out.clear();
+    for (size_t i = 0; i < samples.size(); ++i) {
+      Vec3 point = *place_one(samples[i]);
+      if (i == 0)
+        point = from;
+      else if (i + 1 == samples.size())
+        point = to;
+      if (i > 0) {
+        const double before = (mapped_out.back() - mapped_from_mesh(samples[i])).norm(),
+                     after = (placed.back() - point).norm();
+        if (after > 3 * before + 2 * h_)
+          throw EmbedError("transfer: profile '" + p.id + "': the projection jumped " + percent(after / diag_) +
+                           " of the diagonal to another part of the surface (another finger?)");
+        // (rig point, placed point) pairs between the last one kept and this one.
+        std::vector<std::pair<Vec3, Vec3>> stack{{samples[i], point}};
+        std::pair<Vec3, Vec3> last{rig_at.back(), placed.back()};
+        for (int guard = 0; !stack.empty() && guard < kMaxRefinements; ++guard) {
+          const auto next = stack.back();
+          if (off_target((last.second + next.second) / 2) > tol) {
+            const Vec3 mid = (last.first + next.first) / 2;
+            if (const auto q = place_one(mid, true)) {
+              stack.emplace_back(mid, *q);
+              continue;
+            }
+          }
+          stack.pop_back();
+          if (!stack.empty() || next.first != samples[i]) {
+            rig_at.push_back(next.first);
+            placed.push_back(next.second);
+            mapped_out.push_back(mapped_from_mesh(next.first));
+          }
+          last = next;
+        }
+        for (auto it = stack.rbegin(); it != stack.rend(); ++it) { // refinements run out: keep what is left
+          if (it->first == samples[i])
+            continue;
+          rig_at.push_back(it->first);
+          placed.push_back(it->second);
+          mapped_out.push_back(mapped_from_mesh(it->first));
+        }
+      }
+      rig_at.push_back(samples[i]);
+      placed.push_back(point);
+      mapped_out.push_back(mapped_from_mesh(samples[i]));
+    }
+    // Only the points the shape needs on the target, within half the
+    // embedding's fidelity tolerance of the placed samples and of the
+    // target's surface: a chord does not cut across a coarse target's ridge.
+    const std::vector<Vec3> unfolded = without_loops(without_folds(placed, mapped_out), tol);
+    std::vector<Vec3> out;
+    for (size_t k : simplify_polyline(unfolded, tol, off_target))
+      out.push_back(unfolded[k]);
+    return out;
+  }
+
+  [[nodiscard]] double scale() const { return scale_; }
+
+  /// A point of the source mesh at the target's closest point.
+  [[nodiscard]] std::pair<Vec3, double> nearest_on_target(const Vec3& q) const {
+    const Vec3 m = mapped_from_mesh(on_source(q));
+    const auto near = target_.nearest(m);
+    return {near.point, near.distance(m)};
+  }
+
+private:
+  static constexpr int kMaxSamplesPerSegment = 4096;
+  static constexpr int kMaxRefinements = 64; ///< halvings between two samples
+  const Rig& rig_;
+  const TraceMesh& target_;
+  const CageMap* source_cage_;
+  Mat4 source_to_target_, to_target_;
+  double scale_, diag_, h_, max_off_;
+  Projector project_;
+};
+
 /// The rig in the target's space, every node and profile placed on the
-/// target surface (see Projector).
+/// target surface (see Projector). Curves that leave a node keep their
+/// angles there: where the projection puts a node on a ridge of a coarse
+/// target and folds two of its curves together, the node goes to the
+/// target's closest point instead, if that keeps them apart better.
 /// `source` and `target` are the surfaces placed from and onto: a cage's
 /// limit surface where the mesh is a cage, and then the rig is carried up
 /// from the source cage (`source_cage`) and down to the target cage.
-Rig place_on_target(const Rig& rig, const TraceMesh& source, const TraceMesh& target, const TransferOptions& opt,
-                    const CageMap* source_cage, const CageMap* target_cage, double& max_node_offset) {
-  auto from_source = [&](const Vec3& p) {
-    const Vec3 q = apply(rig.frame, p);
-    return source_cage ? source_cage->to_limit(q) : q;
-  };
-  const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
-  const Mat4 to_target = source_to_target * rig.frame;
-  const double diag = target.mesh().bbox_diagonal(), h = target.mesh().mean_edge_length();
-  const Projector project(source, target, source_to_target, opt.max_offset * diag);
+Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& source, const TraceMesh& target,
+                    const TransferOptions& opt, const CageMap* source_cage, const CageMap* target_cage,
+                    const std::set<std::string>& by_closest, double& max_node_offset) {
+  // The profiles as the source's embedding traced them, on its surface,
+  // without the steps smaller than half the fidelity tolerance (a chain
+  // zigzags across the edges near its nodes).
+  auto chains = traced.chains();
+  const double source_tol = detail::Tolerances::fidelity_rel * source.mesh().bbox_diagonal() / 2;
+  for (auto& [id, pts] : chains) {
+    std::vector<Vec3> kept;
+    for (size_t k : simplify_polyline(pts, source_tol))
+      kept.push_back(pts[k]);
+    pts = std::move(kept);
+  }
+  const Mat4 to_target = opt.target_frame.inverse() * opt.source_frame * rig.frame;
+  const double diag = target.mesh().bbox_diagonal();
+  const RigPlacer placer(rig, source, target, opt, source_cage);
   Rig out = rig;
   out.frame = Mat4::Identity();
   out.extensions.erase("x_cage"); // set again below when the target is a cage
   for (auto& j : out.joints)
     j.bind = to_target * j.bind;
-  std::map<std::string, Vec3> node_at;
-  for (auto& n : out.nodes) {
-    const auto [point, offset] = project.place(from_source(n.position));
-    if (offset > opt.max_offset * diag)
-      throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offset / diag) +
+  std::map<std::string, int> node_index;
+  std::vector<double> offsets(out.nodes.size());
+  for (size_t k = 0; k < out.nodes.size(); ++k) {
+    Node& n = out.nodes[k];
+    n.position = placer.place_node(rig.nodes[k], false, offsets[k]);
+    node_index[n.id] = static_cast<int>(k);
+    if (offsets[k] > opt.max_offset * diag)
+      throw EmbedError("transfer: node '" + n.id + "' lies " + percent(offsets[k] / diag) +
                        " of the diagonal off the target " + target.mesh().source +
                        " (the frames do not line the meshes up, or the target is another shape)");
-    max_node_offset = std::max(max_node_offset, 100 * offset / diag);
-    n.position = point;
-    node_at[n.id] = point;
   }
-  for (auto& p : out.profiles) {
-    const auto& pts = p.curve.points;
-    // A Bezier or NURBS curve keeps its shape, mapped; the embedding places it.
-    if (p.curve.kind != Curve::Kind::Polyline) {
-      for (auto& q : p.curve.points)
-        q = apply(to_target, q);
-      continue;
-    }
-    std::vector<Vec3> placed, mapped;
-    for (size_t i = 0; i < pts.size(); ++i) {
-      mapped.push_back(apply(to_target, pts[i]));
-      const auto [point, offset] = project.place(from_source(pts[i]));
-      if (offset > opt.max_offset * diag)
-        throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + " lies " +
-                         percent(offset / diag) + " of the diagonal off the target: the profile leaves the surface");
-      if (i > 0) {
-        const double before = (mapped[i - 1] - mapped[i]).norm(), after = (placed.back() - point).norm();
-        if (after > 3 * before + 2 * h)
-          throw EmbedError("transfer: profile '" + p.id + "', point " + std::to_string(i) + ": the projection jumped " +
-                           percent(after / diag) + " of the diagonal to another part of the surface (another finger?)");
+  // The ends of the profiles placed by closest points (see transfer()) go to the target's closest points too.
+  for (const Profile& p : rig.profiles)
+    if (by_closest.count(p.id))
+      for (const std::string& id : {p.from, p.to}) {
+        const int k = node_index.at(id);
+        out.nodes[k].position = placer.place_node(rig.nodes[k], true, offsets[k]);
       }
-      placed.push_back(point);
-    }
-    placed.front() = node_at[p.from];
-    placed.back() = node_at[p.to];
-    // The source's own tessellation shows in its points (a starter ring has
-    // one per source edge it crosses): keep only those the shape needs on
-    // the target, within half the embedding's fidelity tolerance.
-    const std::vector<Vec3> unfolded = without_folds(placed, mapped);
-    p.curve.points.clear();
-    for (size_t k : simplify_polyline(unfolded, detail::Tolerances::fidelity_rel * diag / 2))
-      p.curve.points.push_back(unfolded[k]);
+  std::vector<std::vector<Vec3>> mapped(out.profiles.size());
+  auto place = [&](size_t i) {
+    Profile& p = out.profiles[i];
+    if (p.curve.kind != Curve::Kind::Polyline) // a Bezier or NURBS curve keeps its shape, mapped; the embedding places it
+      return;
+    p.curve.points = placer.place_profile(rig.profiles[i], chains[i].second, out.nodes[node_index.at(p.from)].position,
+                                          out.nodes[node_index.at(p.to)].position, by_closest.count(p.id) > 0,
+                                          mapped[i]);
+  };
+  for (size_t i = 0; i < out.profiles.size(); ++i) {
+    if (out.profiles[i].curve.kind != Curve::Kind::Polyline)
+      for (auto& q : out.profiles[i].curve.points)
+        q = apply(to_target, q);
+    place(i);
   }
+  // The angles at each node, on the source (mapped) and placed: the worst
+  // ratio of a pair's placed angle to its source angle.
+  std::vector<std::vector<std::pair<size_t, bool>>> at_node(out.nodes.size()); // (profile, leaves from its start)
+  for (size_t i = 0; i < out.profiles.size(); ++i)
+    if (out.profiles[i].curve.kind == Curve::Kind::Polyline && out.profiles[i].curve.points.size() >= 2) {
+      at_node[node_index.at(out.profiles[i].from)].emplace_back(i, true);
+      at_node[node_index.at(out.profiles[i].to)].emplace_back(i, false);
+    }
+  auto worst_ratio = [&](size_t k) {
+    const double reach = placer.edge_near(out.nodes[k].position);
+    double worst = 1;
+    const auto& list = at_node[k];
+    for (size_t a = 0; a < list.size(); ++a)
+      for (size_t b = a + 1; b < list.size(); ++b) {
+        const auto [pa, sa] = list[a];
+        const auto [pb, sb] = list[b];
+        const double before = std::acos(std::clamp(
+            leaving(mapped[pa], sa, reach).dot(leaving(mapped[pb], sb, reach)), -1.0, 1.0));
+        const double after = std::acos(std::clamp(
+            leaving(out.profiles[pa].curve.points, sa, reach).dot(leaving(out.profiles[pb].curve.points, sb, reach)),
+            -1.0, 1.0));
+        if (before > kMinAngle)
+          worst = std::min(worst, after / before);
+      }
+    return worst;
+  };
+  for (size_t k = 0; k < out.nodes.size(); ++k) {
+    const double ratio = worst_ratio(k);
+    if (ratio >= kKeptAngle)
+      continue;
+    const Vec3 along_normal = out.nodes[k].position;
+    std::vector<std::vector<Vec3>> before;
+    for (const auto& [i, start] : at_node[k])
+      before.push_back(out.profiles[i].curve.points);
+    double offset = 0;
+    out.nodes[k].position = placer.place_node(rig.nodes[k], true, offset);
+    for (const auto& [i, start] : at_node[k])
+      place(i);
+    if (worst_ratio(k) <= ratio) { // no better: as it was
+      out.nodes[k].position = along_normal;
+      for (size_t m = 0; m < at_node[k].size(); ++m)
+        out.profiles[at_node[k][m].first].curve.points = before[m];
+    } else {
+      offsets[k] = offset;
+    }
+  }
+  for (double o : offsets)
+    max_node_offset = std::max(max_node_offset, 100 * o / diag);
   if (target_cage) {
     // The rig now lives on a cage: embedding it there (here, and when it is
     // bound later) treats the mesh as a cage (EmbedOptions::cage).
@@ -259,11 +486,6 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   EmbedOptions source_embed = opt.embed, target_embed = opt.embed;
   source_embed.cage = opt.source_cage_levels > 0;
   target_embed.cage = opt.target_cage_levels > 0;
-  const Embedding src = embed(source, rig, source_embed);
-  rep.source = src.report();
-  if (!rep.source.ok)
-    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
-                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
   // Cages are placed from and onto through their limit surfaces.
   std::optional<CageMap> source_cage, target_cage;
   if (opt.source_cage_levels > 0)
@@ -279,20 +501,53 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const TraceMesh& source_placed = source_cage ? source_cage->limit_trace() : *source_trace;
   const TraceMesh& target_placed = target_cage ? target_cage->limit_trace() : *target_trace;
   const TraceMesh& source_located = source_cage ? source_cage->cage_trace() : *source_trace;
+  // A plain mesh is embedded on the trace mesh built here.
+  const Embedding src = source_cage ? embed(source, rig, source_embed) : embed_on(source, *source_trace, rig, source_embed);
+  rep.source = src.report();
+  if (!rep.source.ok)
+    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
+                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
   SurfaceMesh mapped = source_surface;
   for (auto& p : mapped.positions)
     p = apply(source_to_target, p);
-  rep.shape = surface_distance(mapped, target_surface, 1);
+  // Measured at every vertex of each (the corners of its triangles), on
+  // the trace meshes built for placing where the frames leave the source
+  // where it is.
+  const bool same_space = source_to_target.isIdentity(0);
+  const std::unique_ptr<TraceMesh> mapped_trace = same_space ? nullptr : trace_of(mapped);
+  rep.shape = detail::surface_distance(mapped, same_space ? source_placed : *mapped_trace, target_surface,
+                                       target_placed, 1);
   const std::string apart = " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) +
                             " of the diagonal apart, " + percent(rep.shape.mean / rep.shape.diagonal) + " on average)";
 
+  // Placed along the source's normals; where the target's embedding then
+  // finds two profiles crossing or a profile straying (a thin limb of a
+  // coarse target, whose few faces the normals cross at steep angles), the
+  // profiles it names go to the target's closest points instead, a few
+  // times over.
   std::optional<Embedding> placed;
-  try {
-    result.rig = place_on_target(rig, source_placed, target_placed, opt, source_cage ? &*source_cage : nullptr,
-                                 target_cage ? &*target_cage : nullptr, rep.max_node_offset);
-    placed.emplace(embed(target, result.rig, target_embed));
-  } catch (const EmbedError& e) {
-    throw EmbedError(e.what() + apart);
+  std::set<std::string> by_closest, ids;
+  for (const Profile& p : rig.profiles)
+    ids.insert(p.id);
+  for (int attempt = 0;; ++attempt) {
+    try {
+      double offset = 0;
+      result.rig = place_on_target(rig, src, source_placed, target_placed, opt, source_cage ? &*source_cage : nullptr,
+                                   target_cage ? &*target_cage : nullptr, by_closest, offset);
+      rep.max_node_offset = offset;
+      placed.emplace(target_cage ? embed(target, result.rig, target_embed)
+                                 : embed_on(target, *target_trace, result.rig, target_embed));
+      break;
+    } catch (const EmbedError& e) {
+      const std::string what = e.what();
+      bool more = false;
+      if (attempt < kReplacements && what.rfind("transfer:", 0) != 0)
+        for (const std::string& id : quoted(what))
+          if (ids.count(id))
+            more |= by_closest.insert(id).second;
+      if (!more)
+        throw EmbedError(what + apart);
+    }
   }
   const Embedding& tgt = *placed;
   rep.target = tgt.report();
@@ -311,16 +566,37 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const RegionLocator locate(source_located, src);
   std::map<std::string, std::pair<double, double>> by_key; // key -> (area, agreeing area)
   const CutMesh& cm = tgt.impl().cut;
-  double total = 0, agreeing = 0;
-  for (int f = 0; f < cm.num_faces(); ++f) {
+  std::vector<std::string> keys(b.region_list.size());
+  for (size_t r = 0; r < keys.size(); ++r)
+    keys[r] = b.region_list[r].key();
+  // Per cut face, in parallel: its area, and the part of it whose source
+  // region has its key. A region of many faces is measured on an even
+  // share of them (every k-th, up to kRegionSamples faces), each standing
+  // for k: the fraction is the same to well under a percent, at a fraction
+  // of the cost on a large mesh.
+  std::vector<int> region_faces(keys.size(), 0), nth(cm.num_faces(), 0);
+  for (int f = 0; f < cm.num_faces(); ++f)
+    if (const int r = tgt.face_regions()[f]; r >= 0)
+      nth[f] = region_faces[r]++;
+  std::vector<int> stride(keys.size(), 1);
+  for (size_t r = 0; r < keys.size(); ++r)
+    stride[r] = std::max(1, region_faces[r] / kRegionSamples);
+  std::vector<std::pair<double, double>> face_area(cm.num_faces(), {0.0, 0.0});
+  tbb::parallel_for(0, cm.num_faces(), [&](int f) {
     const int r = tgt.face_regions()[f];
-    if (r < 0)
-      continue;
-    const std::string key = b.region_list[r].key();
-    std::vector<Vec3> corners;
-    for (Halfedge hh : cm.face_loop(Face(f)))
+    if (r < 0 || nth[f] % stride[r] != 0)
+      return;
+    thread_local std::vector<Vec3> corners;
+    corners.clear();
+    const Halfedge h0 = cm.halfedge(Face(f));
+    for (Halfedge hh = h0;;) {
       corners.push_back(cm.position(cm.from(hh)));
-    for (const auto& t : triangulate_polygon(corners)) {
+      hh = cm.next(hh);
+      if (hh == h0 || corners.size() > 1u << 20)
+        break;
+    }
+    static const std::vector<std::array<int, 3>> one{{0, 1, 2}};
+    for (const auto& t : corners.size() == 3 ? one : triangulate_polygon(corners)) {
       const double area = 0.5 * (corners[t[1]] - corners[t[0]]).cross(corners[t[2]] - corners[t[0]]).norm();
       if (!(area > 0))
         continue;
@@ -329,12 +605,19 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       Vec3 at = apply(to_source, target_cage ? target_cage->to_limit(centroid) : centroid);
       if (source_cage)
         at = source_cage->to_cage(at);
-      const bool same = locate.key_at(at) == key;
-      by_key[key].first += area;
-      by_key[key].second += same ? area : 0;
-      total += area;
-      agreeing += same ? area : 0;
+      face_area[f].first += stride[r] * area;
+      face_area[f].second += locate.key_at(at) == keys[r] ? stride[r] * area : 0;
     }
+  });
+  double total = 0, agreeing = 0; // summed in face order: the same on any thread count
+  for (int f = 0; f < cm.num_faces(); ++f) {
+    const int r = tgt.face_regions()[f];
+    if (r < 0)
+      continue;
+    by_key[keys[r]].first += face_area[f].first;
+    by_key[keys[r]].second += face_area[f].second;
+    total += face_area[f].first;
+    agreeing += face_area[f].second;
   }
   for (const auto& [key, v] : by_key)
     rep.regions.push_back({key, v.first, v.first > 0 ? v.second / v.first : 0});
