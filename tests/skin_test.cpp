@@ -325,3 +325,38 @@ TEST(Skin, DualQuaternionSkinningTurnsA180DegreeTwistInsteadOfCollapsingIt) {
   EXPECT_NEAR((b[0] - Vec3(0, 1, 0)).norm(), 1.0, 1e-12);
   EXPECT_NEAR(std::atan2(-b[0].x(), b[0].y() - 1), std::numbers::pi / 4, 1e-12);
 }
+
+TEST(Skin, DualQuaternionBlendTakesTheHeaviestJointsHemisphereWhateverTheOrder) {
+  // Two heavy joints turned +-20 degrees about z (weights 0.5 and 0.4) and a
+  // light one (0.1) turned 180:
+  // the light one's quaternion is nearly orthogonal to both heavy ones. Taken
+  // as the hemisphere, it sent the heavy ones to opposite sides, their sum
+  // cancelled, and the point turned by nearly 180 degrees. From the heaviest
+  // joint it turns by about 9 degrees, for any order of the joints.
+  SkinnedMesh s;
+  for (const char* name : {"a", "b", "c"}) {
+    Joint j;
+    j.name = name;
+    s.joints.push_back(j);
+  }
+  const Vec3 p(1, 0, 0);
+  const auto turn = [](double degrees) {
+    return Eigen::Affine3d(Eigen::AngleAxisd(degrees * std::numbers::pi / 180, Vec3::UnitZ())).matrix();
+  };
+  const std::vector<Mat4> pose{turn(180), turn(20), turn(-20)};
+  const std::vector<std::array<int, 3>> orders{{0, 1, 2}, {1, 0, 2}, {2, 1, 0}, {0, 2, 1}};
+  const std::array<double, 3> weight{0.1, 0.5, 0.4};
+  std::vector<Vec3> results;
+  for (const auto& order : orders) {
+    s.vertex_joint = {{order[0], order[1], order[2], -1}};
+    s.vertex_weight = {{weight[order[0]], weight[order[1]], weight[order[2]], 0}};
+    const Vec3 q = skin_positions(s, {p}, pose, Skinning::DualQuaternion)[0];
+    const double angle = std::atan2(q.y(), q.x()) * 180 / std::numbers::pi;
+    EXPECT_NEAR(q.norm(), 1.0, 1e-12);
+    EXPECT_GT(angle, 5);
+    EXPECT_LT(angle, 20);
+    results.push_back(q);
+  }
+  for (const Vec3& q : results)
+    EXPECT_LT((q - results[0]).norm(), 1e-12);
+}

@@ -1,5 +1,6 @@
-// Catmull-Clark refinement of control cages: counts, shape, and that a
-// cage's limit surface is the surface its remeshes stand for.
+// Refinement: Catmull-Clark of control cages (counts, shape, and that a
+// cage's limit surface is the surface its remeshes stand for), and midpoint
+// refinement, which keeps a triangle mesh's surface.
 
 #include "curvenet/compare.hpp"
 #include "curvenet/errors.hpp"
@@ -82,4 +83,28 @@ TEST(Subdivide, ARefinementPastItsFaceLimitIsRefusedBeforeItIsMade) {
     EXPECT_NE(std::string(e.what()).find("6 levels would make 24576 faces"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("--max-faces"), std::string::npos) << e.what();
   }
+}
+
+TEST(Subdivide, MidpointRefinementKeepsATriangleMeshsSurfaceExactly) {
+  // Every refined vertex lies on the original surface (a triangle's
+  // centroid and edge midpoints are on it), the original vertices stay
+  // where they were, and each triangle becomes 3 quads, then 4 per level.
+  const SurfaceMesh tris = test::tube(12, 6, 3, true);
+  for (int levels : {1, 2}) {
+    const SurfaceMesh fine = midpoint_subdivide(tris, levels);
+    EXPECT_EQ(fine.num_faces(), 3 * tris.num_faces() * (levels == 1 ? 1 : 4));
+    for (int f = 0; f < fine.num_faces(); ++f)
+      EXPECT_EQ(fine.face(f).size(), 4u);
+    for (int v = 0; v < tris.num_vertices(); ++v)
+      EXPECT_EQ(fine.positions[v], tris.positions[v]);
+    const SurfaceDistance d = surface_distance(fine, tris, 2);
+    EXPECT_LT(d.max, 1e-12 * d.diagonal) << levels;
+    EXPECT_NEAR(fine.enclosed_volume(fine.positions), tris.enclosed_volume(tris.positions),
+                1e-12 * tris.enclosed_volume(tris.positions));
+  }
+  // A quad mesh's non-planar quads are refined on their bilinear patches:
+  // close to the triangulated surface, not on it.
+  const SurfaceMesh quads = test::tube(12, 6, 3, false);
+  const SurfaceDistance dq = surface_distance(midpoint_subdivide(quads, 1), quads, 2);
+  EXPECT_LT(dq.max, 0.01 * dq.diagonal);
 }

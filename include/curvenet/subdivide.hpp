@@ -1,6 +1,7 @@
 #pragma once
 /// \file subdivide.hpp
-/// Catmull-Clark refinement of a control cage (OpenSubdiv). A cage is not
+/// Catmull-Clark refinement of a control cage, and midpoint refinement of
+/// any mesh (OpenSubdiv). A cage is not
 /// the surface it stands for: its limit surface is. Refine a cage before
 /// comparing it with a mesh of that surface; to transfer a rig to or from
 /// the cage itself, see TransferOptions::target_cage_levels.
@@ -15,5 +16,14 @@ namespace curvenet {
 /// \throw InputError when levels is not between 1 and 6, or when the result
 ///   would have more than 20 million faces (checked before it is made).
 SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces = 20'000'000);
+
+/// The mesh refined `levels` times by midpoint subdivision (OpenSubdiv's
+/// bilinear scheme): every n-gon split into n quads through its centroid
+/// and its edges' midpoints, nothing moved. A triangle mesh keeps its
+/// surface exactly, only finer: a rig bound to it and posed shows the
+/// deformation between the original's vertices (a bent joint on a coarse
+/// mesh is a chord across it). The result's `source` names the mesh and the level.
+/// \throw InputError as catmull_clark() does.
+SurfaceMesh midpoint_subdivide(const SurfaceMesh& mesh, int levels, long long max_faces = 20'000'000);
 
 } // namespace curvenet

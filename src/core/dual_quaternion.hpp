@@ -13,6 +13,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <vector>
+
 namespace curvenet::detail {
 
 /// The nearest rotation to a 3x3 matrix (its polar factor; the rotation of
@@ -42,34 +44,35 @@ inline DualJoint split_joint(const Mat4& m) {
   return d;
 }
 
-/// Accumulates a weighted blend of joints and applies it to points.
+/// Accumulates a weighted blend of joints and applies it to points. The
+/// hemisphere is the heaviest joint's: every quaternion goes the short way
+/// round from it. (Aligned to whichever joint came first, a light joint
+/// turned far from the heavy ones, a wrist under a curled finger, split the
+/// heavy ones onto opposite sides, and their sum cancelled.)
 class DualBlend {
 public:
   void clear() {
-    b0_.setZero();
-    b1_.setZero();
-    stretch_.setZero();
-    pivot_ = nullptr;
-    rigid_ = true;
+    entries_.clear();
+    done_ = false;
   }
   void add(const DualJoint& j, double w) {
-    if (!pivot_)
-      pivot_ = &j;
-    const double s = pivot_->real.dot(j.real) < 0 ? -w : w; // the short way round
-    b0_ += s * j.real;
-    b1_ += s * j.dual;
-    stretch_ += w * j.stretch;
-    rigid_ = rigid_ && j.rigid;
+    entries_.push_back({&j, w});
+    done_ = false;
   }
   /// False when the rotations cancel (no direction to normalise).
-  [[nodiscard]] bool valid() const { return b0_.norm() > 1e-12; }
+  [[nodiscard]] bool valid() const {
+    sum();
+    return b0_.norm() > 1e-12;
+  }
   /// The blended rotation (valid() must hold).
   [[nodiscard]] Eigen::Quaterniond rotation() const {
+    sum();
     Eigen::Quaterniond q;
     q.coeffs() = b0_ / b0_.norm();
     return q;
   }
   [[nodiscard]] Eigen::Vector3d apply(const Eigen::Vector3d& p) const {
+    sum();
     const double n = b0_.norm();
     Eigen::Quaterniond q0, q1;
     q0.coeffs() = b0_ / n;
@@ -83,10 +86,34 @@ public:
   }
 
 private:
-  Eigen::Vector4d b0_ = Eigen::Vector4d::Zero(), b1_ = Eigen::Vector4d::Zero();
-  Eigen::Matrix3d stretch_ = Eigen::Matrix3d::Zero();
-  const DualJoint* pivot_ = nullptr;
-  bool rigid_ = true;
+  struct Entry {
+    const DualJoint* joint;
+    double w;
+  };
+  void sum() const {
+    if (done_)
+      return;
+    b0_.setZero();
+    b1_.setZero();
+    stretch_.setZero();
+    rigid_ = true;
+    const Entry* pivot = nullptr;
+    for (const Entry& e : entries_)
+      if (!pivot || e.w > pivot->w)
+        pivot = &e;
+    for (const Entry& e : entries_) {
+      const double s = pivot->joint->real.dot(e.joint->real) < 0 ? -e.w : e.w; // the short way round
+      b0_ += s * e.joint->real;
+      b1_ += s * e.joint->dual;
+      stretch_ += e.w * e.joint->stretch;
+      rigid_ = rigid_ && e.joint->rigid;
+    }
+    done_ = true;
+  }
+  std::vector<Entry> entries_;
+  mutable Eigen::Vector4d b0_ = Eigen::Vector4d::Zero(), b1_ = Eigen::Vector4d::Zero();
+  mutable Eigen::Matrix3d stretch_ = Eigen::Matrix3d::Zero();
+  mutable bool rigid_ = true, done_ = false;
 };
 
 } // namespace curvenet::detail

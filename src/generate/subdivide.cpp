@@ -92,6 +92,10 @@ SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_fac
   return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces);
 }
 
+SurfaceMesh midpoint_subdivide(const SurfaceMesh& mesh, int levels, long long max_faces) {
+  return refine(mesh, levels, Sdc::SCHEME_BILINEAR, "midpoint", max_faces);
+}
+
 namespace detail {
 
 CageRefinement refine_cage(const SurfaceMesh& cage, int levels, long long max_faces) {
