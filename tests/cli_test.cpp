@@ -12,6 +12,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 
 namespace fs = std::filesystem;
@@ -685,4 +687,41 @@ TEST(Cli, TheGradientModeIsAnOptionOfEveryDeformingCommand) {
   EXPECT_FALSE(fs::exists(dir / "x.obj"));
   EXPECT_EQ(run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / "x.obj").string() + " --method splines", dir).code,
             2);
+}
+
+TEST(Cli, EveryCommandWritesADeviceInPlaceAndABindingCacheOnlyWithItsOutput) {
+  // `-o /dev/null` as root once renamed a temporary over the device. A
+  // device node of the test's own stands for it (the null device's
+  // numbers; making one needs root).
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("device_out");
+  const fs::path null = dir / "null";
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf"), rig = (dir / "rs.cnrig.json").string();
+  ASSERT_EQ(run("starter " + gltf + " -o " + rig, dir).code, 0);
+  write(dir / "bend.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{}})");
+  if (::mknod(null.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
+    GTEST_SKIP() << "cannot make a device node here (not root)";
+  const std::string n = null.string();
+  for (const std::string& args :
+       {"embed " + gltf + " " + rig + " --report " + n, "starter " + gltf + " -o " + n, "bind " + gltf + " " + rig + " -o " + n,
+        "pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " -o " + n,
+        "animate " + gltf + " " + rig + " " + gltf + " -o " + n,
+        "transfer " + rig + " --from " + gltf + " --to " + gltf + " -o " + n,
+        "subdivide " + gltf + " --levels 1 -o " + n}) {
+    SCOPED_TRACE(args);
+    const CliRun r = run(args, dir);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::is_character_file(null));
+  }
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  // The binding cache goes with the posed mesh: not written when the mesh cannot be.
+  const fs::path cache = dir / "rs.cnbind", bad = dir / "rs.cnrig.json" / "out.obj"; // a file is not a folder
+  CliRun r = run("pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " --binding-cache " +
+                     cache.string() + " -o " + bad.string(),
+                 dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(cache));
 }

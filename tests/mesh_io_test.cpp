@@ -8,9 +8,14 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <thread>
 
 using namespace curvenet;
 namespace fs = std::filesystem;
@@ -160,4 +165,81 @@ TEST(MeshIo, AFolderOrAnEmptyFileIsSaidToBeOne) {
 TEST(MeshIo, AsciiFbxArraysTheFileCannotHoldAreRefusedBeforeAssimpAllocatesThem) {
   EXPECT_EQ(load_mesh(corpus("good/fbx_ascii.fbx")).num_faces(), 4);
   expect_refused("bad/fbx_huge_array.fbx", "line 11", "an array declares 2147483648 values");
+}
+
+// --- outputs, all or nothing ------------------------------------------------
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+} // namespace
+
+TEST(OutputFiles, AFailedSetLeavesNeitherFilesNorTheFoldersItMade) {
+  const fs::path dir = fs::temp_directory_path() / "curvenet_output_files_folders";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "kept");
+  {
+    OutputFiles out;
+    out.add((dir / "kept" / "a.txt").string(), "a");
+    out.add((dir / "new" / "deeper" / "b.txt").string(), "b");
+    EXPECT_TRUE(fs::exists(dir / "new" / "deeper"));
+    // No commit: as when a later frame fails or the disk fills.
+  }
+  EXPECT_TRUE(fs::exists(dir / "kept")); // there before: stays
+  EXPECT_TRUE(fs::is_empty(dir / "kept"));
+  EXPECT_FALSE(fs::exists(dir / "new"));
+  {
+    OutputFiles out;
+    out.add((dir / "new" / "deeper" / "b.txt").string(), "b");
+    out.commit();
+  }
+  EXPECT_EQ(slurp(dir / "new" / "deeper" / "b.txt"), "b");
+  fs::remove_all(dir);
+}
+
+TEST(OutputFiles, ADeviceOrAFifoIsWrittenInPlaceNeverReplaced) {
+  // A device node of the test's own (the null device's numbers), never the
+  // machine's /dev/null. Making one needs root; without it only the FIFO runs.
+  const fs::path dir = fs::temp_directory_path() / "curvenet_output_files_devices";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path null = dir / "null";
+  if (::mknod(null.c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0) {
+    write_file_atomic(null.string(), "thrown away");
+    OutputFiles out;
+    out.add(null.string(), "twice");
+    out.add((dir / "beside.txt").string(), "kept");
+    out.commit();
+    EXPECT_TRUE(fs::is_character_file(null));
+    EXPECT_EQ(slurp(dir / "beside.txt"), "kept");
+    for (const auto& e : fs::directory_iterator(dir))
+      EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  }
+  const fs::path fifo = dir / "pipe";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0666), 0);
+  std::string got;
+  std::thread reader([&] { got = slurp(fifo); });
+  write_file_atomic(fifo.string(), "through the pipe");
+  reader.join();
+  EXPECT_EQ(got, "through the pipe");
+  EXPECT_TRUE(fs::is_fifo(fifo));
+  fs::remove_all(dir);
+}
+
+TEST(OutputFiles, ASymbolicLinkKeepsItsPlaceAndTheFileItNamesIsReplaced) {
+  const fs::path dir = fs::temp_directory_path() / "curvenet_output_files_link";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "real");
+  std::ofstream(dir / "real" / "r.json") << "old";
+  fs::create_symlink(dir / "real" / "r.json", dir / "link.json");
+  write_file_atomic((dir / "link.json").string(), "new");
+  EXPECT_TRUE(fs::is_symlink(dir / "link.json"));
+  EXPECT_EQ(slurp(dir / "real" / "r.json"), "new");
+  // A folder is not a file to write.
+  EXPECT_THROW(write_file_atomic((dir / "real").string(), "x"), Error);
+  fs::remove_all(dir);
 }

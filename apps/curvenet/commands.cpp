@@ -162,10 +162,11 @@ Rig rig_for(const DeformArgs& a) {
 
 BindOptions bind_options(const DeformArgs& a);
 
-Binding bind_for(const SurfaceMesh& mesh, const Rig& rig, const DeformArgs& a) {
+/// A new binding cache joins `files`, the command's other outputs: written with them or not at all.
+Binding bind_for(const SurfaceMesh& mesh, const Rig& rig, const DeformArgs& a, OutputFiles& files) {
   if (a.binding_cache.empty())
     return bind(mesh, rig, bind_options(a));
-  return bind_cached(mesh, rig, bind_options(a), a.binding_cache);
+  return bind_cached(mesh, rig, bind_options(a), a.binding_cache, nullptr, &files);
 }
 
 BindOptions bind_options(const DeformArgs& a) {
@@ -201,10 +202,12 @@ void print_bind(std::ostream& out, const Binding& b) {
 int run_bind(const BindArgs& a) {
   const SurfaceMesh mesh = load_mesh_noting(a.mesh);
   const Rig rig = rig_for(a);
-  const Binding b = bind_for(mesh, rig, a);
+  OutputFiles files;
+  const Binding b = bind_for(mesh, rig, a, files);
   Rig out = rig;
   out.weights = b.node_weights();
   write_rig(out, a.out);
+  files.commit(); // the cache, after the rig
   std::cout << "Curvenet bind: SUCCESS\n";
   print_bind(std::cout, b);
   std::cout << "rig: " << a.out << "\n";
@@ -226,12 +229,14 @@ int run_pose(const PoseArgs& a) {
   const InputTopology topo = read_input_topology(a.mesh);
   const Rig rig = rig_for(a);
   const Pose pose = read_pose(a.pose);
-  const Binding b = bind_for(mesh, rig, a);
+  OutputFiles files; // the mesh and the binding cache, all or nothing
+  const Binding b = bind_for(mesh, rig, a, files);
   const auto M = skinning_matrices(b.joints(), pose, a.pose);
   std::vector<Vec3> out(b.num_input_vertices());
   b.deform(M, out);
   check_posed(out, a.pose, "");
-  write_file_atomic(a.out, posed_obj(topo, out)); // deform() returns the file's own vertex order
+  files.add(a.out, posed_obj(topo, out)); // deform() returns the file's own vertex order
+  files.commit();
   std::cout << "Curvenet pose: SUCCESS\n";
   print_bind(std::cout, b);
   std::cout << "output: " << a.out << " (" << out.size() << " vertices)\n";
@@ -264,7 +269,8 @@ int run_animate(const AnimateArgs& a) {
                      std::to_string(static_cast<long long>(last) - first + 1) + " frames is more than --max-frames (" +
                          std::to_string(a.max_frames) + ")");
   (void)clip_skinning_matrices(rig.joints, clips, clip, first / a.fps); // a clip for this skeleton, before binding
-  const Binding b = bind_for(mesh, rig, a);
+  OutputFiles files;
+  const Binding b = bind_for(mesh, rig, a, files);
   const int frames = last - first + 1, nv = b.num_input_vertices();
   auto frame_positions = [&](int f, std::vector<Vec3>& out) {
     b.deform(clip_skinning_matrices(b.joints(), clips, clip, (first + f) / a.fps), out);
@@ -272,11 +278,10 @@ int run_animate(const AnimateArgs& a) {
   };
   // Frames are independent: each is computed in parallel into its own slot,
   // so the result does not depend on the number of threads. All or nothing:
-  // the frames go to temporary files, moved into place at the end.
-  OutputFiles files;
+  // the frames go to temporary files, moved into place at the end (the
+  // folder, if this run made it, goes with them on a failure).
   if (!a.obj_sequence.empty()) {
     const InputTopology topo = read_input_topology(a.mesh);
-    std::filesystem::create_directories(a.obj_sequence);
     std::vector<std::string> texts(static_cast<size_t>(frames));
     tbb::enumerable_thread_specific<std::vector<Vec3>> buffers([nv] { return std::vector<Vec3>(nv); });
     // In blocks, so that no more than a block of frames is held at once.
@@ -366,14 +371,14 @@ int run_bake(const BakeArgs& a) {
       throw InputError(a.fit, "/animations", "the file has no animation clips to fit over");
     (void)clip_skinning_matrices(rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
   }
-  const Binding b = bind_for(mesh, rig, a);
+  OutputFiles files; // all or nothing
+  const Binding b = bind_for(mesh, rig, a, files);
   const SkinWeights w = fit ? fit_weights(b, clip_poses(b.joints(), *fit, a.fps, 100000), a.max_influences)
                             : bake_weights(b, a.max_influences);
   GltfBakeOptions opt;
   opt.up = a.up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
   opt.fps = a.fps;
   opt.clips = a.clip_names;
-  OutputFiles files; // all or nothing
   if (!a.out.empty())
     files.add(a.out, skinned_glb(a.mesh, b.joints(), w, clips ? &*clips : nullptr, opt));
   if (!a.weights_csv.empty())

@@ -22,6 +22,8 @@
 
 namespace curvenet {
 
+class OutputFiles; // io.hpp
+
 enum class LaplacianChoice { Uniform, IntrinsicDelaunay };
 enum class RigidMode {
   /// Each vertex's detail moves with the harmonic blend of its joints'
@@ -130,10 +132,13 @@ public:
   /// Writes the binding to a cache file (atomically).
   /// \throw Error for a binding in the gradient mode, which is not cached.
   void save(const std::string& path) const;
+  /// The cache file's bytes, as save() writes them; `path` names it in errors.
+  [[nodiscard]] std::string cache_bytes(const std::string& path) const;
   [[nodiscard]] DeformMethod method() const;
 
 private:
-  friend Binding bind_cached(const SurfaceMesh&, const Rig&, const struct BindOptions&, const std::string&, bool*);
+  friend Binding bind_cached(const SurfaceMesh&, const Rig&, const struct BindOptions&, const std::string&, bool*,
+                             OutputFiles*);
   std::shared_ptr<const Impl> impl_;
 };
 
@@ -144,9 +149,11 @@ Binding bind(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options
 
 /// A binding from a cache file, if the file was written for this mesh, rig
 /// and options; otherwise bind() anew and write the cache. `reused` says
-/// which happened.
+/// which happened. Given `outputs`, a new cache is added to that set of
+/// files (io.hpp) and written when they are committed, with the command's
+/// other outputs or not at all.
 Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options, const std::string& cache_path,
-                    bool* reused = nullptr);
+                    bool* reused = nullptr, OutputFiles* outputs = nullptr);
 
 /// The rig with every node's weights filled in (automatic weights where the
 /// rig gives none), normalised.

@@ -47,8 +47,11 @@ void write_file_atomic(const std::string& path, const std::string& contents);
 /// destination (`DEST.tmp-curvenet-PID`); commit() moves them all into
 /// place. Until then the destinations are untouched, and if commit() is
 /// never reached (an exception), the destructor removes the temporary
-/// files. Temporary files that a killed run left beside a destination are
-/// removed when the destination is next written.
+/// files and the folders the set made for them. Temporary files that a
+/// killed run left beside a destination are removed when the destination
+/// is next written. A destination that is not a regular file (a device such
+/// as /dev/null, a FIFO, /dev/stdout) is written in place, never replaced;
+/// a symbolic link keeps its place and the file it names is replaced.
 class OutputFiles {
 public:
   OutputFiles();
@@ -66,6 +69,7 @@ public:
 private:
   struct File;
   std::vector<std::unique_ptr<File>> files_;
+  std::vector<std::string> made_dirs_; ///< folders this set created, outermost first
   bool committed_ = false;
 };
 

@@ -189,7 +189,8 @@ public:
     if (!value(n) || n > (data_.size() - at_) / sizeof(T))
       return false;
     v.resize(n);
-    std::memcpy(v.data(), data_.data() + at_, n * sizeof(T));
+    if (n > 0) // an empty vector's data() may be null, which memcpy may not take even for 0 bytes
+      std::memcpy(static_cast<void*>(v.data()), data_.data() + at_, n * sizeof(T));
     at_ += n * sizeof(T);
     return true;
   }
@@ -238,6 +239,10 @@ DeformMethod Binding::method() const {
 }
 
 void Binding::save(const std::string& path) const {
+  write_file_atomic(path, cache_bytes(path));
+}
+
+std::string Binding::cache_bytes(const std::string& path) const {
   const Impl& b = *impl_;
   if (b.gradient)
     throw Error("binding cache " + path + ": a binding in the gradient mode is not cached (bind it again instead)");
@@ -264,11 +269,11 @@ void Binding::save(const std::string& path) const {
   // A checksum of everything before it, last.
   const std::uint64_t sum = checksum(out.data(), out.size());
   out.append(reinterpret_cast<const char*>(&sum), sizeof(sum));
-  write_file_atomic(path, out);
+  return out;
 }
 
 Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt, const std::string& path,
-                    bool* reused) {
+                    bool* reused, OutputFiles* outputs) {
   if (opt.method == DeformMethod::Gradient)
     throw InputError(path, "", "the gradient mode keeps no binding cache: bind without one");
   const std::uint64_t fp = fingerprint(mesh, rig, opt);
@@ -327,7 +332,10 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
                : "the binding cache " + path + " was made for another mesh, rig or options; rebuilt it";
   }
   Binding b = bind(mesh, rig, opt);
-  b.save(path);
+  if (outputs)
+    outputs->add(path, b.cache_bytes(path)); // written with the command's other outputs, or not at all
+  else
+    b.save(path);
   if (!note.empty())
     std::const_pointer_cast<Binding::Impl>(b.impl_)->report.notes.push_back(note);
   if (reused)

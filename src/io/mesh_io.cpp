@@ -187,9 +187,28 @@ void remove_stale_temporaries(const std::filesystem::path& dest) {
 } // namespace
 
 struct OutputFiles::File {
-  std::string dest, temp;
+  std::string dest, temp; ///< temp is empty for a destination written in place
   std::ofstream out;
 };
+
+namespace {
+
+/// A destination with nothing to make atomic, written in place: a device,
+/// a FIFO or a socket (`-o /dev/null`, a pipe), or the process's own
+/// streams (`/dev/stdout`, `/dev/fd/N`, `/proc/self/fd/N`). Renaming a
+/// temporary over one of these would replace it with a regular file.
+bool written_in_place(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  const std::string text = path.lexically_normal().string();
+  for (const char* prefix : {"/dev/stdout", "/dev/stderr", "/dev/fd/", "/proc/self/fd/"})
+    if (text.rfind(prefix, 0) == 0)
+      return true;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec); // through symbolic links
+  return !ec && fs::exists(st) && !fs::is_regular_file(st) && !fs::is_directory(st);
+}
+
+} // namespace
 
 OutputFiles::OutputFiles() = default;
 
@@ -199,21 +218,48 @@ OutputFiles::~OutputFiles() {
   for (auto& f : files_) {
     f->out.close();
     std::error_code ec;
-    std::filesystem::remove(f->temp, ec);
+    if (!f->temp.empty())
+      std::filesystem::remove(f->temp, ec);
+  }
+  // The folders this set made, deepest first, if nothing else is in them.
+  for (auto it = made_dirs_.rbegin(); it != made_dirs_.rend(); ++it) {
+    std::error_code ec;
+    std::filesystem::remove(*it, ec); // removes only an empty folder
   }
 }
 
 std::ostream& OutputFiles::stream(const std::string& path) {
   namespace fs = std::filesystem;
-  const fs::path target(path);
+  fs::path target(path);
   std::error_code ec;
-  if (target.has_parent_path())
-    fs::create_directories(target.parent_path(), ec);
-  remove_stale_temporaries(target);
   auto f = std::make_unique<File>();
   f->dest = path;
-  f->temp = temp_name(path);
-  f->out.open(f->temp, std::ios::binary | std::ios::trunc);
+  if (written_in_place(target)) {
+    f->out.open(path, std::ios::binary);
+  } else {
+    if (fs::is_directory(target, ec))
+      throw Error(path + ": is a folder, not a file to write");
+    // A symbolic link to a file keeps pointing at it: the file it names is replaced.
+    if (fs::is_symlink(fs::symlink_status(target, ec))) {
+      const fs::path resolved = fs::weakly_canonical(target, ec);
+      if (!ec)
+        target = resolved;
+    }
+    if (target.has_parent_path() && !fs::exists(target.parent_path(), ec)) {
+      std::vector<fs::path> missing;
+      for (fs::path p = target.parent_path(); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+        missing.push_back(p);
+        if (p == p.parent_path())
+          break;
+      }
+      fs::create_directories(target.parent_path(), ec);
+      made_dirs_.insert(made_dirs_.end(), missing.rbegin(), missing.rend());
+    }
+    remove_stale_temporaries(target);
+    f->dest = target.string();
+    f->temp = temp_name(f->dest);
+    f->out.open(f->temp, std::ios::binary | std::ios::trunc);
+  }
   if (!f->out)
     throw Error(path + ": cannot open for writing");
   files_.push_back(std::move(f));
@@ -237,6 +283,8 @@ void OutputFiles::commit() {
       throw Error(f->dest + ": write failed (is the disk full?)");
   }
   for (auto& f : files_) {
+    if (f->temp.empty())
+      continue; // written in place
     std::error_code ec;
     std::filesystem::rename(f->temp, f->dest, ec);
     if (ec)
