@@ -581,6 +581,22 @@ TEST(Cli, APoseThatWouldWriteNonFiniteNumbersIsRefused) {
   EXPECT_NE(r.err.find("not a finite number"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out.obj"));
+  // The root alone scaled by 1e200: the positions are finite, and so must
+  // be the normals (products of the coordinates overflowed to nan).
+  write(dir / "big.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{")" + rig.joints[0].name +
+                                   R"(":{"scale":[1e200,1e200,1e200]}}})");
+  const CliRun big = run("pose " + gltf + " " + (dir / "rs.cnrig.json").string() + " " +
+                             (dir / "big.pose.json").string() + " -o " + (dir / "big.obj").string(),
+                         dir);
+  ASSERT_EQ(big.code, 0) << big.err;
+  std::ifstream in(dir / "big.obj");
+  int normals = 0;
+  for (std::string line; std::getline(in, line);) {
+    EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+    EXPECT_EQ(line.find("inf"), std::string::npos) << line;
+    normals += line.rfind("vn ", 0) == 0;
+  }
+  EXPECT_GT(normals, 0);
 }
 
 TEST(Cli, MultipleOutputsAreAllOrNothingAndStaleTemporariesAreCleaned) {

@@ -77,7 +77,7 @@ TEST(RigIo, RefusesWithTheJsonPathOfTheFault) {
       "profiles":[{"id":"p","from":"a","to":"zz","points":[[0,0,0],[1,0,0]]}]})"),
             "/profiles/0/to");
   EXPECT_EQ(element_of(R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],
-      "profiles":[{"id":"p","from":"a","to":"a","points":[[0,0,0],[1,0,0]]},{"id":"p","from":"a","to":"a","points":[[0,0,0],[1,0,0]]}]})"),
+      "profiles":[{"id":"p","from":"a","to":"a","points":[[0,0,0],[1,0,0],[0,1,0]]},{"id":"p","from":"a","to":"a","points":[[0,0,0],[1,0,0],[0,1,0]]}]})"),
             "/profiles/1/id");
   EXPECT_EQ(element_of(minimal(R"("colour":"red",)")), "/colour");
   EXPECT_EQ(element_of(minimal("", R"(,"weight":1)")), "/nodes/0/weight");

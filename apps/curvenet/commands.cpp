@@ -109,6 +109,15 @@ void print_summary(std::ostream& out, const std::string& mesh_name, const EmbedR
     out << "note: " << n << "\n";
 }
 
+/// An embedding failure names the rig file it came from.
+template <class F> auto naming_rig(const std::string& rig_path, F&& f) {
+  try {
+    return f();
+  } catch (const EmbedError& e) {
+    throw EmbedError(rig_path + ": " + e.what());
+  }
+}
+
 } // namespace
 
 int run_embed(const EmbedArgs& a) {
@@ -125,7 +134,7 @@ int run_embed(const EmbedArgs& a) {
   if (!a.coverage.empty())
     opt.coverage = parse_coverage(a.coverage);
   opt.progress = [&](std::string_view s, double f) { progress(s, f); };
-  const Embedding emb = embed(mesh, rig, opt);
+  const Embedding emb = naming_rig(a.rig, [&] { return embed(mesh, rig, opt); });
   EmbedReport rep = emb.report();
   rep.timings_ms.insert(rep.timings_ms.begin(), {"load", load_ms}); // reading happens here, outside the library
   // All or nothing: everything is computed and written to temporary files
@@ -164,9 +173,11 @@ BindOptions bind_options(const DeformArgs& a);
 
 /// A new binding cache joins `files`, the command's other outputs: written with them or not at all.
 Binding bind_for(const SurfaceMesh& mesh, const Rig& rig, const DeformArgs& a, OutputFiles& files) {
-  if (a.binding_cache.empty())
-    return bind(mesh, rig, bind_options(a));
-  return bind_cached(mesh, rig, bind_options(a), a.binding_cache, nullptr, &files);
+  return naming_rig(a.rig, [&] {
+    if (a.binding_cache.empty())
+      return bind(mesh, rig, bind_options(a));
+    return bind_cached(mesh, rig, bind_options(a), a.binding_cache, nullptr, &files);
+  });
 }
 
 BindOptions bind_options(const DeformArgs& a) {

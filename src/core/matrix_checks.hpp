@@ -8,7 +8,8 @@
 namespace curvenet::detail {
 
 /// Finite, and its 3x3 part invertible: its smallest singular value is
-/// more than Tolerances::invertible_rel of its largest.
+/// more than Tolerances::invertible_rel of its largest, and it scales by
+/// no more than Tolerances::max_matrix_scale, nor less than its inverse.
 bool invertible(const Eigen::Matrix4d& m);
 
 /// Invertible, and its 3x3 part a rotation (or reflection) times one

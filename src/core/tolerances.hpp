@@ -39,12 +39,19 @@ struct Tolerances {
   /// A matrix whose smallest singular value is at most this fraction of its
   /// largest is singular (bind matrices, frames, inverse bind matrices).
   static constexpr double invertible_rel = 1e-12;
+  /// No such matrix scales by more than this, or less than its inverse (a
+  /// scale of 1e200 overflows the moment two are multiplied).
+  static constexpr double max_matrix_scale = 1e9;
   /// A rig's frame is a similarity when M^T M = s^2 I to this relative error.
   static constexpr double similarity_rel = 1e-6;
 
   /// A node placed farther than this (relative to the diagonal) from where
   /// the rig puts it is refused: the rig is for another mesh, or scale.
   static constexpr double max_node_offset_rel = 0.25;
+  /// A rig whose nodes span less than this fraction of the mesh's diagonal
+  /// is refused: it is in other units (a rig in metres on a mesh in
+  /// centimetres spans 0.01; one made for the mesh spans at least a limb).
+  static constexpr double min_rig_extent_rel = 1e-3;
 
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }

@@ -120,11 +120,28 @@ void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& ri
   }
   // A rig for another mesh, or in other units, says by how much it is off.
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
-    const double off = (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).norm();
+    const double off = (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).stableNorm();
     if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
       std::ostringstream msg;
       msg << "embed: node '" << rig.nodes[i].id << "' lies " << std::setprecision(3) << 100 * off / tol.diagonal
           << "% of the diagonal off the surface (is the rig made for this mesh, in its units and space?)";
+      throw EmbedError(msg.str());
+    }
+  }
+  // A rig in other units can sit within the mesh and still be wrong: its
+  // nodes huddle in a speck of it (or the mesh in a speck of the rig).
+  if (!rig.profiles.empty()) {
+    Eigen::AlignedBox3d box;
+    for (const auto& n : rig.nodes)
+      box.extend(apply(rig.frame, n.position));
+    for (const auto& pr : rig.profiles)
+      for (const auto& q : pr.curve.points)
+        box.extend(apply(rig.frame, q));
+    const double extent = box.diagonal().norm();
+    if (extent > 0 && !(extent >= Tolerances::min_rig_extent_rel * tol.diagonal)) { // (no extent at all: see trace)
+      std::ostringstream msg;
+      msg << "embed: the rig spans " << std::setprecision(3) << extent / tol.diagonal
+          << " of the mesh's diagonal (is the rig made for this mesh, in its units and space?)";
       throw EmbedError(msg.str());
     }
   }
@@ -145,6 +162,27 @@ void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& ri
       q = apply(rig.frame, q);
     curves[p] = ProfileCurve(curve, in.node_points[in.profile_from[p]].pos, in.node_points[in.profile_to[p]].pos);
   }
+  // Every point of a profile near the surface, as its nodes are: a point far
+  // off it would be silently pulled back.
+  std::vector<std::string> far_off(np); // the first fault of each profile, reported in profile order
+  tbb::parallel_for(0, np, [&](int p) {
+    const auto& points = rig.profiles[p].curve.points;
+    for (size_t k = 0; k < points.size(); ++k) {
+      const Vec3 q = apply(rig.frame, points[k]);
+      const double off = q.allFinite() ? (q - tm.nearest(q).point).stableNorm() : HUGE_VAL;
+      if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
+        std::ostringstream msg;
+        msg << "embed: point " << k << " of profile '" << rig.profiles[p].id << "' lies " << std::setprecision(3)
+            << 100 * off / tol.diagonal << "% of the diagonal off the surface (more than "
+            << 100 * Tolerances::max_node_offset_rel << "%: is the rig made for this mesh?)";
+        far_off[p] = msg.str();
+        return;
+      }
+    }
+  });
+  for (const std::string& fault : far_off)
+    if (!fault.empty())
+      throw EmbedError(fault);
   {
     // The work up front: about length * density / mean edge samples.
     double estimate = 0;

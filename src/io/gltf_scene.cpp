@@ -1,15 +1,21 @@
 #include "io/gltf_scene.hpp"
 
 #include "curvenet/errors.hpp"
+#include "core/matrix_checks.hpp"
+#include "io/json_text.hpp"
 
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <optional>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <limits>
 
 namespace curvenet::detail {
@@ -143,6 +149,8 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   for (size_t i = 0; i < pos.count(); ++i) {
     const Eigen::Vector4d p(pos.get(i, 0), pos.get(i, 1), pos.get(i, 2), 1.0);
     raw.positions.push_back((world * p).head<3>());
+    if (!raw.positions.back().allFinite()) // whatever the file is read for: a mesh, a skin or a skeleton
+      throw InputError(path, what + " POSITION " + std::to_string(i), "is not a finite number");
   }
   // Skin influences (JOINTS_0 / WEIGHTS_0), when this primitive is skinned.
   scene.vertex_joint.resize(raw.positions.size(), {-1, -1, -1, -1});
@@ -222,8 +230,24 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
 
 /// Every index, type and count the readers below rely on, checked once: a
 /// damaged file is refused naming the element, before anything reads it.
+/// A 4x4 matrix a skeleton can use: finite, affine (last row 0 0 0 1) and
+/// invertible, with a condition number a double can invert.
+std::string matrix_fault(const Eigen::Matrix4d& m) {
+  if (!m.allFinite())
+    return "has a value that is not a finite number";
+  if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+    return "is not affine (its last row is not 0 0 0 1)";
+  if (!detail::invertible(m))
+    return "is singular, nearly so, or scales by more than 1e9 (it has no usable inverse)";
+  return "";
+}
+
 void validate_model(const tinygltf::Model& m, const std::string& path) {
   auto in_range = [](int i, size_t n) { return i >= 0 && static_cast<size_t>(i) < n; };
+  if (m.asset.version.rfind("2.", 0) != 0)
+    throw InputError(path, "asset.version",
+                     "glTF " + (m.asset.version.empty() ? std::string("(no version)") : m.asset.version) +
+                         ": only glTF 2.x is read");
   const size_t nodes = m.nodes.size();
   auto finite = [](const std::vector<double>& v) {
     return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
@@ -267,6 +291,17 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
       throw InputError(path, what, "matrix, translation, rotation or scale has the wrong number of values");
     if (!finite(node.matrix) || !finite(node.translation) || !finite(node.rotation) || !finite(node.scale))
       throw InputError(path, what, "a transform value is not a finite number");
+    if (node.matrix.size() == 16) {
+      Eigen::Matrix4d x;
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+          x(r, c) = node.matrix[4 * c + r];
+      if (const std::string fault = matrix_fault(x); !fault.empty())
+        throw InputError(path, what + " matrix", fault);
+    }
+    if (node.rotation.size() == 4 &&
+        !(std::hypot(node.rotation[0], node.rotation[1], node.rotation[2]) + std::abs(node.rotation[3]) > 1e-6))
+      throw InputError(path, what + " rotation", "the quaternion is zero (no rotation to normalise)");
   }
   for (size_t i = 0; i < nodes; ++i) {
     size_t steps = 0;
@@ -330,6 +365,47 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
     if (skin.inverseBindMatrices >= 0 && accessor(skin.inverseBindMatrices, what + " inverseBindMatrices",
                                                   {TINYGLTF_TYPE_MAT4}, floats) < skin.joints.size())
       throw InputError(path, what, "inverseBindMatrices must hold one MAT4 per joint");
+    if (skin.inverseBindMatrices >= 0) {
+      const AccessorReader acc(m, skin.inverseBindMatrices, path, what + " inverseBindMatrices");
+      for (size_t j = 0; j < skin.joints.size(); ++j) {
+        Eigen::Matrix4d x;
+        for (int c = 0; c < 4; ++c)
+          for (int r = 0; r < 4; ++r)
+            x(r, c) = acc.get(j, 4 * c + r);
+        // Stored in single precision: the last row is 0 0 0 1 to within float rounding.
+        if ((x.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() < 1e-6)
+          x.row(3) = Eigen::RowVector4d(0, 0, 0, 1);
+        if (const std::string fault = matrix_fault(x); !fault.empty())
+          throw InputError(path, what + " inverse bind matrix " + std::to_string(j), fault);
+      }
+    }
+  }
+  // Each skinned primitive's JOINTS_0 names joints of its node's skin.
+  for (size_t ni = 0; ni < nodes; ++ni) {
+    const auto& node = m.nodes[ni];
+    if (node.mesh < 0 || node.skin < 0)
+      continue;
+    const size_t joints = m.skins[node.skin].joints.size();
+    for (size_t pi = 0; pi < m.meshes[node.mesh].primitives.size(); ++pi) {
+      const auto& prim = m.meshes[node.mesh].primitives[pi];
+      const auto jt = prim.attributes.find("JOINTS_0");
+      if (jt == prim.attributes.end())
+        continue;
+      const auto wt = prim.attributes.find("WEIGHTS_0");
+      const std::string what = "mesh " + std::to_string(node.mesh) + " primitive " + std::to_string(pi) + " JOINTS_0";
+      const AccessorReader ji(m, jt->second, path, what);
+      std::optional<AccessorReader> wi;
+      if (wt != prim.attributes.end())
+        wi.emplace(m, wt->second, path, what);
+      for (size_t v = 0; v < ji.count(); ++v)
+        for (int k = 0; k < ji.ncomp; ++k) {
+          const bool weighted = !wi || v >= wi->count() || k >= wi->ncomp || wi->get(v, k) > 0;
+          if (weighted && ji.get(v, k) >= static_cast<double>(joints))
+            throw InputError(path, what + " vertex " + std::to_string(v),
+                             "names joint " + std::to_string(static_cast<long>(ji.get(v, k))) + " of a skin with " +
+                                 std::to_string(joints) + " joints");
+        }
+    }
   }
   for (size_t ai = 0; ai < m.animations.size(); ++ai) {
     const auto& anim = m.animations[ai];
@@ -390,10 +466,17 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
       if (out.count < keys * (sampler.interpolation == "CUBICSPLINE" ? 3 : 1))
         throw InputError(path, w, "output has fewer values than the input has times");
       const AccessorReader values(m, sampler.output, path, w + " output");
-      for (size_t k = 0; k < values.count(); ++k)
+      for (size_t k = 0; k < values.count(); ++k) {
         for (int c = 0; c < values.ncomp; ++c)
           if (!std::isfinite(values.get(k, c)))
             throw InputError(path, w + " output", "value " + std::to_string(k) + " is not a finite number");
+        // A rotation key (not a cubic spline's tangent) is a quaternion to normalise.
+        const bool key = sampler.interpolation != "CUBICSPLINE" || k % 3 == 1;
+        if (target == "rotation" && key && values.ncomp == 4 &&
+            !(std::abs(values.get(k, 0)) + std::abs(values.get(k, 1)) + std::abs(values.get(k, 2)) +
+                  std::abs(values.get(k, 3)) > 1e-6))
+          throw InputError(path, w + " output", "rotation key " + std::to_string(k) + " is a zero quaternion");
+      }
     }
   }
 }
@@ -418,8 +501,33 @@ GltfScene read_gltf_scene(const std::string& path) {
   loader.SetImageLoader(&skip_image, nullptr);
   auto model = std::make_shared<tinygltf::Model>();
   std::string err, warn;
-  const bool ok = ext == ".glb" ? loader.LoadBinaryFromFile(model.get(), &err, &warn, path)
-                                : loader.LoadASCIIFromFile(model.get(), &err, &warn, path);
+  // Read once, and the JSON's nesting bounded before tinygltf parses it.
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      throw InputError(path, "", "cannot open the file");
+    std::ostringstream text;
+    text << in.rdbuf();
+    bytes = text.str();
+  }
+  if (bytes.size() > std::numeric_limits<unsigned int>::max())
+    throw InputError(path, "", "the file is larger than 4 GB, more than a glTF reader takes");
+  std::string_view json = bytes;
+  if (ext == ".glb" && bytes.size() >= 20) {
+    std::uint32_t length = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    json = std::string_view(bytes).substr(20, std::min<size_t>(length, bytes.size() - 20));
+  }
+  if (const auto at = too_deep(json, kMaxJsonDepth))
+    throw InputError(path, ext == ".glb" ? "JSON chunk byte " + std::to_string(*at) : line_column(bytes, *at),
+                     "JSON nested more than " + std::to_string(kMaxJsonDepth) + " levels deep");
+  const std::string base_dir = std::filesystem::path(path).parent_path().string();
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  const bool ok = ext == ".glb" ? loader.LoadBinaryFromMemory(model.get(), &err, &warn, data,
+                                                              static_cast<unsigned int>(bytes.size()), base_dir)
+                                : loader.LoadASCIIFromString(model.get(), &err, &warn, bytes.data(),
+                                                             static_cast<unsigned int>(bytes.size()), base_dir);
   if (!ok) {
     while (!err.empty() && std::isspace(static_cast<unsigned char>(err.back())))
       err.pop_back();

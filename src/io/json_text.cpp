@@ -125,7 +125,33 @@ template <class Visit> std::optional<Duplicate> walk_json(const std::string& t, 
 
 } // namespace
 
+std::optional<size_t> too_deep(std::string_view text, int limit) {
+  int depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > limit)
+        return i;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return std::nullopt;
+}
+
 nlohmann::ordered_json parse_json(const std::string& text, const std::string& source) {
+  // Nesting is bounded before parsing: a parser recurses (or allocates) per level.
+  if (const auto at = too_deep(text, kMaxJsonDepth))
+    throw InputError(source, line_column(text, *at),
+                     "JSON nested more than " + std::to_string(kMaxJsonDepth) + " levels deep");
   nlohmann::ordered_json root;
   try {
     root = nlohmann::ordered_json::parse(text);

@@ -5,9 +5,19 @@
 
 #include <nlohmann/json.hpp>
 
+#include <optional>
 #include <string>
+#include <string_view>
 
 namespace curvenet::detail {
+
+/// The deepest nesting of arrays and objects a JSON input may have (a rig
+/// needs 5 levels, a glTF file fewer than 10).
+constexpr int kMaxJsonDepth = 64;
+
+/// The byte at which `text` first nests arrays and objects deeper than
+/// `limit` (strings skipped), if it does.
+std::optional<size_t> too_deep(std::string_view text, int limit);
 
 /// \throw InputError naming `source` and the line and column: malformed
 ///   JSON, a number out of range (1e999), or a key that appears twice in one

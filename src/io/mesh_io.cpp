@@ -142,6 +142,9 @@ SurfaceMesh load_mesh(const std::string& path) {
 
 std::string mesh_to_obj(const std::vector<Vec3>& positions, const std::vector<int>& face_offsets,
                         const std::vector<int>& face_vertices) {
+  for (size_t v = 0; v < positions.size(); ++v)
+    if (!positions[v].allFinite())
+      throw Error("vertex " + std::to_string(v) + " of the mesh to write is not finite; nothing was written");
   std::ostringstream out;
   out << std::setprecision(17);
   for (const auto& p : positions)

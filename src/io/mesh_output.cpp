@@ -90,13 +90,19 @@ std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>
     if (!positions[v].allFinite())
       throw Error("the posed vertex " + std::to_string(v) +
                   " is not finite (the pose scales or moves the mesh out of range); nothing was written");
-  // Normals: area-weighted face normals summed into each normal slot.
+  // Normals: area-weighted face normals summed into each normal slot, from
+  // the positions scaled to the unit box (a direction does not depend on the
+  // scale, and products of coordinates near 1e200 would overflow).
+  double extent = 0;
+  for (const auto& p : positions)
+    extent = std::max(extent, p.cwiseAbs().maxCoeff());
+  const double unit = extent > 0 ? 1 / extent : 1;
   std::vector<Eigen::Vector3d> normals(t.num_normals, Eigen::Vector3d::Zero());
   for (size_t face = 0; face + 1 < f.face_offsets.size(); ++face) {
     Eigen::Vector3d n = Eigen::Vector3d::Zero();
     const int b = f.face_offsets[face], e = f.face_offsets[face + 1];
     for (int k = b; k < e; ++k)
-      n += positions[f.face_vertices[k]].cross(positions[f.face_vertices[k + 1 < e ? k + 1 : b]]);
+      n += (unit * positions[f.face_vertices[k]]).cross(unit * positions[f.face_vertices[k + 1 < e ? k + 1 : b]]);
     for (int k = b; k < e; ++k)
       normals[t.corner_normal[k]] += n;
   }
@@ -110,6 +116,8 @@ std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>
   for (auto n : normals) {
     if (n.norm() > 0)
       n.normalize();
+    if (!n.allFinite())
+      throw Error("a normal of the posed mesh is not finite; nothing was written");
     out << "vn " << n.x() << ' ' << n.y() << ' ' << n.z() << '\n';
   }
   for (size_t face = 0; face + 1 < f.face_offsets.size(); ++face) {

@@ -39,6 +39,29 @@ int Rig::node_index(const std::string& id) const {
 
 namespace {
 
+/// More points than any drawn or traced profile needs: past this a rig is damaged or generated wrong.
+constexpr size_t kMaxProfilePoints = 100000;
+
+/// A closed polyline of no area, relative to its length: one that goes out
+/// and back along itself (its vector area vanishes).
+bool encloses_nothing(const std::vector<Eigen::Vector3d>& pts) {
+  if (pts.size() < 2)
+    return true;
+  Eigen::Vector3d area = Eigen::Vector3d::Zero();
+  double length = 0;
+  for (size_t k = 0; k < pts.size(); ++k) {
+    const Eigen::Vector3d& a = pts[k] - pts[0];
+    const Eigen::Vector3d& b = pts[(k + 1) % pts.size()] - pts[0];
+    area += a.cross(b);
+    length += (pts[(k + 1) % pts.size()] - pts[k]).norm();
+  }
+  return !(area.norm() > 1e-9 * length * length);
+}
+
+} // namespace
+
+namespace {
+
 class RigReader {
 public:
   RigReader(std::string source, const std::string& text) : source_(std::move(source)), text_(text) {}
@@ -97,6 +120,9 @@ public:
       fail(path, "expected an array of points");
     if (j.size() < min_count)
       fail(path, "needs at least " + std::to_string(min_count) + " points, has " + std::to_string(j.size()));
+    if (j.size() > kMaxProfilePoints)
+      fail(path, "has " + std::to_string(j.size()) + " points, more than the " + std::to_string(kMaxProfilePoints) +
+                     " a profile may have (simplify the curve)");
     std::vector<Eigen::Vector3d> pts;
     for (size_t i = 0; i < j.size(); ++i)
       pts.push_back(vec3(j[i], path + "/" + std::to_string(i)));
@@ -229,6 +255,9 @@ public:
       if (!node_ids.count(p.to))
         fail(path + "/to", "names node '" + p.to + "', which does not exist");
       p.curve = curve(profiles[i], path);
+      if (p.from == p.to && encloses_nothing(p.curve.points))
+        fail(path, "a loop from node '" + p.from + "' back to itself that encloses nothing (it goes out and back " +
+                       "along itself); a loop must go round");
       rig.profiles.push_back(std::move(p));
     }
 
@@ -255,9 +284,11 @@ public:
           fail(path + "/name", "duplicate joint name '" + j.name + "'");
         j.bind = matrix(require(joints[i], path, "bind"), path + "/bind");
         if (!detail::invertible(j.bind))
-          fail(path + "/bind", "the bind matrix is singular");
+          fail(path + "/bind", "the bind matrix is singular, nearly so, or scales by more than 1e9");
         rig.joints.push_back(std::move(j));
       }
+      if (rig.joints.empty())
+        fail("/skeleton/joints", "the skeleton has no joints (leave the skeleton out instead)");
     }
 
     if (root.contains("weights")) {

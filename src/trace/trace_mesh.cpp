@@ -242,11 +242,19 @@ std::vector<int> TraceMesh::faces_of(const SurfacePoint& p) const {
 }
 
 TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
-  QueryData data{this, q};
+  RTCPointQuery query;
+  // In the unit box's frame; a point past a million diagonals away is
+  // brought in along its direction (the nearest triangle barely changes,
+  // and the caller measures the distance from q itself), so that the query
+  // stays within single precision.
+  Vec3 u = bvh_->to_unit(q);
+  if (!u.allFinite())
+    throw EmbedError("closest point: the point is not a finite number");
+  if (u.norm() > 1e6)
+    u *= 1e6 / u.norm();
+  QueryData data{this, bvh_->centre + bvh_->scale * u};
   data.slack = bvh_->slack;
   data.scale = bvh_->scale;
-  RTCPointQuery query;
-  const Vec3 u = bvh_->to_unit(q);
   query.x = static_cast<float>(u.x());
   query.y = static_cast<float>(u.y());
   query.z = static_cast<float>(u.z());
@@ -264,6 +272,9 @@ std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const V
                                                      const Vec3& facing) const {
   double t_near = 0; // in Embree's units
   const Vec3 o = bvh_->to_unit(origin);
+  // A ray Embree can take: finite, within single precision, with a direction.
+  if (!o.allFinite() || o.norm() > 1e6 || !dir.allFinite() || !(dir.norm() > 0) || !(t_max >= 0))
+    return std::nullopt;
   for (int pass = 0; pass < 64; ++pass) { // each pass steps past one triangle facing away
     RTCRayHit rh{};
     rh.ray.org_x = static_cast<float>(o.x());
@@ -273,7 +284,7 @@ std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const V
     rh.ray.dir_y = static_cast<float>(dir.y());
     rh.ray.dir_z = static_cast<float>(dir.z());
     rh.ray.tnear = static_cast<float>(t_near);
-    rh.ray.tfar = static_cast<float>(t_max / bvh_->scale);
+    rh.ray.tfar = static_cast<float>(std::min(t_max / bvh_->scale, 1e30));
     rh.ray.mask = 0xFFFFFFFFu;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
