@@ -843,7 +843,7 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("rig"), py::arg("source"), py::arg("target"), py::kw_only(), py::arg("source_frame") = py::none(),
       py::arg("target_frame") = py::none(), py::arg("max_offset") = 0.05, py::arg("source_cage_levels") = 0,
-      py::arg("target_cage_levels") = 0, py::arg("max_faces") = 20'000'000LL, py::arg("density") = 5.0);
+      py::arg("target_cage_levels") = 0, py::arg("max_faces") = 4'000'000LL, py::arg("density") = 5.0);
   m.def(
       "compare",
       [](const SurfaceMesh& a, const SurfaceMesh& b, int samples_per_edge) {
@@ -863,7 +863,7 @@ PYBIND11_MODULE(_curvenet, m) {
         py::gil_scoped_release release;
         return catmull_clark(cage, levels, max_faces);
       },
-      py::arg("cage"), py::arg("levels") = 2, py::kw_only(), py::arg("max_faces") = 20'000'000LL);
+      py::arg("cage"), py::arg("levels") = 2, py::kw_only(), py::arg("max_faces") = 4'000'000LL);
 
   // Skeletons, skins, poses and clips.
   py::class_<JointPose>(m, "JointPose", "A joint's pose entry L = T R S against its rest pose")

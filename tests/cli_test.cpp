@@ -395,6 +395,22 @@ TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
   r = run("subdivide " + test::data("blub/fish_control_mesh.obj") + " --levels 9 -o " + (dir / "no.obj").string(), dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(dir / "no.obj"));
+  // Six levels of the hand's 3,052 triangles would be 9.4 million quads
+  // (past a minute and 3 GB): refused up front, naming both options.
+  const std::string hand = test::data("xr_tools_hand/hand_l.gltf");
+  for (const std::string& args : {"subdivide " + hand + " --levels 6 -o " + (dir / "no.obj").string(),
+                                  "transfer " + test::data("xr_tools_hand/example/hand_l.cnrig.json") + " --from " +
+                                      hand + " --to " + hand + " --to-cage 6 -o " + (dir / "no.json").string()}) {
+    r = run(args, dir);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_NE(r.err.find(args.rfind("subdivide", 0) == 0 ? "--levels 6: would make 9375744 faces"
+                                                          : "--to-cage 6: would make 9375744 faces"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("(--max-faces); use fewer levels"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "no.obj"));
+    EXPECT_FALSE(fs::exists(dir / "no.json"));
+  }
 
   // A two-joint spine along the fish (z), a starter net on the refined cage,
   // and its transfer to the triangle remesh.

@@ -27,6 +27,7 @@ void expect_rows_pass(const std::vector<check::Row>& rows) {
   for (const auto& r : rows) {
     EXPECT_TRUE(r.pass_mean()) << r.pair << " " << r.clip;
     EXPECT_TRUE(r.pass_max()) << r.pair << " " << r.clip;
+    EXPECT_TRUE(r.pass_refined()) << r.pair << " " << r.clip << ": against the source posed on its refinement";
     EXPECT_GT(r.agreement, 0.95) << r.pair;
     EXPECT_GT(r.moved, 5.0) << r.pair << " " << r.clip << ": the pose hardly moves the mesh, so it proves nothing";
   }

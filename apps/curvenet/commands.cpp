@@ -118,6 +118,19 @@ template <class F> auto naming_rig(const std::string& rig_path, F&& f) {
   }
 }
 
+/// A refinement refused for its levels names the option that gave them.
+template <class F> auto naming_levels_option(const std::string& cage_file, const std::string& option, F&& f) {
+  try {
+    return f();
+  } catch (const InputError& e) {
+    if (e.element().rfind("levels ", 0) != 0 || (!cage_file.empty() && e.file() != cage_file))
+      throw;
+    const std::string what = e.what(), prefix = e.file() + ": " + e.element() + ": ";
+    throw InputError(e.file(), option + " " + e.element().substr(7),
+                     what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+  }
+}
+
 } // namespace
 
 int run_embed(const EmbedArgs& a) {
@@ -459,7 +472,17 @@ int run_transfer(const TransferArgs& a) {
   opt.source_cage_levels = a.from_cage;
   opt.target_cage_levels = a.to_cage;
   opt.max_faces = a.max_faces;
-  const TransferResult r = transfer(rig, source, target, opt);
+  // Which cage option gave the levels a refusal names.
+  const std::string cage_option = a.from_cage == 0   ? "--to-cage"
+                                  : a.to_cage == 0   ? "--from-cage"
+                                  : a.from_cage == a.to_cage ? "--to-cage/--from-cage"
+                                                             : "";
+  const TransferResult r = cage_option.empty()
+                               ? naming_levels_option(a.to, "--to-cage", [&] {
+                                   return naming_levels_option(a.from, "--from-cage",
+                                                               [&] { return transfer(rig, source, target, opt); });
+                                 })
+                               : naming_levels_option("", cage_option, [&] { return transfer(rig, source, target, opt); });
   const TransferReport& rep = r.report;
   OutputFiles files; // the report and the rig, all or nothing
   if (!a.report.empty())
@@ -495,7 +518,7 @@ int run_transfer(const TransferArgs& a) {
 
 int run_subdivide(const SubdivideArgs& a) {
   const SurfaceMesh cage = load_mesh_noting(a.cage);
-  const SurfaceMesh s = catmull_clark(cage, a.levels, a.max_faces);
+  const SurfaceMesh s = naming_levels_option("", "--levels", [&] { return catmull_clark(cage, a.levels, a.max_faces); });
   write_file_atomic(a.out, mesh_to_obj(s.positions, s.face_offsets, s.face_vertices));
   std::cout << "Catmull-Clark, " << a.levels << (a.levels == 1 ? " level: " : " levels: ") << cage.num_faces()
             << " faces -> " << s.num_faces() << " quads, " << s.num_vertices() << " vertices\n"

@@ -10,7 +10,7 @@ namespace curvenet::cli {
 struct EmbedArgs {
   std::string mesh, rig, report, regions, cut_mesh, coverage;
   double density = 5.0;
-  long long max_samples = 20'000'000;
+  long long max_samples = 4'000'000;
   std::optional<bool> progress;
 };
 int run_embed(const EmbedArgs& args);
@@ -58,7 +58,7 @@ int run_bake(const BakeArgs& args);
 struct TransferArgs {
   std::string rig, from, to, out, report, source_frame, target_frame;
   int from_cage = 0, to_cage = 0; ///< Catmull-Clark levels when a mesh is a control cage
-  long long max_faces = 20'000'000;
+  long long max_faces = 4'000'000;
 };
 int run_transfer(const TransferArgs& args);
 
@@ -71,7 +71,7 @@ int run_compare(const CompareArgs& args);
 struct SubdivideArgs {
   std::string cage, out;
   int levels = 2;
-  long long max_faces = 20'000'000;
+  long long max_faces = 4'000'000;
 };
 int run_subdivide(const SubdivideArgs& args);
 

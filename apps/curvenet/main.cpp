@@ -217,6 +217,19 @@ int main(int argc, char** argv) {
       app.add_subcommand("demo", "Run the demo pipeline on generated data (a capped tube and the thesis's tube net)");
   demo->add_option("--out", demo_args.out, "Output folder")->capture_default_str();
 
+  // A word where the command goes that names no command: say which word.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string names;
+    bool known = false;
+    for (const auto* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+      known = known || sub->get_name() == argv[1];
+    }
+    if (!known) {
+      std::cerr << "curvenet: error: unknown command '" << argv[1] << "' (the commands are " << names << ")\n";
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

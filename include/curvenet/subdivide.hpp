@@ -14,8 +14,8 @@ namespace curvenet {
 /// Boundaries keep their edges (OpenSubdiv's "edge only" rule). The result's
 /// `source` names the cage and the level.
 /// \throw InputError when levels is not between 1 and 6, or when the result
-///   would have more than 20 million faces (checked before it is made).
-SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces = 20'000'000);
+///   would have more than 4 million faces (checked before it is made).
+SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces = 4'000'000);
 
 /// The mesh refined `levels` times by midpoint subdivision (OpenSubdiv's
 /// bilinear scheme): every n-gon split into n quads through its centroid
@@ -24,6 +24,6 @@ SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_fac
 /// deformation between the original's vertices (a bent joint on a coarse
 /// mesh is a chord across it). The result's `source` names the mesh and the level.
 /// \throw InputError as catmull_clark() does.
-SurfaceMesh midpoint_subdivide(const SurfaceMesh& mesh, int levels, long long max_faces = 20'000'000);
+SurfaceMesh midpoint_subdivide(const SurfaceMesh& mesh, int levels, long long max_faces = 4'000'000);
 
 } // namespace curvenet

@@ -32,7 +32,7 @@ struct TransferOptions {
   /// limit surface before it is placed on the target.
   int source_cage_levels = 0;
   /// A cage refined past this many faces is refused before it is made.
-  long long max_faces = 20'000'000;
+  long long max_faces = 4'000'000;
   EmbedOptions embed;
 };
 

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <memory>
+#include <new>
 
 namespace curvenet {
 
@@ -33,9 +34,9 @@ SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, 
   // The size up front: an n-gon gives n quads, and each level 4 times as many.
   const double faces = static_cast<double>(cage.face_vertices.size()) * std::pow(4.0, levels - 1);
   if (faces > static_cast<double>(max_faces))
-    throw InputError(cage.source, "subdivision levels",
-                     std::to_string(levels) + " levels would make " + std::to_string(static_cast<long long>(faces)) +
-                         " faces (about " + std::to_string(static_cast<long long>(faces * 200 / (1 << 20))) +
+    throw InputError(cage.source, "levels " + std::to_string(levels),
+                     "would make " + std::to_string(static_cast<long long>(faces)) + " faces (about " +
+                         std::to_string(static_cast<long long>(faces * 400 / (1 << 20))) +
                          " MB), more than the limit of " + std::to_string(max_faces) +
                          " (--max-faces); use fewer levels");
   std::vector<int> counts;
@@ -88,20 +89,35 @@ SurfaceMesh refine(const SurfaceMesh& cage, int levels, Sdc::SchemeType scheme, 
 
 } // namespace
 
+namespace {
+/// Out of memory within the limit (a machine with less than the estimate) says which option to lower.
+template <class F> auto naming_levels(const SurfaceMesh& cage, int levels, F&& f) {
+  try {
+    return f();
+  } catch (const std::bad_alloc&) {
+    throw InputError(cage.source, "levels " + std::to_string(levels),
+                     "out of memory while refining: use fewer levels, or a lower --max-faces");
+  }
+}
+} // namespace
+
 SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces) {
-  return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces);
+  return naming_levels(cage, levels, [&] { return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces); });
 }
 
 SurfaceMesh midpoint_subdivide(const SurfaceMesh& mesh, int levels, long long max_faces) {
-  return refine(mesh, levels, Sdc::SCHEME_BILINEAR, "midpoint", max_faces);
+  return naming_levels(mesh, levels, [&] { return refine(mesh, levels, Sdc::SCHEME_BILINEAR, "midpoint", max_faces); });
 }
 
 namespace detail {
 
 CageRefinement refine_cage(const SurfaceMesh& cage, int levels, long long max_faces) {
   CageRefinement r;
-  r.limit = refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces, &r.base_face);
-  r.flat = refine(cage, levels, Sdc::SCHEME_BILINEAR, "bilinear", max_faces);
+  naming_levels(cage, levels, [&] {
+    r.limit = refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces, &r.base_face);
+    r.flat = refine(cage, levels, Sdc::SCHEME_BILINEAR, "bilinear", max_faces);
+    return 0;
+  });
   if (r.limit.positions.size() != r.flat.positions.size() || r.limit.face_vertices != r.flat.face_vertices)
     throw InputError(cage.source, "subdivision",
                      "the two refinements of the cage do not share their vertices and faces");

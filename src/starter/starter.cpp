@@ -256,6 +256,13 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
         p = parent_ring.at(p);
       return p;
     };
+    if (active.empty()) {
+      // Nothing to write: an empty net would embed, bind and pose nothing.
+      std::string why = ringless.empty() ? std::string("every ring was dropped") : ringless.begin()->second;
+      throw InputError(mesh.source, "skeleton",
+                       "no joint gets a ring, so there is no net to make (joint '" +
+                           joints[ringless.empty() ? 0 : ringless.begin()->first].name + "': " + why + ")");
+    }
     NetResult net = build_net(c, rings, active, effective_parent, join_attempt);
     std::string failure = net.failure.empty() ? check_net(c, net) : net.failure;
     try {

@@ -17,7 +17,7 @@ namespace curvenet::detail {
 class CageMap {
 public:
   /// \throw InputError when the cage cannot be refined.
-  CageMap(const SurfaceMesh& cage, int levels, long long max_faces = 20'000'000);
+  CageMap(const SurfaceMesh& cage, int levels, long long max_faces = 4'000'000);
   CageMap(const CageMap&) = delete; // the trace meshes refer to the meshes held here
   CageMap& operator=(const CageMap&) = delete;
 
