@@ -617,7 +617,7 @@ PYBIND11_MODULE(_curvenet, m) {
                                  d[py::str(id)] = points_array(pts);
                                return d;
                              })
-      .def("cut_mesh_obj", &Embedding::cut_mesh_obj)
+      .def("cut_mesh_obj", [](const Embedding& e) { return e.cut_mesh_obj(); })
       .def("regions_ply", &Embedding::regions_ply);
 
   m.def(

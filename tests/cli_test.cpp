@@ -757,3 +757,36 @@ TEST(Cli, EveryCommandWritesADeviceInPlaceAndABindingCacheOnlyWithItsOutput) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(cache));
 }
+
+TEST(Cli, PoseAndAnimateWriteThePosedCutMeshOnRequest) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("cut_mesh_out");
+  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf"), rig = (dir / "rs.cnrig.json").string();
+  ASSERT_EQ(run("starter " + gltf + " -o " + rig, dir).code, 0);
+  ASSERT_EQ(run("embed " + gltf + " " + rig + " --cut-mesh " + (dir / "rest_cut.obj").string(), dir).code, 0);
+  const Rig r = read_rig(rig);
+  write(dir / "bend.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{")" + r.joints.back().name +
+                                    R"(":{"rotation":[0.3826834,0,0,0.9238795]}}})");
+  CliRun out = run("pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " -o " +
+                       (dir / "posed.obj").string() + " --cut-mesh " + (dir / "posed_cut.obj").string(),
+                   dir);
+  ASSERT_EQ(out.code, 0) << out.err;
+  auto count = [](const fs::path& p, const char* prefix) {
+    std::ifstream in(p);
+    int n = 0;
+    for (std::string line; std::getline(in, line);)
+      n += line.rfind(prefix, 0) == 0;
+    return n;
+  };
+  // The posed cut mesh has the rest cut mesh's vertices and curves, moved.
+  EXPECT_EQ(count(dir / "posed_cut.obj", "v "), count(dir / "rest_cut.obj", "v "));
+  EXPECT_EQ(count(dir / "posed_cut.obj", "l "), static_cast<int>(r.profiles.size()));
+  EXPECT_NE(load_mesh((dir / "posed_cut.obj").string()).positions, load_mesh((dir / "rest_cut.obj").string()).positions);
+  out = run("animate " + gltf + " " + rig + " " + gltf + " -o " + (dir / "a.pc2").string() + " --frames 0:2" +
+                " --cut-mesh-sequence " + (dir / "cut").string(),
+            dir);
+  ASSERT_EQ(out.code, 0) << out.err;
+  for (const char* f : {"cut_frame_0000.obj", "cut_frame_0001.obj", "cut_frame_0002.obj"})
+    EXPECT_EQ(count(dir / "cut" / f, "v "), count(dir / "rest_cut.obj", "v ")) << f;
+}

@@ -260,6 +260,10 @@ int run_pose(const PoseArgs& a) {
   b.deform(M, out);
   check_posed(out, a.pose, "");
   files.add(a.out, posed_obj(topo, out)); // deform() returns the file's own vertex order
+  if (!a.cut_mesh.empty()) {
+    const CutMeshBinding cut = naming_rig(a.rig, [&] { return bind_cut_mesh(mesh, rig, bind_options(a), &b); });
+    files.add(a.cut_mesh, cut.posed_obj(M));
+  }
   files.commit();
   std::cout << "Curvenet pose: SUCCESS\n";
   print_bind(std::cout, b);
@@ -349,6 +353,15 @@ int run_animate(const AnimateArgs& a) {
       });
       pc2.write(reinterpret_cast<const char*>(data.data()),
                 static_cast<std::streamsize>(static_cast<size_t>(b1 - b0) * nv * 3 * sizeof(float)));
+    }
+  }
+  if (!a.cut_mesh_sequence.empty()) {
+    const CutMeshBinding cut = naming_rig(a.rig, [&] { return bind_cut_mesh(mesh, rig, bind_options(a), &b); });
+    for (int f = 0; f < frames; ++f) {
+      std::ostringstream name;
+      name << "cut_frame_" << std::setw(4) << std::setfill('0') << first + f << ".obj";
+      files.add((std::filesystem::path(a.cut_mesh_sequence) / name.str()).string(),
+                cut.posed_obj(clip_skinning_matrices(b.joints(), clips, clip, (first + f) / a.fps)));
     }
   }
   files.commit();

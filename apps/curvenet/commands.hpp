@@ -36,12 +36,12 @@ struct BindArgs : DeformArgs {
 int run_bind(const BindArgs& args);
 
 struct PoseArgs : DeformArgs {
-  std::string pose, out;
+  std::string pose, out, cut_mesh;
 };
 int run_pose(const PoseArgs& args);
 
 struct AnimateArgs : DeformArgs {
-  std::string clip_file, clip, frames, out, obj_sequence;
+  std::string clip_file, clip, frames, out, obj_sequence, cut_mesh_sequence;
   double fps = 24;
   long long max_frames = 100000;
 };

@@ -127,6 +127,8 @@ int main(int argc, char** argv) {
   deform_options(pose, pose_args);
   pose->add_option("POSE", pose_args.pose, "Pose file (.pose.json)")->required();
   pose->add_option("-o,--output", pose_args.out, "OBJ file to write")->required();
+  pose->add_option("--cut-mesh", pose_args.cut_mesh,
+                   "Also write the posed cut mesh as OBJ: the curves' own shape between a coarse mesh's vertices");
 
   curvenet::cli::AnimateArgs anim_args;
   auto* animate = app.add_subcommand("animate", "Deform a mesh through its rig by a glTF clip, into a PC2 point cache");
@@ -144,6 +146,8 @@ int main(int argc, char** argv) {
   auto* seq_opt =
       animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
   out_opt->excludes(seq_opt);
+  animate->add_option("--cut-mesh-sequence", anim_args.cut_mesh_sequence,
+                      "Also write the posed cut mesh of every frame as OBJ into this folder");
 
   curvenet::cli::BakeArgs bake_args;
   auto* bake = app.add_subcommand(

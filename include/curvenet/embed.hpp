@@ -9,6 +9,7 @@
 #include <array>
 #include <functional>
 #include <memory>
+#include <span>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -100,6 +101,13 @@ public:
   [[nodiscard]] const EmbedReport& report() const;
   /// The cut mesh as OBJ: polygons, plus one `l` polyline per CutChain.
   [[nodiscard]] std::string cut_mesh_obj() const;
+  /// The same at other positions, one per cut-mesh vertex (a posed cut mesh).
+  /// \throw Error when the count is wrong or a position is not finite.
+  [[nodiscard]] std::string cut_mesh_obj(std::span<const Vec3> positions) const;
+  /// The cut mesh as a surface mesh: the input's surface with every curve
+  /// along its edges, its vertices in cut-mesh order. Bound to the same rig
+  /// and posed, it shows the curves' shape between a coarse mesh's vertices.
+  [[nodiscard]] SurfaceMesh cut_surface() const;
   /// The cut mesh as ASCII PLY with one colour per face, graph-coloured by region.
   [[nodiscard]] std::string regions_ply() const;
   /// Region index of each cut-mesh face: -1 outside a local net.

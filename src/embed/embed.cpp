@@ -515,13 +515,25 @@ std::string report_to_json(const EmbedReport& r) {
 
 std::string Embedding::cut_mesh_obj() const {
   const CutMesh& m = impl_->cut;
+  std::vector<Vec3> rest(static_cast<size_t>(m.num_vertices()));
+  for (int v = 0; v < m.num_vertices(); ++v)
+    rest[v] = m.position(Vertex(v));
+  return cut_mesh_obj(rest);
+}
+
+std::string Embedding::cut_mesh_obj(std::span<const Vec3> positions) const {
+  const CutMesh& m = impl_->cut;
+  if (positions.size() != static_cast<size_t>(m.num_vertices()))
+    throw Error("cut mesh: " + std::to_string(positions.size()) + " positions for " +
+                std::to_string(m.num_vertices()) + " vertices");
+  for (size_t v = 0; v < positions.size(); ++v)
+    if (!positions[v].allFinite())
+      throw Error("cut mesh: vertex " + std::to_string(v) + " is not finite; nothing was written");
   std::ostringstream out;
   out << std::setprecision(17);
   out << "# curvenet cut mesh: " << m.num_vertices() << " vertices, " << m.num_faces() << " faces\n";
-  for (int v = 0; v < m.num_vertices(); ++v) {
-    const Vec3& p = m.position(Vertex(v));
+  for (const Vec3& p : positions)
     out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
-  }
   out << "g faces\n";
   for (int f = 0; f < m.num_faces(); ++f) {
     out << 'f';
@@ -575,6 +587,10 @@ RawMesh Embedding::cut_mesh() const {
     out.add_face(corners);
   }
   return out;
+}
+
+SurfaceMesh Embedding::cut_surface() const {
+  return make_surface_mesh(cut_mesh(), "the cut mesh");
 }
 
 std::vector<std::pair<std::string, std::vector<Vec3>>> Embedding::chains() const {
