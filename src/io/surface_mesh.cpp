@@ -114,33 +114,54 @@ std::uint64_t edge_key(int a, int b) {
 }
 
 EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& verts) {
+  // Every face side bucketed by its smaller vertex (a counting sort: linear,
+  // no comparisons), then each small bucket ordered by the larger vertex;
+  // sides enter their bucket in face order and the insertion sort is
+  // stable, so each edge's uses stay in face order.
   struct Use {
-    std::uint64_t key;
+    int hi;
     int face;
     char forward;
   };
-  std::vector<Use> all;
-  all.reserve(verts.size());
-  for (size_t f = 0; f + 1 < offsets.size(); ++f) {
+  int nv = 0;
+  for (int v : verts)
+    nv = std::max(nv, v + 1);
+  std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
+  const size_t nf = offsets.empty() ? 0 : offsets.size() - 1;
+  for (size_t f = 0; f < nf; ++f) {
+    const int n = offsets[f + 1] - offsets[f];
+    for (int i = 0; i < n; ++i)
+      ++bucket[std::min(verts[offsets[f] + i], verts[offsets[f] + (i + 1) % n]) + 1];
+  }
+  for (int v = 0; v < nv; ++v)
+    bucket[v + 1] += bucket[v];
+  std::vector<Use> all(verts.size());
+  std::vector<int> fill(bucket.begin(), bucket.end() - 1);
+  for (size_t f = 0; f < nf; ++f) {
     const int n = offsets[f + 1] - offsets[f];
     for (int i = 0; i < n; ++i) {
       const int a = verts[offsets[f] + i], b = verts[offsets[f] + (i + 1) % n];
-      all.push_back({edge_key(a, b), static_cast<int>(f), static_cast<char>(a < b)});
+      all[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<int>(f), static_cast<char>(a < b)};
     }
   }
-  std::sort(all.begin(), all.end(), [](const Use& x, const Use& y) { return x.key != y.key ? x.key < y.key : x.face < y.face; });
   EdgeTable t;
   t.use_face.reserve(all.size());
   t.use_forward.reserve(all.size());
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (i == 0 || all[i].key != all[i - 1].key) {
-      t.key.push_back(all[i].key);
-      t.start.push_back(static_cast<int>(i));
+  for (int v = 0; v < nv; ++v) {
+    const int b = bucket[v], e = bucket[v + 1];
+    for (int i = b + 1; i < e; ++i) // insertion sort by the larger vertex (stable)
+      for (int j = i; j > b && all[j - 1].hi > all[j].hi; --j)
+        std::swap(all[j - 1], all[j]);
+    for (int i = b; i < e; ++i) {
+      if (i == b || all[i].hi != all[i - 1].hi) {
+        t.key.push_back(edge_key(v, all[i].hi));
+        t.start.push_back(static_cast<int>(t.use_face.size()));
+      }
+      t.use_face.push_back(all[i].face);
+      t.use_forward.push_back(all[i].forward);
     }
-    t.use_face.push_back(all[i].face);
-    t.use_forward.push_back(all[i].forward);
   }
-  t.start.push_back(static_cast<int>(all.size()));
+  t.start.push_back(static_cast<int>(t.use_face.size()));
   return t;
 }
 
@@ -290,10 +311,20 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   for (int f = 0; f < nraw; ++f) {
     const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
     bool degenerate = false;
-    for (int i = 0; i < n && !degenerate; ++i)
-      for (int j = i + 1; j < n && !degenerate; ++j)
-        degenerate = raw.face_vertices[b + i] == raw.face_vertices[b + j] ||
-                     raw.positions[raw.face_vertices[b + i]] == raw.positions[raw.face_vertices[b + j]];
+    if (n <= 16) {
+      for (int i = 0; i < n && !degenerate; ++i)
+        for (int j = i + 1; j < n && !degenerate; ++j)
+          degenerate = raw.positions[raw.face_vertices[b + i]] == raw.positions[raw.face_vertices[b + j]];
+    } else { // a large polygon: its corners' points sorted, not compared pairwise
+      std::vector<Vec3> corners;
+      for (int i = 0; i < n; ++i)
+        corners.push_back(raw.positions[raw.face_vertices[b + i]]);
+      auto less = [](const Vec3& x, const Vec3& y) {
+        return std::lexicographical_compare(x.data(), x.data() + 3, y.data(), y.data() + 3);
+      };
+      std::sort(corners.begin(), corners.end(), less);
+      degenerate = std::adjacent_find(corners.begin(), corners.end()) != corners.end();
+    }
     bool all_collinear = true;
     for (int i = 1; i + 1 < n && all_collinear && !degenerate; ++i)
       all_collinear = detail::collinear3d(raw.positions[raw.face_vertices[b]], raw.positions[raw.face_vertices[b + i]],

@@ -73,18 +73,22 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
   }
   vertex_edges_ = Adjacency::build(mesh.num_vertices(), pairs);
   tri_.reserve(2 * static_cast<size_t>(mesh.num_faces()));
-  std::map<std::pair<int, int>, std::pair<int, int>> diagonal; // (a,b) -> (tri, side), within one face
+  // A face's diagonals pair up within that face: (a, b) -> (tri, side).
+  std::vector<std::pair<std::pair<int, int>, std::pair<int, int>>> diagonal;
+  std::vector<int> corner, edge;
+  std::vector<Vec3> pts;
   for (int f = 0; f < mesh.num_faces(); ++f) {
     const std::vector<Halfedge> loop = cut.face_loop(Face(f));
     const int n = static_cast<int>(loop.size());
-    std::vector<int> corner(n), edge(n);
+    corner.resize(n);
+    edge.resize(n);
+    pts.resize(n);
     for (int i = 0; i < n; ++i) {
       corner[i] = cut.from(loop[i]).idx;
       edge[i] = cut.edge_origin(loop[i]);
-    }
-    std::vector<Vec3> pts(n);
-    for (int i = 0; i < n; ++i)
       pts[i] = mesh.positions[corner[i]];
+    }
+    diagonal.clear();
     const auto tris = triangulate_polygon(pts); // polygon-local corner indices
     for (const auto& lt : tris) {
       const int t = static_cast<int>(tri_.size());
@@ -100,10 +104,10 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
       for (int k = 0; k < 3; ++k) {
         if (se[k] < 0) {
           const int a = tri_[t][k], b = tri_[t][(k + 1) % 3];
-          auto key = std::make_pair(std::min(a, b), std::max(a, b));
-          auto it = diagonal.find(key);
+          const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+          auto it = std::find_if(diagonal.begin(), diagonal.end(), [&](const auto& d) { return d.first == key; });
           if (it == diagonal.end()) {
-            diagonal[key] = {t, k};
+            diagonal.push_back({key, {t, k}});
           } else {
             nbr_[t][k] = it->second.first;
             nbr_[it->second.first][it->second.second] = t;

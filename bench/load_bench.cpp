@@ -1,0 +1,88 @@
+// Loading at the speed of the parse, and the whole process as a user runs
+// it. On the shared hand refined by midpoint subdivision (the same surface,
+// 146,496 quads as a 6 MB OBJ) and a 1M-face capped tube: the OBJ parse
+// alone (read_raw_mesh), the load with its validation and welding
+// (load_mesh), and `curvenet embed` as a process, on all cores and on one
+// (taskset), with the hand's starter net (~160 profiles) or the tube's
+// net. Prints one table of medians of 5, and the ratio of load to parse.
+//
+//   build/bin/load_bench [CURVENET_CLI]
+
+#include "curvenet/io.hpp"
+#include "curvenet/starter.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/subdivide.hpp"
+#include "generate/tube.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+using namespace curvenet;
+namespace fs = std::filesystem;
+
+namespace {
+
+template <class F> double median_ms(F&& f, int reps = 5) {
+  std::vector<double> ms;
+  for (int r = 0; r < reps; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  return ms[ms.size() / 2];
+}
+
+double process_ms(const std::string& command) {
+  return median_ms([&] {
+    if (std::system((command + " > /dev/null 2>&1").c_str()) != 0)
+      std::fprintf(stderr, "failed: %s\n", command.c_str());
+  });
+}
+
+void write_obj(const SurfaceMesh& m, const std::string& path) {
+  write_file_atomic(path, mesh_to_obj(m.positions, m.face_offsets, m.face_vertices));
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  const std::string cli = argc > 1 ? argv[1] : CURVENET_CLI;
+  const fs::path dir = fs::temp_directory_path() / "curvenet_load_bench";
+  fs::create_directories(dir);
+  const std::string data = CURVENET_DATA_DIR;
+  // The hand, refined three times (its own surface), and its starter net.
+  const std::string hand_gltf = data + "/xr_tools_hand/hand_l.gltf";
+  const SurfaceMesh hand = load_mesh(hand_gltf);
+  const std::string hand_obj = (dir / "hand_146k.obj").string(), hand_rig = (dir / "hand.cnrig.json").string();
+  write_obj(midpoint_subdivide(hand, 3), hand_obj);
+  write_rig(make_starter(hand, load_skinned_mesh(hand_gltf).joints).rig, hand_rig);
+  // A capped tube of about 1M triangles and the tube net.
+  TubeSpec spec;
+  spec.around = 600;
+  spec.along = 830;
+  spec.triangulate = true;
+  const std::string tube_obj = (dir / "tube_1m.obj").string(), tube_rig = (dir / "tube.cnrig.json").string();
+  const RawMesh tube = make_capped_tube(spec);
+  write_file_atomic(tube_obj, mesh_to_obj(tube.positions, tube.face_offsets, tube.face_vertices));
+  write_rig(make_tube_net(), tube_rig);
+
+  std::printf("| mesh | faces | file | parse (read_raw_mesh) | load (load_mesh) | load / parse | curvenet embed, "
+              "process, all cores | one core | profiles |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& [obj, rig] : {std::pair{hand_obj, hand_rig}, std::pair{tube_obj, tube_rig}}) {
+    int faces = 0;
+    const double parse = median_ms([&] { faces = static_cast<int>(read_raw_mesh(obj).face_offsets.size()) - 1; });
+    const double load = median_ms([&] { (void)load_mesh(obj); });
+    const std::string embed = cli + " embed " + obj + " " + rig;
+    const double all = process_ms(embed), one = process_ms("taskset -c 0 " + embed);
+    std::printf("| %s | %d | %.1f MB | %.0f ms | %.0f ms | %.2f | %.0f ms | %.0f ms | %zu |\n",
+                fs::path(obj).filename().c_str(), faces, static_cast<double>(fs::file_size(obj)) / (1 << 20), parse,
+                load, load / parse, all, one, read_rig(rig).profiles.size());
+  }
+  return 0;
+}
