@@ -286,6 +286,41 @@ TEST(Deform, ThePosedCutMeshShowsTheCurvesBetweenACoarseMeshsVertices) {
   EXPECT_EQ(l, static_cast<int>(rig.profiles.size()));
 }
 
+TEST(Deform, NoNegativeLaplacianWeightTouchesAVertexSolvedFor) {
+  // The capped cylinder of issue 22 (radius 0.5, length 4, 6,000 triangles)
+  // with its starter net, and the hand with its hand-drawn net. After the
+  // intrinsic flips only boundary edges can keep a negative weight, and on
+  // a closed mesh those are the cut's own edges along the curves, between
+  // two constrained vertices: none touches a vertex that is solved for, so
+  // the maximum principle holds. (A right angle's cotangent, 1e-16, is
+  // zero, not negative: the flat quads of a tube once counted 56.)
+  TubeSpec ts;
+  ts.radius = 0.5;
+  ts.length = 4;
+  ts.around = 40;
+  ts.along = 64;
+  ts.cap_rings = 6;
+  ts.triangulate = true;
+  const SurfaceMesh cylinder = make_surface_mesh(make_capped_tube(ts), "cylinder");
+  ASSERT_EQ(cylinder.num_faces(), 6000);
+  const Binding c = bind(cylinder, make_starter(cylinder, make_tube_skeleton({0.4, 2.0, 3.6})).rig);
+  EXPECT_GT(c.report().negative_weights_before, 0);
+  EXPECT_GT(c.report().flips, 0);
+  EXPECT_EQ(c.report().negative_weights_solved, 0);
+  std::printf("cylinder: %d negative weights before, %d after %d flips, %d at a vertex solved for\n",
+              c.report().negative_weights_before, c.report().negative_weights_after, c.report().flips,
+              c.report().negative_weights_solved);
+  const Binding quads = bind(test::tube(16, 16, 4, false), make_tube_net());
+  EXPECT_EQ(quads.report().negative_weights_before, 0); // rectangles: right angles only
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Binding hand = bind(load_mesh(test::data("xr_tools_hand/hand_l.gltf")),
+                            read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json")));
+  EXPECT_GT(hand.report().negative_weights_before, 100);
+  EXPECT_EQ(hand.report().negative_weights_after, 0);
+  EXPECT_EQ(hand.report().negative_weights_solved, 0);
+}
+
 TEST(Deform, BindingCacheRoundTrips) {
   const SurfaceMesh m = test::tube(20, 12, 4, true);
   const auto dir = test::temp_dir("cache");

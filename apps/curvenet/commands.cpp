@@ -206,12 +206,13 @@ BindOptions bind_options(const DeformArgs& a) {
 
 void print_bind(std::ostream& out, const Binding& b) {
   const BindReport& r = b.report();
-  out << "binding: " << r.vertices << " vertices, " << r.constrained << " constrained, " << r.free << " free, "
-      << r.rigid << " rigid\n";
+  out << "binding: " << r.vertices << " mesh vertices; on the cut mesh, " << r.constrained << " on the curves, "
+      << r.free << " solved for, " << r.rigid << " rigid\n";
   out << "influences per vertex: " << std::fixed << std::setprecision(2) << r.mean_influences << std::defaultfloat
       << std::setprecision(6) << "\n";
   out << "negative Laplacian weights: " << r.negative_weights_before << " before, " << r.negative_weights_after
-      << " after " << r.flips << " intrinsic flips\n";
+      << " after " << r.flips << " intrinsic flips (" << r.negative_weights_solved
+      << " at a vertex solved for; the others lie along the curves, outside the solve)\n";
   double total = 0;
   for (const auto& [s, ms] : r.timings_ms)
     total += ms;

@@ -92,7 +92,14 @@ struct BindReport {
   int rigid = 0;              ///< vertices of parts no profile touches
   int influences = 0;         ///< joint influences over all input vertices
   double mean_influences = 0; ///< per input vertex
-  int negative_weights_before = 0, negative_weights_after = 0, flips = 0;
+  /// Edges of the cut mesh's Laplacian with a negative weight, before and
+  /// after the intrinsic Delaunay flips. After them only boundary edges can
+  /// stay negative (their one opposite angle is obtuse), and most boundary
+  /// edges lie along the curves, between two constrained vertices, where a
+  /// weight does not enter the solve: `negative_weights_solved` counts those
+  /// with a vertex that is solved for, the ones that could break the
+  /// maximum principle.
+  int negative_weights_before = 0, negative_weights_after = 0, negative_weights_solved = 0, flips = 0;
   std::vector<std::pair<std::string, double>> timings_ms;
   std::vector<std::string> notes;
 };

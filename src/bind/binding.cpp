@@ -6,6 +6,7 @@
 
 #include "bind/gradient.hpp"
 #include "core/dual_quaternion.hpp"
+#include "core/tolerances.hpp"
 #include "bind/laplacian.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
@@ -424,6 +425,10 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   rep.negative_weights_before = ls.negative_before;
   rep.negative_weights_after = ls.negative_after;
   rep.flips = ls.flips;
+  for (int c = 0; c < L.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, c); it; ++it)
+      if (it.row() < c && it.value() > 0.5 * Tolerances::cot_weight_zero && (!constrained[it.row()] || !constrained[c])) // L_ij = -w_ij
+        ++rep.negative_weights_solved;
   lap("laplacian");
 
   // Free vertices; those in parts that touch no constraint follow one joint rigidly.

@@ -1,5 +1,7 @@
 #include "bind/laplacian.hpp"
 
+#include "core/tolerances.hpp"
+
 #include "core/polygon.hpp"
 
 #include <algorithm>
@@ -88,7 +90,7 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
   LaplacianStats st;
   st.triangles = nt;
   for (int h = 0; h < 3 * nt; ++h)
-    if ((m.twin[h] < 0 || h < m.twin[h]) && edge_weight(h) < 0)
+    if ((m.twin[h] < 0 || h < m.twin[h]) && edge_weight(h) < -Tolerances::cot_weight_zero)
       ++st.negative_before;
   // Flip to intrinsic Delaunay.
   std::deque<int> queue;
@@ -104,7 +106,7 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
     queue.pop_front();
     queued[h0] = 0;
     const int t0 = m.twin[h0];
-    if (t0 < 0 || edge_weight(h0) >= -1e-12)
+    if (t0 < 0 || edge_weight(h0) >= -Tolerances::cot_weight_zero)
       continue;
     const int h1 = m.next[h0], h2 = m.next[h1], t1 = m.next[t0], t2 = m.next[t1];
     const int k = m.origin[h2], l = m.origin[t2]; // the corners opposite the edge i-j
@@ -159,7 +161,7 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
     if (m.twin[h] >= 0 && h > m.twin[h])
       continue;
     const double w = 0.5 * edge_weight(h);
-    if (w < 0)
+    if (w < -0.5 * Tolerances::cot_weight_zero) // a right angle's cotangent is zero to rounding, not negative
       ++st.negative_after;
     const int a = m.origin[h], b = m.origin[m.next[h]];
     entries[fill[a]++] = {b, -w};

@@ -42,6 +42,10 @@ struct Tolerances {
   /// No such matrix scales by more than this, or less than its inverse (a
   /// scale of 1e200 overflows the moment two are multiplied).
   static constexpr double max_matrix_scale = 1e9;
+  /// A cotangent weight (dimensionless) within this of zero is zero: a
+  /// right angle's cotangent is 1e-16, not negative; only a weight below
+  /// -this is flipped away or counted as negative.
+  static constexpr double cot_weight_zero = 1e-12;
   /// A rig's frame is a similarity when M^T M = s^2 I to this relative error.
   static constexpr double similarity_rel = 1e-6;
 
