@@ -427,6 +427,18 @@ TEST(Embed, TheSameEmbeddingAtEveryScale) {
     EXPECT_EQ(e.face_regions(), unit.face_regions());
     EXPECT_LE(e.report().fidelity_max, e.report().fidelity_tolerance);
   }
+  // At 1e150 (or 1e-150) three coordinates multiplied leave a double's
+  // range: refused as such, not as profiles that "meet" or "cross".
+  for (const double s : {1e-150, 1e150}) {
+    Mat4 m = Mat4::Identity();
+    m.topLeftCorner<3, 3>() *= s;
+    try {
+      (void)embed(test::tube(16, 12, 4, true, m), scaled(rig, s));
+      ADD_FAILURE() << "scale " << s << " was embedded";
+    } catch (const EmbedError& e) {
+      EXPECT_NE(std::string(e.what()).find("within 1e-100 to 1e100"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Embed, ARigFarOffTheMeshSaysByHowMuch) {

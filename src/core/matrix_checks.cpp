@@ -11,8 +11,15 @@ bool invertible(const Eigen::Matrix4d& m) {
     return false;
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.topLeftCorner<3, 3>());
   const auto& s = svd.singularValues();
-  return s(0) > 0 && s(2) > Tolerances::invertible_rel * s(0) && s(0) <= Tolerances::max_matrix_scale &&
-         s(2) >= 1 / Tolerances::max_matrix_scale;
+  return s(0) > 0 && s(2) > Tolerances::invertible_rel * s(0);
+}
+
+bool bounded_scale(const Eigen::Matrix4d& m) {
+  if (!invertible(m))
+    return false;
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.topLeftCorner<3, 3>());
+  const auto& s = svd.singularValues();
+  return s(0) <= Tolerances::max_matrix_scale && s(2) >= 1 / Tolerances::max_matrix_scale;
 }
 
 bool similarity(const Eigen::Matrix4d& m) {

@@ -8,9 +8,12 @@
 namespace curvenet::detail {
 
 /// Finite, and its 3x3 part invertible: its smallest singular value is
-/// more than Tolerances::invertible_rel of its largest, and it scales by
-/// no more than Tolerances::max_matrix_scale, nor less than its inverse.
+/// more than Tolerances::invertible_rel of its largest.
 bool invertible(const Eigen::Matrix4d& m);
+/// Invertible, and scaling by no more than Tolerances::max_matrix_scale nor
+/// less than its inverse: a joint's bind matrix (a rig's frame may scale
+/// by anything, as its mesh's units do).
+bool bounded_scale(const Eigen::Matrix4d& m);
 
 /// Invertible, and its 3x3 part a rotation (or reflection) times one
 /// uniform scale, to Tolerances::similarity_rel.

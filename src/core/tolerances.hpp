@@ -46,6 +46,10 @@ struct Tolerances {
   /// right angle's cotangent is 1e-16, not negative; only a weight below
   /// -this is flipped away or counted as negative.
   static constexpr double cot_weight_zero = 1e-12;
+  /// An embedding takes coordinates up to this, and sizes down to its
+  /// inverse: an orientation predicate multiplies three coordinates, and
+  /// 1e150 cubed is past a double.
+  static constexpr double max_coordinate = 1e100;
   /// A rig's frame is a similarity when M^T M = s^2 I to this relative error.
   static constexpr double similarity_rel = 1e-6;
 

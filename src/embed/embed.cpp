@@ -268,6 +268,21 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
       options.progress(stage, f);
   };
   Stopwatch clock(rep);
+  // The cut decides sides with exact predicates on products of three
+  // coordinates: they must stay within double range.
+  {
+    double largest = 0;
+    for (const Vec3& p : mesh.positions)
+      largest = std::max(largest, p.cwiseAbs().maxCoeff());
+    const double diagonal = mesh.bbox_diagonal();
+    if (largest > Tolerances::max_coordinate || (diagonal > 0 && diagonal < 1 / Tolerances::max_coordinate)) {
+      std::ostringstream msg;
+      msg << "embed: " << mesh.source << " spans " << std::setprecision(3) << diagonal << " and reaches "
+          << largest << ": the cut's exact predicates take coordinates and sizes within 1e-100 to 1e100 (scale "
+          << "the mesh, and the rig's frame with it)";
+      throw EmbedError(msg.str());
+    }
+  }
   const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
   const double h = mesh.mean_edge_length();
   // A rig that transfer placed on a control cage says so.

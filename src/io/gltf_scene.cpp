@@ -237,7 +237,7 @@ std::string matrix_fault(const Eigen::Matrix4d& m) {
     return "has a value that is not a finite number";
   if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
     return "is not affine (its last row is not 0 0 0 1)";
-  if (!detail::invertible(m))
+  if (!detail::bounded_scale(m))
     return "is singular, nearly so, or scales by more than 1e9 (it has no usable inverse)";
   return "";
 }

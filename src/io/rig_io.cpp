@@ -283,7 +283,7 @@ public:
         if (!joint_names.insert(j.name).second)
           fail(path + "/name", "duplicate joint name '" + j.name + "'");
         j.bind = matrix(require(joints[i], path, "bind"), path + "/bind");
-        if (!detail::invertible(j.bind))
+        if (!detail::bounded_scale(j.bind))
           fail(path + "/bind", "the bind matrix is singular, nearly so, or scales by more than 1e9");
         rig.joints.push_back(std::move(j));
       }
