@@ -13,6 +13,7 @@
 //   CURVENET_FUZZ_SECONDS (default 60 in all) bound the run;
 //   CURVENET_FUZZ_SEED picks another sequence of mutations.
 
+#include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
@@ -23,6 +24,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -166,7 +168,7 @@ TEST(Fuzz, ReadersReadOrRefuseEveryMutatedFile) {
          const SkinnedMesh s = load_skinned_mesh(p);
          for (int c = 0; c < s.num_clips(); ++c) {
            const auto [t0, t1] = s.clip_range(c);
-           s.joint_world(c, (t0 + t1) / 2);
+           (void)s.joint_world(c, (t0 + t1) / 2);
          }
        }},
       {"rig", seeds_of(".cnrig.json", {dir / "seed_net.cnrig.json"}), ".cnrig.json",
@@ -210,4 +212,193 @@ TEST(Fuzz, ReadersReadOrRefuseEveryMutatedFile) {
   }
   std::printf("fuzz: %ld mutated files read, %ld refused\n", runs, refused);
   EXPECT_GT(runs, 0);
+}
+
+// --- generators of the classes a structural fuzzer found --------------------
+//
+// Where byte mutations rarely reach a fault, these build it: JSON nested
+// deep, profiles of too many points or going out and back, skinned glTF
+// files with damaged matrices, joints, keys and versions, and meshes at
+// scales far from 1 with their rig scaled alike. Each input is read (and
+// embedded where it is a rig on a mesh); it must work or be refused with a
+// one-line curvenet::Error, never crash, hang or throw anything else.
+
+namespace {
+
+std::string base64(const std::string& bytes) {
+  static const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    const auto byte = [&](size_t k) { return k < bytes.size() ? static_cast<unsigned char>(bytes[k]) : 0u; };
+    const unsigned v = byte(i) << 16 | byte(i + 1) << 8 | byte(i + 2);
+    out += digits[v >> 18 & 63];
+    out += digits[v >> 12 & 63];
+    out += i + 1 < bytes.size() ? digits[v >> 6 & 63] : '=';
+    out += i + 2 < bytes.size() ? digits[v & 63] : '=';
+  }
+  return out;
+}
+
+template <class T> void append(std::string& out, const std::vector<T>& values) {
+  out.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+  out.resize((out.size() + 3) / 4 * 4, '\0');
+}
+
+/// A triangle skinned to one joint with a one-key rotation clip, from parts
+/// a generator chose.
+std::string skinned_triangle(const std::string& version, const std::vector<float>& inverse_bind,
+                             const std::vector<unsigned char>& joints, const std::vector<float>& key,
+                             const std::string& node_matrix) {
+  std::string data;
+  std::vector<size_t> offsets;
+  auto part = [&](auto values) {
+    offsets.push_back(data.size());
+    append(data, values);
+  };
+  part(std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+  part(std::vector<unsigned short>{0, 1, 2});
+  part(joints);
+  part(std::vector<float>{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0});
+  part(inverse_bind);
+  part(std::vector<float>{0});
+  part(key);
+  offsets.push_back(data.size());
+  std::string views;
+  for (size_t k = 0; k + 1 < offsets.size(); ++k)
+    views += (k ? "," : "") + std::string(R"({"buffer":0,"byteOffset":)") + std::to_string(offsets[k]) +
+             R"(,"byteLength":)" + std::to_string(offsets[k + 1] - offsets[k]) + "}";
+  return R"({"asset":{"version":")" + version + R"("},"scene":0,"scenes":[{"nodes":[0,1]}],)" +
+         R"("nodes":[{"mesh":0,"skin":0},{"name":"bone")" + node_matrix + R"(}],)" +
+         R"("skins":[{"joints":[1],"inverseBindMatrices":4}],)" +
+         R"("meshes":[{"primitives":[{"attributes":{"POSITION":0,"JOINTS_0":2,"WEIGHTS_0":3},"indices":1}]}],)" +
+         R"("buffers":[{"byteLength":)" + std::to_string(data.size()) +
+         R"(,"uri":"data:application/octet-stream;base64,)" + base64(data) + R"("}],"bufferViews":[)" + views +
+         R"(],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},)" +
+         R"({"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"},)" +
+         R"({"bufferView":2,"componentType":5121,"count":3,"type":"VEC4"},)" +
+         R"({"bufferView":3,"componentType":5126,"count":3,"type":"VEC4"},)" +
+         R"({"bufferView":4,"componentType":5126,"count":1,"type":"MAT4"},)" +
+         R"({"bufferView":5,"componentType":5126,"count":1,"type":"SCALAR","min":[0],"max":[0]},)" +
+         R"({"bufferView":6,"componentType":5126,"count":1,"type":"VEC4"}],)" +
+         R"("animations":[{"name":"turn","samplers":[{"input":5,"output":6,"interpolation":"LINEAR"}],)" +
+         R"("channels":[{"sampler":0,"target":{"node":1,"path":"rotation"}}]}]})";
+}
+
+/// Reads `text` as a file of `extension` with `read`: read, or refused in one line.
+void expect_read_or_refused(const fs::path& dir, const std::string& text, const std::string& extension,
+                            const std::function<void(const std::string&)>& read, const std::string& what, int& refused) {
+  const std::string path = (dir / ("generated" + extension)).string();
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << text;
+  }
+  try {
+    read(path);
+  } catch (const Error& e) {
+    ++refused;
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << what << ": " << e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << what << ": not a curvenet error: " << e.what();
+  }
+}
+
+} // namespace
+
+TEST(Fuzz, GeneratedFaultsOfEveryClassAreReadOrRefusedInOneLine) {
+  const auto dir = test::temp_dir("fuzz_generated");
+  std::mt19937_64 rng(static_cast<std::uint64_t>(env_or("CURVENET_FUZZ_SEED", 20261202)));
+  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  int cases = 0, refused = 0;
+  const auto read_gltf = [](const std::string& p) {
+    load_mesh(p);
+    const SkinnedMesh s = load_skinned_mesh(p);
+    for (int c = 0; c < s.num_clips(); ++c)
+      (void)s.joint_world(c, 0);
+  };
+  // JSON nested from just under the bound to far past it, in each reader.
+  for (const int depth : {8, 60, 65, 1000, 200000}) {
+    const std::string nest = std::string(depth, '[') + std::string(depth, ']');
+    expect_read_or_refused(dir, R"({"format":"curvenet-rig","version":1,"nodes":)" + nest + "}", ".cnrig.json",
+                           [](const std::string& p) { read_rig(p); }, "rig nested " + std::to_string(depth), refused);
+    expect_read_or_refused(dir, R"({"format":"curvenet-pose","version":1,"joints":)" + nest + "}", ".pose.json",
+                           [](const std::string& p) { read_pose(p); }, "pose nested " + std::to_string(depth), refused);
+    expect_read_or_refused(dir, R"({"asset":{"version":"2.0"},"extras":)" + nest + "}", ".gltf", read_gltf,
+                           "glTF nested " + std::to_string(depth), refused);
+    cases += 3;
+  }
+  // Skinned triangles with a damaged part each, chosen at random.
+  const std::vector<std::string> versions{"2.0", "2.1", "1.0", "", "3.0", "two"};
+  for (int k = 0; k < 200; ++k) {
+    std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    std::vector<unsigned char> joints(12, 0);
+    std::vector<float> key{0, 0, 0, 1};
+    std::string matrix;
+    switch (rng() % 5) {
+    case 0: // a matrix entry anywhere, the last row included
+      ibm[rng() % 16] = static_cast<float>(std::pow(10.0, uniform(-40, 38)) * (rng() % 2 ? 1 : -1)) * (rng() % 3 ? 1.0f : 0.0f);
+      break;
+    case 1: // a joint index past the skin
+      joints[rng() % 12] = static_cast<unsigned char>(rng() % 256);
+      break;
+    case 2: // a rotation key, maybe zero, maybe huge
+      for (float& q : key)
+        q = rng() % 3 ? static_cast<float>(uniform(-1, 1)) : 0.0f;
+      break;
+    case 3: { // a node matrix, maybe projective or singular
+      std::vector<double> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+      m[rng() % 16] = rng() % 2 ? 0.0 : uniform(-3, 3);
+      matrix = R"(,"matrix":[)";
+      for (int i = 0; i < 16; ++i)
+        matrix += (i ? "," : "") + std::to_string(m[i]);
+      matrix += "]";
+      break;
+    }
+    default:
+      break;
+    }
+    expect_read_or_refused(dir, skinned_triangle(versions[rng() % versions.size()], ibm, joints, key, matrix), ".gltf",
+                           read_gltf, "skinned triangle " + std::to_string(k), refused);
+    ++cases;
+  }
+  // Profiles: too many points, or a loop out and back along itself.
+  for (const size_t n : {size_t{99999}, size_t{100001}, size_t{1000000}}) {
+    std::string points;
+    for (size_t i = 0; i < n; ++i)
+      points += (i ? ",[" : "[") + std::to_string(static_cast<double>(i) / static_cast<double>(n)) + ",0.5,0]";
+    expect_read_or_refused(dir,
+                           R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],"profiles":[{"id":"p","from":"a","to":"b","points":[)" +
+                               points + "]}]}",
+                           ".cnrig.json", [](const std::string& p) { read_rig(p); }, std::to_string(n) + " points",
+                           refused);
+    ++cases;
+  }
+  for (int k = 0; k < 20; ++k) {
+    const double x = uniform(0.1, 1), y = uniform(0, 1);
+    const std::string out_and_back = "[[0,0,0],[" + std::to_string(x) + "," + std::to_string(y) + ",0],[0,0,0]]";
+    expect_read_or_refused(dir,
+                           R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"a","points":)" +
+                               out_and_back + "}]}",
+                           ".cnrig.json", [](const std::string& p) { read_rig(p); }, "out and back", refused);
+    ++cases;
+  }
+  // A tube and its net scaled alike by 10^k, k from -200 to 200: the same
+  // embedding, or refused as out of range in one line.
+  for (int k = 0; k < 24; ++k) {
+    const double s = std::pow(10.0, std::round(uniform(-200, 200)));
+    Mat4 m = Mat4::Identity();
+    m.topLeftCorner<3, 3>() *= s;
+    Rig rig = make_tube_net();
+    rig.frame = m;
+    try {
+      const Embedding e = embed(test::tube(16, 12, 4, true, m), rig);
+      EXPECT_TRUE(e.report().ok) << "scale " << s;
+      EXPECT_EQ(e.report().regions, 16) << "scale " << s;
+    } catch (const Error& e) {
+      ++refused;
+      EXPECT_NE(std::string(e.what()).find("within 1e-40 to 1e40"), std::string::npos) << "scale " << s << ": " << e.what();
+    }
+    ++cases;
+  }
+  std::printf("generated: %d cases, %d refused\n", cases, refused);
+  EXPECT_GT(refused, 0);
 }

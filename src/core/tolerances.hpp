@@ -48,8 +48,10 @@ struct Tolerances {
   static constexpr double cot_weight_zero = 1e-12;
   /// An embedding takes coordinates up to this, and sizes down to its
   /// inverse: an orientation predicate multiplies three coordinates, and
-  /// 1e150 cubed is past a double.
-  static constexpr double max_coordinate = 1e100;
+  /// squared tolerances multiply further (1e150 cubed is past a double, and
+  /// a mesh 1e-86 across lost its cut to underflow). Generated scales from
+  /// 1e-200 to 1e200 check the range (fuzz_test).
+  static constexpr double max_coordinate = 1e40;
   /// A rig's frame is a similarity when M^T M = s^2 I to this relative error.
   static constexpr double similarity_rel = 1e-6;
 

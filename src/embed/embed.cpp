@@ -272,13 +272,16 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
   // coordinates: they must stay within double range.
   {
     double largest = 0;
-    for (const Vec3& p : mesh.positions)
+    Eigen::AlignedBox3d box;
+    for (const Vec3& p : mesh.positions) {
       largest = std::max(largest, p.cwiseAbs().maxCoeff());
-    const double diagonal = mesh.bbox_diagonal();
+      box.extend(p);
+    }
+    const double diagonal = mesh.positions.empty() ? 0 : box.diagonal().stableNorm(); // no underflow at 1e-200
     if (largest > Tolerances::max_coordinate || (diagonal > 0 && diagonal < 1 / Tolerances::max_coordinate)) {
       std::ostringstream msg;
       msg << "embed: " << mesh.source << " spans " << std::setprecision(3) << diagonal << " and reaches "
-          << largest << ": the cut's exact predicates take coordinates and sizes within 1e-100 to 1e100 (scale "
+          << largest << ": an embedding takes coordinates and sizes within 1e-40 to 1e40 (scale "
           << "the mesh, and the rig's frame with it)";
       throw EmbedError(msg.str());
     }
