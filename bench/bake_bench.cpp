@@ -109,9 +109,10 @@ void fidelity() {
   const SkinnedMesh clips = load_skinned_mesh(d + "hand_l_poses.glb");
   const double diag = mesh.bbox_diagonal();
   const RawMesh raw = read_raw_mesh(mesh_file);
-  std::printf("Fidelity of the bake: hand_l.gltf (%d faces), %d clips (each clip's last key), distances per vertex as %% "
-              "of the diagonal; mean is the mean over clips of the mean over vertices, max the largest\n\n",
-              mesh.num_faces(), clips.num_clips());
+  std::printf(
+      "Fidelity of the bake: hand_l.gltf (%d faces), %d clips (each clip's last key), distances per vertex as %% "
+      "of the diagonal; mean is the mean over clips of the mean over vertices, max the largest\n\n",
+      mesh.num_faces(), clips.num_clips());
   struct RigCase {
     const char* name;
     Rig rig;
@@ -131,8 +132,9 @@ void fidelity() {
     const SkinWeights fit_all = fit_weights(b, poses, 4), fit_even = fit_weights(b, even, 4);
     std::printf("%s (%zu nodes, %zu profiles): harmonic influences per vertex %.2f\n", rc.name, rc.rig.nodes.size(),
                 rc.rig.profiles.size(), b.report().mean_influences);
-    std::printf("| skin | joints per vertex (mean / max) | vs full curvenet: mean | max | vs artist skin: mean | max |\n"
-                "|---|---|---|---|---|---|\n");
+    std::printf(
+        "| skin | joints per vertex (mean / max) | vs full curvenet: mean | max | vs artist skin: mean | max |\n"
+        "|---|---|---|---|---|---|\n");
     auto row = [&](const char* label, auto&& positions, double infl, int most, const std::vector<int>* only) {
       Stat full, artist;
       for (int c = 0; c < clips.num_clips(); ++c) {
@@ -159,25 +161,33 @@ void fidelity() {
         hmax = std::max(hmax, static_cast<int>(sv.size()));
       }
     }
-    row("full curvenet deformation", [&](int c) {
-      std::vector<Vec3> cn(rest.size());
-      b.deform(poses[c], cn);
-      return cn;
-    }, b.report().mean_influences, hmax, nullptr);
-    row("LBS, all harmonic weights", [&](int c) { return lbs_all(b, rest, poses[c]); }, b.report().mean_influences,
+    row(
+        "full curvenet deformation",
+        [&](int c) {
+          std::vector<Vec3> cn(rest.size());
+          b.deform(poses[c], cn);
+          return cn;
+        },
+        b.report().mean_influences, hmax, nullptr);
+    row(
+        "LBS, all harmonic weights", [&](int c) { return lbs_all(b, rest, poses[c]); }, b.report().mean_influences,
         hmax, nullptr);
     double i8 = influences(w8, &most);
-    row("LBS, baked k = 8", [&](int c) { return skin_positions(w8, rest, poses[c]); }, i8, most, nullptr);
+    row(
+        "LBS, baked k = 8", [&](int c) { return skin_positions(w8, rest, poses[c]); }, i8, most, nullptr);
     double i4 = influences(w4, &most);
-    row("LBS, baked k = 4", [&](int c) { return skin_positions(w4, rest, poses[c]); }, i4, most, nullptr);
+    row(
+        "LBS, baked k = 4", [&](int c) { return skin_positions(w4, rest, poses[c]); }, i4, most, nullptr);
     double ia = influences(fit_all, &most);
-    row("LBS, fitted k = 4, on all clips (in sample)", [&](int c) { return skin_positions(fit_all, rest, poses[c]); },
+    row(
+        "LBS, fitted k = 4, on all clips (in sample)", [&](int c) { return skin_positions(fit_all, rest, poses[c]); },
         ia, most, nullptr);
     double ie = influences(fit_even, &most);
-    row("LBS, fitted k = 4 on the even clips, on the odd ones", [&](int c) {
-      return skin_positions(fit_even, rest, poses[c]);
-    }, ie, most, &odd_index);
-    row("LBS, baked k = 4, on the odd clips", [&](int c) { return skin_positions(w4, rest, poses[c]); }, i4, most,
+    row(
+        "LBS, fitted k = 4 on the even clips, on the odd ones",
+        [&](int c) { return skin_positions(fit_even, rest, poses[c]); }, ie, most, &odd_index);
+    row(
+        "LBS, baked k = 4, on the odd clips", [&](int c) { return skin_positions(w4, rest, poses[c]); }, i4, most,
         &odd_index);
     {
       // The artist skin itself, against the full deformation.
@@ -185,9 +195,10 @@ void fidelity() {
       for (int c = 0; c < clips.num_clips(); ++c) {
         std::vector<Vec3> cn(rest.size());
         b.deform(poses[c], cn);
-        full.add(vertex_gap(skin_positions(file_skin, raw.positions,
-                                           clip_skinning_matrices(file_skin.joints, clips, c, clips.clip_range(c).second)),
-                            cn));
+        full.add(
+            vertex_gap(skin_positions(file_skin, raw.positions,
+                                      clip_skinning_matrices(file_skin.joints, clips, c, clips.clip_range(c).second)),
+                       cn));
       }
       std::printf("| the file's artist skin | %.2f / 4 | %.3f%% | %.3f%% | 0 | 0 |\n\n", 4.0,
                   100 * full.mean_of() / diag, 100 * full.max / diag);
@@ -418,9 +429,10 @@ void transfer_table() {
               "diagonal and 30 degrees, the rest inpainted, top 4). Each target posed by the family's poses and "
               "compared with the posed source: surface distance as %% of the source's diagonal, mean over poses of "
               "the mean, and the largest max.\n\n");
-  std::printf("| family | target | faces | rest mean | curvenet mean | refined x2 mean | RSWT mean | rest max | curvenet max "
-              "| refined x2 max | RSWT max | onto, curvenet max | refined x2 | RSWT | curvenet corr. | RSWT corr. | "
-              "RSWT matched |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| family | target | faces | rest mean | curvenet mean | refined x2 mean | RSWT mean | rest max | curvenet max "
+      "| refined x2 max | RSWT max | onto, curvenet max | refined x2 | RSWT | curvenet corr. | RSWT corr. | "
+      "RSWT matched |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   struct Fam {
     std::string name;
     check::Family f;
@@ -495,8 +507,8 @@ void transfer_table() {
         std::snprintf(text, sizeof text, "%.3f%%", rest.percent(x));
         return std::string(text);
       };
-      std::string cn_mean = "refused", cn_max = "refused", cn_corr = "refused", rf_mean = "refused",
-                  rf_max = "refused", cn_onto = "refused", rf_onto = "refused";
+      std::string cn_mean = "refused", cn_max = "refused", cn_corr = "refused", rf_mean = "refused", rf_max = "refused",
+                  cn_onto = "refused", rf_onto = "refused";
       try {
         const TransferResult tr = transfer(rig, source, target);
         if (tr.report.ok) {

@@ -257,7 +257,7 @@ void quality() {
                            "gradient, not cut-aware",
                            "gradient with curve frames"};
     for (const int variant : {0, 1, 2, 3, 4, 5, 6}) {
-      BindOptions o = with(variant == 0 ? DeformMethod::DualQuaternion
+      BindOptions o = with(variant == 0   ? DeformMethod::DualQuaternion
                            : variant == 1 ? DeformMethod::Harmonic
                                           : DeformMethod::Gradient);
       o.sections = variant != 3 && variant != 4;
@@ -280,7 +280,7 @@ void families() {
               "|---|---|---|---|---|---|---|\n");
   for (const char* fam : {"hand", "spot", "penguin"}) {
     for (const int variant : {3, 0, 1, 2}) {
-      BindOptions o = with(variant == 3 ? DeformMethod::DualQuaternion
+      BindOptions o = with(variant == 3   ? DeformMethod::DualQuaternion
                            : variant == 0 ? DeformMethod::Harmonic
                                           : DeformMethod::Gradient);
       o.curve_frames = variant == 2;
@@ -298,8 +298,7 @@ void families() {
                   : variant == 0 ? "harmonic"
                   : variant == 1 ? "gradient"
                                  : "gradient with curve frames",
-                  rows.size(),
-                  rows.empty() ? 0.0 : sum / rows.size(), worst_mean, worst_max, pass);
+                  rows.size(), rows.empty() ? 0.0 : sum / rows.size(), worst_mean, worst_max, pass);
     }
   }
 }

@@ -3,7 +3,8 @@
 // same skeleton and poses (docs/deform.md, "Against the skins"):
 //
 //   build/bin/deform_quality [CASE...]        the table; cases by name prefix (cylinder, hand, cesium, horse, ...)
-//   build/bin/deform_quality --ply DIR CASE   also writes rest and each deformation of a case's last frame as PLY (checker colours)
+//   build/bin/deform_quality --ply DIR CASE   also writes rest and each deformation of a case's last frame as PLY
+//   (checker colours)
 //
 // LBS and DQS use the character's own skin weights where it has a skin, and
 // `curvenet bake`'s weights of the same rig on the generated cylinder. Each
@@ -45,8 +46,8 @@ struct Case {
   std::vector<Joint> skin_joints;
   SkinWeights skin;
   /// Per frame: the skin joints' matrices (the rig's come by name).
-  std::vector<Pose> poses;                  ///< poses, or
-  const SkinnedMesh* clips = nullptr;       ///< clip frames
+  std::vector<Pose> poses;            ///< poses, or
+  const SkinnedMesh* clips = nullptr; ///< clip frames
   std::vector<std::pair<int, double>> clip_times;
   QualityOptions quality;
   std::vector<int> dominant; ///< per welded vertex, a skin joint
@@ -93,8 +94,9 @@ std::vector<int> dominant_of(const SurfaceMesh& mesh, const SkinWeights& w) {
 }
 
 std::vector<Mat4> frame_matrices(const Case& c, const std::vector<Joint>& joints, size_t f) {
-  std::vector<Mat4> m = c.clips ? clip_skinning_matrices(joints, *c.clips, c.clip_times[f].first, c.clip_times[f].second)
-                                : skinning_matrices(joints, c.poses[f]);
+  std::vector<Mat4> m = c.clips
+                            ? clip_skinning_matrices(joints, *c.clips, c.clip_times[f].first, c.clip_times[f].second)
+                            : skinning_matrices(joints, c.poses[f]);
   for (auto& x : m)
     x = c.normalise * x;
   return m;
@@ -148,8 +150,8 @@ Case cylinder(const std::string& name, double degrees, bool twist) {
   c.skin_joints = joints;
   c.skin = bake_weights(bind(c.mesh, c.rig), 4); // `curvenet bake`'s weights of the same rig
   Pose p;
-  p["j1"].rotation = Eigen::Quaterniond(
-      Eigen::AngleAxisd(degrees * std::numbers::pi / 180, twist ? Vec3::UnitY() : Vec3::UnitZ()));
+  p["j1"].rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(degrees * std::numbers::pi / 180, twist ? Vec3::UnitY() : Vec3::UnitZ()));
   c.poses.push_back(p);
   c.quality.limbs = {{0, 1, 2}};
   return c;
@@ -283,9 +285,18 @@ std::vector<std::pair<std::string, std::function<Case()>>> all_cases() {
       {"hand twist", [] { return hand_twist(); }},
       {"hand flex", [] { return hand_flex(); }},
       {"cesium man walk", [] { return skinned("cesium man walk", kData + "/cesium_man/CesiumMan.glb", {"0"}, 8); }},
-      {"horse", [] { return skinned("horse walk and gallop", kData + "/quaternius/Horse.glb", {"Walk", "Gallop"}, 6); }},
-      {"wolf", [] { return skinned("wolf walk and gallop", kData + "/quaternius/Wolf.glb", {"Walk", "Gallop"}, 6); }},
-      {"trex", [] { return skinned("trex walk and run", kData + "/quaternius/Trex.glb", {"Walk", "Run"}, 6); }},
+      {"horse",
+       [] {
+         return skinned("horse walk and gallop", kData + "/quaternius/Horse.glb", {"Walk", "Gallop"}, 6);
+       }},
+      {"wolf",
+       [] {
+         return skinned("wolf walk and gallop", kData + "/quaternius/Wolf.glb", {"Walk", "Gallop"}, 6);
+       }},
+      {"trex",
+       [] {
+         return skinned("trex walk and run", kData + "/quaternius/Trex.glb", {"Walk", "Run"}, 6);
+       }},
       {"apatosaurus", [] { return skinned("apatosaurus walk", kData + "/quaternius/Apatosaurus.glb", {"Walk"}, 6); }},
   };
 }
@@ -296,9 +307,10 @@ void write_ply(const std::string& path, const SurfaceMesh& mesh, const std::vect
   FILE* f = std::fopen(path.c_str(), "w");
   if (!f)
     throw Error("cannot write " + path);
-  std::fprintf(f, "ply\nformat ascii 1.0\nelement vertex %zu\nproperty float x\nproperty float y\nproperty float z\n"
-                  "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face %d\n"
-                  "property list uchar int vertex_indices\nend_header\n",
+  std::fprintf(f,
+               "ply\nformat ascii 1.0\nelement vertex %zu\nproperty float x\nproperty float y\nproperty float z\n"
+               "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face %d\n"
+               "property list uchar int vertex_indices\nend_header\n",
                welded.size(), mesh.num_faces());
   const double cell = mesh.bbox_diagonal() / 24;
   for (size_t v = 0; v < welded.size(); ++v) {

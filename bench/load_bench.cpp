@@ -9,8 +9,8 @@
 //   build/bin/load_bench [CURVENET_CLI]
 
 #include "curvenet/io.hpp"
-#include "curvenet/starter.hpp"
 #include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
 #include "curvenet/subdivide.hpp"
 #include "generate/tube.hpp"
 

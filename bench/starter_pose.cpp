@@ -43,7 +43,7 @@ const std::string kOwnData = CURVENET_OWN_DATA_DIR; // tests/data: meshes made h
 
 struct Character {
   std::string mesh, clips;
-  int samples_per_clip = 1; ///< 1: each clip's last key; more: evenly over the clip
+  int samples_per_clip = 1;      ///< 1: each clip's last key; more: evenly over the clip
   std::vector<std::string> only; ///< clip names to pose by (by their last part after '|' or '_'); empty for all
 };
 
@@ -136,7 +136,8 @@ Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const s
       const auto wo = c.mesh.welded(ours), wt = c.mesh.welded(theirs);
       // Volume changes in points of the rest volume; the goal: ours no
       // worse than the skin's plus 3 points.
-      const double vo = 100 * (c.mesh.enclosed_volume(wo) / c.v0 - 1), vt = 100 * (c.mesh.enclosed_volume(wt) / c.v0 - 1);
+      const double vo = 100 * (c.mesh.enclosed_volume(wo) / c.v0 - 1),
+                   vt = 100 * (c.mesh.enclosed_volume(wt) / c.v0 - 1);
       if (std::abs(vo - vt) > std::abs(sc.worst_volume))
         sc.worst_volume = vo - vt;
       sc.volume_ok += std::abs(vo) <= std::abs(vt) + 3;
@@ -157,7 +158,9 @@ Scores pose_all(const Loaded& c, const Binding& b, int samples_per_clip, const s
   return sc;
 }
 
-std::string name_of(const std::string& path) { return path.substr(path.find_last_of('/') + 1); }
+std::string name_of(const std::string& path) {
+  return path.substr(path.find_last_of('/') + 1);
+}
 
 void measure(const Character& ch) {
   const Loaded c(ch);
@@ -193,8 +196,8 @@ void measure(const Character& ch) {
     BindOptions o;
     o.method = method;
     const Scores sc = pose_all(c, bind(c.mesh, st.rig, o), ch.samples_per_clip, ch.only);
-    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d / %d | %d, %d, %d, %d of %d |\n", to_string(method), sc.mean,
-                sc.max, sc.worst_volume, sc.most_turned, sc.folds, sc.skin_folds, sc.volume_ok, sc.turned_ok,
+    std::printf("  | %s | %.3f%% | %.3f%% | %+.2f | %d | %d / %d | %d, %d, %d, %d of %d |\n", to_string(method),
+                sc.mean, sc.max, sc.worst_volume, sc.most_turned, sc.folds, sc.skin_folds, sc.volume_ok, sc.turned_ok,
                 sc.mean_ok, sc.folds_ok, sc.poses);
   }
   std::printf("\n");
@@ -249,7 +252,8 @@ int main(int argc, char** argv) {
              {kData + "/cesium_man/CesiumMan.glb", kData + "/cesium_man/CesiumMan.glb", 6},
              {kData + "/rigged_simple/RiggedSimple.glb", kData + "/rigged_simple/RiggedSimple.glb", 6}};
     for (const char* a : {"Horse", "Wolf", "Trex", "Apatosaurus"})
-      for (const std::string& path : {kData + "/quaternius/" + a + ".glb", kOwnData + "/quaternius/" + a + "_decimated.glb"})
+      for (const std::string& path :
+           {kData + "/quaternius/" + a + ".glb", kOwnData + "/quaternius/" + a + "_decimated.glb"})
         chars.push_back({path, path, 6, {"Walk", "Gallop", "TRex_Walk", "Apatosaurus_Walk"}});
   }
   for (const auto& c : chars) {

@@ -125,8 +125,12 @@ const Rig& checked(const Rig& rig) {
   return rig;
 }
 
-py::object json_module() { return py::module_::import("json"); }
-py::object from_json(const std::string& text) { return json_module().attr("loads")(text); }
+py::object json_module() {
+  return py::module_::import("json");
+}
+py::object from_json(const std::string& text) {
+  return json_module().attr("loads")(text);
+}
 
 /// A mesh from numpy arrays: V (n, 3), F an (m, k) int array or a list of polygons.
 SurfaceMesh mesh_from_arrays(const py::object& V, const py::object& F, const std::string& source) {
@@ -298,13 +302,14 @@ Pose pose_from(const py::object& obj) {
     py::object dumps = json_module().attr("dumps");
     py::object text;
     try {
-      text = dumps(file, py::arg("allow_nan") = false, py::arg("default") = py::cpp_function([np](py::object o) -> py::object {
-      if (py::isinstance(o, np.attr("ndarray")))
-        return o.attr("tolist")();
-      if (py::isinstance(o, np.attr("generic")))
-        return o.attr("item")();
-      throw py::type_error("not a JSON value");
-    }));
+      text = dumps(file, py::arg("allow_nan") = false,
+                   py::arg("default") = py::cpp_function([np](py::object o) -> py::object {
+                     if (py::isinstance(o, np.attr("ndarray")))
+                       return o.attr("tolist")();
+                     if (py::isinstance(o, np.attr("generic")))
+                       return o.attr("item")();
+                     throw py::type_error("not a JSON value");
+                   }));
     } catch (const py::error_already_set& e) {
       if (!e.matches(PyExc_ValueError))
         throw;
@@ -318,7 +323,8 @@ Pose pose_from(const py::object& obj) {
 void check_finite_output(const std::vector<Vec3>::const_iterator begin, size_t n, size_t frame, bool frames) {
   for (size_t i = 0; i < n; ++i)
     if (!begin[static_cast<std::ptrdiff_t>(i)].allFinite())
-      throw InputError("skinning", (frames ? "frame " + std::to_string(frame) + " " : "") + "vertex " + std::to_string(i),
+      throw InputError("skinning",
+                       (frames ? "frame " + std::to_string(frame) + " " : "") + "vertex " + std::to_string(i),
                        "the pose moves it out of range (not a finite number)");
 }
 
@@ -422,22 +428,23 @@ PYBIND11_MODULE(_curvenet, m) {
 
   // The rig.
   py::class_<Curve> curve(m, "Curve", "The shape of a profile: a polyline, Bezier or NURBS");
-  curve.def(py::init([](const py::object& points, const std::string& kind, int degree, std::vector<double> knots,
-                        std::vector<double> weights) {
-              Curve c;
-              c.kind = kind == "polyline" ? Curve::Kind::Polyline
-                       : kind == "bezier" ? Curve::Kind::Bezier
-                       : kind == "nurbs"  ? Curve::Kind::Nurbs
-                                          : throw py::value_error("kind: expected 'polyline', 'bezier' or 'nurbs'");
-              if (!points.is_none())
-                c.points = points_from(points, "points");
-              c.degree = degree;
-              c.knots = std::move(knots);
-              c.weights = std::move(weights);
-              return c;
-            }),
-            py::arg("points") = py::none(), py::arg("kind") = "polyline", py::arg("degree") = 3,
-            py::arg("knots") = std::vector<double>{}, py::arg("weights") = std::vector<double>{})
+  curve
+      .def(py::init([](const py::object& points, const std::string& kind, int degree, std::vector<double> knots,
+                       std::vector<double> weights) {
+             Curve c;
+             c.kind = kind == "polyline" ? Curve::Kind::Polyline
+                      : kind == "bezier" ? Curve::Kind::Bezier
+                      : kind == "nurbs"  ? Curve::Kind::Nurbs
+                                         : throw py::value_error("kind: expected 'polyline', 'bezier' or 'nurbs'");
+             if (!points.is_none())
+               c.points = points_from(points, "points");
+             c.degree = degree;
+             c.knots = std::move(knots);
+             c.weights = std::move(weights);
+             return c;
+           }),
+           py::arg("points") = py::none(), py::arg("kind") = "polyline", py::arg("degree") = 3,
+           py::arg("knots") = std::vector<double>{}, py::arg("weights") = std::vector<double>{})
       .def_property(
           "kind",
           [](const Curve& c) {
@@ -461,10 +468,15 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_readwrite("weights", &Curve::weights);
 
   py::class_<Node>(m, "Node")
-      .def(py::init([](std::string id, const Vec3& p) { return Node{std::move(id), p}; }), py::arg("id"),
-           py::arg("position"))
+      .def(py::init([](std::string id, const Vec3& p) {
+             return Node{std::move(id), p};
+           }),
+           py::arg("id"), py::arg("position"))
       .def_readwrite("id", &Node::id)
-      .def_property("position", py::cpp_function([](Node& x) -> Vec3& { return x.position; }, py::return_value_policy::reference_internal), [](Node& x, const Vec3& v) { x.position = v; })
+      .def_property(
+          "position",
+          py::cpp_function([](Node& x) -> Vec3& { return x.position; }, py::return_value_policy::reference_internal),
+          [](Node& x, const Vec3& v) { x.position = v; })
       .def("__repr__", [](const Node& n) { return "<curvenet.Node '" + n.id + "'>"; });
   py::class_<Profile>(m, "Profile")
       .def(py::init([](std::string id, std::string from, std::string to, const Curve& c) {
@@ -484,7 +496,10 @@ PYBIND11_MODULE(_curvenet, m) {
            py::arg("name"), py::arg("parent") = py::none(), py::arg("bind") = Mat4(Mat4::Identity()))
       .def_readwrite("name", &Joint::name)
       .def_readwrite("parent", &Joint::parent)
-      .def_property("bind", py::cpp_function([](Joint& x) -> Mat4& { return x.bind; }, py::return_value_policy::reference_internal), [](Joint& x, const Mat4& v) { x.bind = v; })
+      .def_property(
+          "bind",
+          py::cpp_function([](Joint& x) -> Mat4& { return x.bind; }, py::return_value_policy::reference_internal),
+          [](Joint& x, const Mat4& v) { x.bind = v; })
       .def("__repr__", [](const Joint& j) { return "<curvenet.Joint '" + j.name + "'>"; });
 
   py::bind_vector<std::vector<Node>>(m, "NodeList");
@@ -493,22 +508,20 @@ PYBIND11_MODULE(_curvenet, m) {
   py::implicitly_convertible<py::list, std::vector<Node>>();
   py::implicitly_convertible<py::list, std::vector<Profile>>();
   py::implicitly_convertible<py::list, std::vector<Joint>>();
-  py::bind_map<JointWeights>(m, "JointWeights")
-      .def(py::init([](const py::dict& d) {
-        JointWeights w;
-        for (auto [k, v] : d)
-          w[k.cast<std::string>()] = v.cast<double>();
-        return w;
-      }));
+  py::bind_map<JointWeights>(m, "JointWeights").def(py::init([](const py::dict& d) {
+    JointWeights w;
+    for (auto [k, v] : d)
+      w[k.cast<std::string>()] = v.cast<double>();
+    return w;
+  }));
   py::implicitly_convertible<py::dict, JointWeights>();
-  py::bind_map<NodeWeights>(m, "NodeWeights")
-      .def(py::init([](const py::dict& d) {
-        NodeWeights w;
-        for (auto [k, v] : d)
-          for (auto [j, x] : v.cast<py::dict>())
-            w[k.cast<std::string>()][j.cast<std::string>()] = x.cast<double>();
-        return w;
-      }));
+  py::bind_map<NodeWeights>(m, "NodeWeights").def(py::init([](const py::dict& d) {
+    NodeWeights w;
+    for (auto [k, v] : d)
+      for (auto [j, x] : v.cast<py::dict>())
+        w[k.cast<std::string>()][j.cast<std::string>()] = x.cast<double>();
+    return w;
+  }));
   py::implicitly_convertible<py::dict, NodeWeights>();
 
   py::class_<Rig>(m, "Rig", "The logical Curvenet: nodes, profiles, skeleton and node weights")
@@ -516,7 +529,10 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property(
           "coverage", [](const Rig& r) { return std::string(to_string(r.coverage)); },
           [](Rig& r, const std::string& s) { r.coverage = coverage_from(s); })
-      .def_property("frame", py::cpp_function([](Rig& x) -> Mat4& { return x.frame; }, py::return_value_policy::reference_internal), [](Rig& x, const Mat4& v) { x.frame = v; })
+      .def_property(
+          "frame",
+          py::cpp_function([](Rig& x) -> Mat4& { return x.frame; }, py::return_value_policy::reference_internal),
+          [](Rig& x, const Mat4& v) { x.frame = v; })
       .def_readwrite("nodes", &Rig::nodes)
       .def_readwrite("profiles", &Rig::profiles)
       .def_readwrite("joints", &Rig::joints)
@@ -525,7 +541,8 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_readwrite("extensions", &Rig::extensions)
       .def("node_index", &Rig::node_index, py::arg("id"))
       .def(
-          "node", [](Rig& r, const std::string& id) -> Node& {
+          "node",
+          [](Rig& r, const std::string& id) -> Node& {
             const int i = r.node_index(id);
             if (i < 0)
               throw py::key_error("no node '" + id + "'");
@@ -659,16 +676,15 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property_readonly("node_weights", [](const PyBinding& b) { return b.binding.node_weights(); })
       .def_property_readonly("num_input_vertices", [](const PyBinding& b) { return b.binding.num_input_vertices(); })
       .def_property_readonly("has_embedding", [](const PyBinding& b) { return b.binding.has_embedding(); })
-      .def_property_readonly("method", [](const PyBinding& b) {
-        return to_string(b.binding.method());
-      })
+      .def_property_readonly("method", [](const PyBinding& b) { return to_string(b.binding.method()); })
       .def_property_readonly("embedding",
                              [](const PyBinding& b) {
                                if (!b.binding.has_embedding())
                                  throw py::value_error("a binding read from a cache file has no embedding");
                                return b.binding.embedding();
                              })
-      .def("save", [](const PyBinding& b, const std::string& path) { b.binding.save(path); }, py::arg("path"))
+      .def(
+          "save", [](const PyBinding& b, const std::string& path) { b.binding.save(path); }, py::arg("path"))
       .def(
           "deform",
           [](PyBinding& b, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
@@ -714,7 +730,8 @@ PYBIND11_MODULE(_curvenet, m) {
             const size_t frames = static_cast<size_t>(skinning.shape(0));
             std::vector<Mat4> M;
             matrices_into(skinning, M);
-            py::array_t<double> result({static_cast<py::ssize_t>(frames), static_cast<py::ssize_t>(nv), py::ssize_t{3}});
+            py::array_t<double> result(
+                {static_cast<py::ssize_t>(frames), static_cast<py::ssize_t>(nv), py::ssize_t{3}});
             auto* dst = reinterpret_cast<Vec3*>(result.mutable_data());
             {
               py::gil_scoped_release release;
@@ -756,8 +773,8 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("laplacian") = "intrinsic",
       py::arg("rigid") = "per-vertex", py::arg("weight_rule") = "blend-zone", py::arg("blend") = 0.3,
-      py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "dq",
-      py::arg("cut_aware") = true, py::arg("rotation") = "polar", py::arg("curve_frames") = false);
+      py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "dq", py::arg("cut_aware") = true,
+      py::arg("rotation") = "polar", py::arg("curve_frames") = false);
   m.def(
       "complete_weights",
       [](const Rig& rig, const std::string& weight_rule, double blend) {
@@ -868,7 +885,10 @@ PYBIND11_MODULE(_curvenet, m) {
   // Skeletons, skins, poses and clips.
   py::class_<JointPose>(m, "JointPose", "A joint's pose entry L = T R S against its rest pose")
       .def(py::init<>())
-      .def_property("translation", py::cpp_function([](JointPose& x) -> Eigen::Vector3d& { return x.translation; }, py::return_value_policy::reference_internal), [](JointPose& x, const Eigen::Vector3d& v) { x.translation = v; })
+      .def_property("translation",
+                    py::cpp_function([](JointPose& x) -> Eigen::Vector3d& { return x.translation; },
+                                     py::return_value_policy::reference_internal),
+                    [](JointPose& x, const Eigen::Vector3d& v) { x.translation = v; })
       .def_property(
           "rotation",
           [](const JointPose& p) {
@@ -880,7 +900,10 @@ PYBIND11_MODULE(_curvenet, m) {
             p.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
           },
           "unit quaternion (w, x, y, z)")
-      .def_property("scale", py::cpp_function([](JointPose& x) -> Eigen::Vector3d& { return x.scale; }, py::return_value_policy::reference_internal), [](JointPose& x, const Eigen::Vector3d& v) { x.scale = v; })
+      .def_property("scale",
+                    py::cpp_function([](JointPose& x) -> Eigen::Vector3d& { return x.scale; },
+                                     py::return_value_policy::reference_internal),
+                    [](JointPose& x, const Eigen::Vector3d& v) { x.scale = v; })
       .def("matrix", &JointPose::matrix);
   py::class_<SkinnedMesh>(m, "SkinnedMesh", "A file's own skeleton, skin weights and clips")
       .def_readonly("joints", &SkinnedMesh::joints)
@@ -893,10 +916,9 @@ PYBIND11_MODULE(_curvenet, m) {
           "skinning_matrices",
           [](const SkinnedMesh& s, int clip, double t) { return matrices_array(s.skinning_matrices(clip, t)); },
           py::arg("clip"), py::arg("t"), "The file's own skinning matrices (J, 4, 4) at time t of a clip")
-      .def_property_readonly("vertex_joints",
-                             [](const SkinnedMesh& s) {
-                               return table_array(s.vertex_joint.data()->data(), s.vertex_joint.size(), 4);
-                             })
+      .def_property_readonly(
+          "vertex_joints",
+          [](const SkinnedMesh& s) { return table_array(s.vertex_joint.data()->data(), s.vertex_joint.size(), 4); })
       .def_property_readonly("vertex_weights", [](const SkinnedMesh& s) {
         return table_array(s.vertex_weight.data()->data(), s.vertex_weight.size(), 4);
       });
@@ -1044,8 +1066,7 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("up") = "y", py::arg("fps") = 24.0, py::arg("clip_names") = std::vector<std::string>{},
       "A skinned glTF 2.0 binary (bytes) of the mesh file, with the skeleton, the weights and the clips");
   m.def(
-      "write_file",
-      [](const std::string& path, const py::bytes& data) { write_file_atomic(path, std::string(data)); },
+      "write_file", [](const std::string& path, const py::bytes& data) { write_file_atomic(path, std::string(data)); },
       py::arg("path"), py::arg("data"), "Writes bytes to a file atomically (all or nothing)");
 
   // Output.
@@ -1060,8 +1081,9 @@ PYBIND11_MODULE(_curvenet, m) {
         for (size_t i = 0; i < data.size(); ++i) {
           data[i] = static_cast<float>(p[i]);
           if (!std::isfinite(data[i]))
-            throw InputError(path, "frame " + std::to_string(i / 3 / frames.shape(1)) + " vertex " +
-                                       std::to_string(i / 3 % frames.shape(1)),
+            throw InputError(path,
+                             "frame " + std::to_string(i / 3 / frames.shape(1)) + " vertex " +
+                                 std::to_string(i / 3 % frames.shape(1)),
                              "is out of the range of a PC2 cache (single precision); nothing was written");
         }
         write_file_atomic(path, pc2_cache(static_cast<int>(frames.shape(1)), static_cast<int>(frames.shape(0)),

@@ -404,7 +404,7 @@ TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
     r = run(args, dir);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.err.find(args.rfind("subdivide", 0) == 0 ? "--levels 6: would make 9375744 faces"
-                                                          : "--to-cage 6: would make 9375744 faces"),
+                                                         : "--to-cage 6: would make 9375744 faces"),
               std::string::npos)
         << r.err;
     EXPECT_NE(r.err.find("(--max-faces); use fewer levels"), std::string::npos) << r.err;
@@ -664,7 +664,8 @@ TEST(Cli, BakeWritesASkinnedGlbAndTheWeightsOrNothing) {
     GTEST_SKIP() << "no shared data";
   const fs::path dir = fs::path(::testing::TempDir()) / "cli_bake";
   fs::create_directories(dir);
-  const std::string mesh = test::data("xr_tools_hand/hand_l.gltf"), rig = test::data("xr_tools_hand/example/hand_l.cnrig.json");
+  const std::string mesh = test::data("xr_tools_hand/hand_l.gltf"),
+                    rig = test::data("xr_tools_hand/example/hand_l.cnrig.json");
   const std::string clips = test::data("xr_tools_hand/hand_l_poses.glb");
   const fs::path glb = dir / "hand.glb", csv = dir / "hand.csv";
   CliRun r = run("bake " + mesh + " " + rig + " -o " + glb.string() + " --weights-csv " + csv.string() + " --clip " +
@@ -717,8 +718,9 @@ TEST(Cli, TheGradientModeIsAnOptionOfEveryDeformingCommand) {
                          dir);
   EXPECT_EQ(bad.code, 2);
   EXPECT_FALSE(fs::exists(dir / "x.obj"));
-  EXPECT_EQ(run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / "x.obj").string() + " --method splines", dir).code,
-            2);
+  EXPECT_EQ(
+      run("pose " + mesh + " " + rig + " " + pose + " -o " + (dir / "x.obj").string() + " --method splines", dir).code,
+      2);
 }
 
 TEST(Cli, EveryCommandWritesADeviceInPlaceAndABindingCacheOnlyWithItsOutput) {
@@ -735,12 +737,12 @@ TEST(Cli, EveryCommandWritesADeviceInPlaceAndABindingCacheOnlyWithItsOutput) {
   if (::mknod(null.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
     GTEST_SKIP() << "cannot make a device node here (not root)";
   const std::string n = null.string();
-  for (const std::string& args :
-       {"embed " + gltf + " " + rig + " --report " + n, "starter " + gltf + " -o " + n, "bind " + gltf + " " + rig + " -o " + n,
-        "pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " -o " + n,
-        "animate " + gltf + " " + rig + " " + gltf + " -o " + n,
-        "transfer " + rig + " --from " + gltf + " --to " + gltf + " -o " + n,
-        "subdivide " + gltf + " --levels 1 -o " + n}) {
+  for (const std::string& args : {"embed " + gltf + " " + rig + " --report " + n, "starter " + gltf + " -o " + n,
+                                  "bind " + gltf + " " + rig + " -o " + n,
+                                  "pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " -o " + n,
+                                  "animate " + gltf + " " + rig + " " + gltf + " -o " + n,
+                                  "transfer " + rig + " --from " + gltf + " --to " + gltf + " -o " + n,
+                                  "subdivide " + gltf + " --levels 1 -o " + n}) {
     SCOPED_TRACE(args);
     const CliRun r = run(args, dir);
     EXPECT_EQ(r.code, 0) << r.err;
@@ -782,7 +784,8 @@ TEST(Cli, PoseAndAnimateWriteThePosedCutMeshOnRequest) {
   // The posed cut mesh has the rest cut mesh's vertices and curves, moved.
   EXPECT_EQ(count(dir / "posed_cut.obj", "v "), count(dir / "rest_cut.obj", "v "));
   EXPECT_EQ(count(dir / "posed_cut.obj", "l "), static_cast<int>(r.profiles.size()));
-  EXPECT_NE(load_mesh((dir / "posed_cut.obj").string()).positions, load_mesh((dir / "rest_cut.obj").string()).positions);
+  EXPECT_NE(load_mesh((dir / "posed_cut.obj").string()).positions,
+            load_mesh((dir / "rest_cut.obj").string()).positions);
   out = run("animate " + gltf + " " + rig + " " + gltf + " -o " + (dir / "a.pc2").string() + " --frames 0:2" +
                 " --cut-mesh-sequence " + (dir / "cut").string(),
             dir);

@@ -3,8 +3,8 @@
 
 #include "curvenet/compare.hpp"
 #include "curvenet/io.hpp"
-#include "curvenet/skin.hpp"
 #include "curvenet/quality.hpp"
+#include "curvenet/skin.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 
@@ -43,7 +43,8 @@ TEST(Compare, SeesAcrossTopologies) {
   fine.around = 48;
   fine.along = 40;
   fine.triangulate = true;
-  const SurfaceMesh a = make_surface_mesh(make_capped_tube({}), "a"), b = make_surface_mesh(make_capped_tube(fine), "b");
+  const SurfaceMesh a = make_surface_mesh(make_capped_tube({}), "a"),
+                    b = make_surface_mesh(make_capped_tube(fine), "b");
   TubeSpec shrunk;
   shrunk.radius = 0.9;
   const SurfaceMesh c = make_surface_mesh(make_capped_tube(shrunk), "c");

@@ -2,16 +2,16 @@
 
 #include "bind/gradient.hpp"
 #include "bind/laplacian.hpp"
+#include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
-#include "curvenet/bake.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/quality.hpp"
 #include "curvenet/skin.hpp"
-#include "curvenet/subdivide.hpp"
 #include "curvenet/starter.hpp"
+#include "curvenet/subdivide.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 
@@ -30,8 +30,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <map>
+#include <numbers>
 #include <random>
 
 using namespace curvenet;
@@ -712,7 +712,8 @@ BindOptions gradient(bool cut_aware = true) {
 
 TEST(Gradient, TheNearestRotationOfABlendOfTwoRotationsIsTheirGeodesicMidpoint) {
   for (double deg : {10.0, 90.0, 150.0, 179.0}) {
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(deg * std::numbers::pi / 180, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(deg * std::numbers::pi / 180, Vec3(1, 2, 3).normalized()).toRotationMatrix();
     const Eigen::Matrix3d blend = 0.5 * (Eigen::Matrix3d::Identity() + R); // the linear blend shrinks
     const Eigen::Matrix3d half = detail::nearest_rotation(blend);
     EXPECT_NEAR(half.determinant(), 1, 1e-12) << deg;
@@ -836,7 +837,8 @@ TEST(Gradient, TwoSidesGivenDifferentScalesMakeACreaseOnlyWithTheCutAwareDiscret
       const double kink = std::abs(s1 - s0);
       if (std::abs(p[k].first - ring) < 0.1)
         at_ring = std::max(at_ring, kink);
-      else if (std::abs(p[k].first - ring) > 0.4 && std::abs(p[k].first - 0.6) > 0.4 && std::abs(p[k].first - 3.4) > 0.4)
+      else if (std::abs(p[k].first - ring) > 0.4 && std::abs(p[k].first - 0.6) > 0.4 &&
+               std::abs(p[k].first - 3.4) > 0.4)
         elsewhere = std::max(elsewhere, kink);
     }
     return std::pair{at_ring, elsewhere};

@@ -543,3 +543,26 @@ TEST(Embed, TheTracedPathsAreWhatTheCutFollowsAndTheCutMeshComesAsArrays) {
   }
   EXPECT_EQ(static_cast<int>(colour.size()), e.report().regions);
 }
+
+TEST(Embed, SixteenSpokesMeetAtOnePoleNode) {
+  // Issue 22: 16 profiles that meet at a cap's pole were refused as
+  // crossing "away from any node", 0.4 mean edge lengths from the pole.
+  // Spokes of 8, 16 and 24 nodes a ring, on tubes of several tessellations.
+  for (const int n : {8, 16, 24})
+    for (const int around : {16, 24, 40})
+      for (const Vec3 offset : {Vec3(0, 0, 0), Vec3(0.05, 0, 0.03), Vec3(0.3, 0, -0.2)}) {
+        SCOPED_TRACE("spokes " + std::to_string(n) + ", around " + std::to_string(around) + ", pole off by " +
+                     std::to_string(offset.norm()));
+        TubeNetSpec spec;
+        spec.nodes_per_ring = n;
+        spec.cap_offset = offset;
+        const Rig rig = make_tube_net(spec);
+        try {
+          const Embedding e = embed(test::tube(around, around, std::max(2, around / 8), true), rig);
+          EXPECT_TRUE(e.report().ok);
+          EXPECT_EQ(e.report().regions, 2 - static_cast<int>(rig.nodes.size()) + static_cast<int>(rig.profiles.size()));
+        } catch (const EmbedError& err) {
+          ADD_FAILURE() << err.what();
+        }
+      }
+}

@@ -286,7 +286,8 @@ std::string skinned_triangle(const std::string& version, const std::vector<float
 
 /// Reads `text` as a file of `extension` with `read`: read, or refused in one line.
 void expect_read_or_refused(const fs::path& dir, const std::string& text, const std::string& extension,
-                            const std::function<void(const std::string&)>& read, const std::string& what, int& refused) {
+                            const std::function<void(const std::string&)>& read, const std::string& what,
+                            int& refused) {
   const std::string path = (dir / ("generated" + extension)).string();
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -318,10 +319,12 @@ TEST(Fuzz, GeneratedFaultsOfEveryClassAreReadOrRefusedInOneLine) {
   // JSON nested from just under the bound to far past it, in each reader.
   for (const int depth : {8, 60, 65, 1000, 200000}) {
     const std::string nest = std::string(depth, '[') + std::string(depth, ']');
-    expect_read_or_refused(dir, R"({"format":"curvenet-rig","version":1,"nodes":)" + nest + "}", ".cnrig.json",
-                           [](const std::string& p) { read_rig(p); }, "rig nested " + std::to_string(depth), refused);
-    expect_read_or_refused(dir, R"({"format":"curvenet-pose","version":1,"joints":)" + nest + "}", ".pose.json",
-                           [](const std::string& p) { read_pose(p); }, "pose nested " + std::to_string(depth), refused);
+    expect_read_or_refused(
+        dir, R"({"format":"curvenet-rig","version":1,"nodes":)" + nest + "}", ".cnrig.json",
+        [](const std::string& p) { read_rig(p); }, "rig nested " + std::to_string(depth), refused);
+    expect_read_or_refused(
+        dir, R"({"format":"curvenet-pose","version":1,"joints":)" + nest + "}", ".pose.json",
+        [](const std::string& p) { read_pose(p); }, "pose nested " + std::to_string(depth), refused);
     expect_read_or_refused(dir, R"({"asset":{"version":"2.0"},"extras":)" + nest + "}", ".gltf", read_gltf,
                            "glTF nested " + std::to_string(depth), refused);
     cases += 3;
@@ -335,7 +338,8 @@ TEST(Fuzz, GeneratedFaultsOfEveryClassAreReadOrRefusedInOneLine) {
     std::string matrix;
     switch (rng() % 5) {
     case 0: // a matrix entry anywhere, the last row included
-      ibm[rng() % 16] = static_cast<float>(std::pow(10.0, uniform(-40, 38)) * (rng() % 2 ? 1 : -1)) * (rng() % 3 ? 1.0f : 0.0f);
+      ibm[rng() % 16] =
+          static_cast<float>(std::pow(10.0, uniform(-40, 38)) * (rng() % 2 ? 1 : -1)) * (rng() % 3 ? 1.0f : 0.0f);
       break;
     case 1: // a joint index past the skin
       joints[rng() % 12] = static_cast<unsigned char>(rng() % 256);
@@ -365,20 +369,21 @@ TEST(Fuzz, GeneratedFaultsOfEveryClassAreReadOrRefusedInOneLine) {
     std::string points;
     for (size_t i = 0; i < n; ++i)
       points += (i ? ",[" : "[") + std::to_string(static_cast<double>(i) / static_cast<double>(n)) + ",0.5,0]";
-    expect_read_or_refused(dir,
-                           R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],"profiles":[{"id":"p","from":"a","to":"b","points":[)" +
-                               points + "]}]}",
-                           ".cnrig.json", [](const std::string& p) { read_rig(p); }, std::to_string(n) + " points",
-                           refused);
+    expect_read_or_refused(
+        dir,
+        R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],"profiles":[{"id":"p","from":"a","to":"b","points":[)" +
+            points + "]}]}",
+        ".cnrig.json", [](const std::string& p) { read_rig(p); }, std::to_string(n) + " points", refused);
     ++cases;
   }
   for (int k = 0; k < 20; ++k) {
     const double x = uniform(0.1, 1), y = uniform(0, 1);
     const std::string out_and_back = "[[0,0,0],[" + std::to_string(x) + "," + std::to_string(y) + ",0],[0,0,0]]";
-    expect_read_or_refused(dir,
-                           R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"a","points":)" +
-                               out_and_back + "}]}",
-                           ".cnrig.json", [](const std::string& p) { read_rig(p); }, "out and back", refused);
+    expect_read_or_refused(
+        dir,
+        R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0,0]}],"profiles":[{"id":"p","from":"a","to":"a","points":)" +
+            out_and_back + "}]}",
+        ".cnrig.json", [](const std::string& p) { read_rig(p); }, "out and back", refused);
     ++cases;
   }
   // A tube and its net scaled alike by 10^k, k from -200 to 200: the same
@@ -395,7 +400,8 @@ TEST(Fuzz, GeneratedFaultsOfEveryClassAreReadOrRefusedInOneLine) {
       EXPECT_EQ(e.report().regions, 16) << "scale " << s;
     } catch (const Error& e) {
       ++refused;
-      EXPECT_NE(std::string(e.what()).find("within 1e-40 to 1e40"), std::string::npos) << "scale " << s << ": " << e.what();
+      EXPECT_NE(std::string(e.what()).find("within 1e-40 to 1e40"), std::string::npos)
+          << "scale " << s << ": " << e.what();
     }
     ++cases;
   }

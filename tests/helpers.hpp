@@ -133,7 +133,8 @@ inline RawMesh implicit_surface(const std::function<double(const Vec3&)>& f, con
           else if (in.size() == 3)
             tris.push_back({v(outside[0], in[0]), v(outside[0], in[1]), v(outside[0], in[2])});
           else {
-            const int a = v(in[0], outside[0]), b = v(in[0], outside[1]), c = v(in[1], outside[1]), d = v(in[1], outside[0]);
+            const int a = v(in[0], outside[0]), b = v(in[0], outside[1]), c = v(in[1], outside[1]),
+                      d = v(in[1], outside[0]);
             tris.push_back({a, b, c});
             tris.push_back({a, c, d});
           }
@@ -141,7 +142,8 @@ inline RawMesh implicit_surface(const std::function<double(const Vec3&)>& f, con
           for (int q : in)
             inside_point += p[q] / static_cast<double>(in.size());
           for (auto& t : tris) {
-            const Vec3 nrm = (out.positions[t[1]] - out.positions[t[0]]).cross(out.positions[t[2]] - out.positions[t[0]]);
+            const Vec3 nrm =
+                (out.positions[t[1]] - out.positions[t[0]]).cross(out.positions[t[2]] - out.positions[t[0]]);
             if (nrm.dot(out.positions[t[0]] - inside_point) < 0)
               std::swap(t[1], t[2]);
             out.add_face(std::vector<int>{t[0], t[1], t[2]});

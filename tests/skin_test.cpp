@@ -113,8 +113,8 @@ std::string write_animated_gltf(const std::filesystem::path& dir) {
   const float h = 0.70710678f;
   const int rot = add({0, 0, 0, 1, 0, 0, h, h, 0, 0, 1, 0}, TINYGLTF_TYPE_VEC4, 3);
   // Cubic: (in-tangent, value, out-tangent) per key; zero tangents.
-  const int scl = add({0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 0, 0, 3, 3, 3, 0, 0, 0, 0, 0, 0, 3, 3, 3, 0, 0, 0},
-                      TINYGLTF_TYPE_VEC3, 9);
+  const int scl =
+      add({0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 0, 0, 3, 3, 3, 0, 0, 0, 0, 0, 0, 3, 3, 3, 0, 0, 0}, TINYGLTF_TYPE_VEC3, 9);
   tinygltf::Buffer buffer;
   buffer.data.resize(data.size() * 4);
   std::memcpy(buffer.data.data(), data.data(), buffer.data.size());

@@ -127,8 +127,8 @@ TEST(PlaneSection, PolylineDistancesSkipOnlyPairsThatCannotBeNearer) {
     double brute = INFINITY;
     for (size_t i = 0; i < (ca ? a.size() : a.size() - 1); ++i)
       for (size_t j = 0; j < (cb ? b.size() : b.size() - 1); ++j)
-        brute = std::min(brute, curvenet::detail::segment_distance(a[i], a[(i + 1) % a.size()], b[j],
-                                                                   b[(j + 1) % b.size()]));
+        brute = std::min(brute,
+                         curvenet::detail::segment_distance(a[i], a[(i + 1) % a.size()], b[j], b[(j + 1) % b.size()]));
     const double d = curvenet::detail::polyline_distance(a, ca, b, cb);
     EXPECT_EQ(d, brute);
     for (const double f : {0.5, 0.99, 1.01, 2.0})
@@ -264,7 +264,9 @@ std::set<std::string> ring_ids(const StarterResult& r) {
   return j["rings"].get<std::set<std::string>>();
 }
 
-std::string own_data(const std::string& name) { return std::string(CURVENET_SOURCE_DIR) + "/tests/data/" + name; }
+std::string own_data(const std::string& name) {
+  return std::string(CURVENET_SOURCE_DIR) + "/tests/data/" + name;
+}
 
 /// Every tessellation of the shared hand, and one we decimated ourselves.
 std::vector<std::string> hand_meshes() {
@@ -275,9 +277,8 @@ std::vector<std::string> hand_meshes() {
 
 std::vector<std::string> cesium_meshes() {
   const std::string v = test::data("cesium_man/variants/");
-  return {test::data("cesium_man/CesiumMan.glb"),      v + "cesium_man_a_welded.obj",
-          v + "cesium_man_b_remesh.obj",              v + "cesium_man_c_decimated.obj",
-          v + "cesium_man_d_loop.obj",                v + "cesium_man_e_decimated_326.obj"};
+  return {test::data("cesium_man/CesiumMan.glb"), v + "cesium_man_a_welded.obj", v + "cesium_man_b_remesh.obj",
+          v + "cesium_man_c_decimated.obj",       v + "cesium_man_d_loop.obj",   v + "cesium_man_e_decimated_326.obj"};
 }
 
 } // namespace
@@ -322,8 +323,8 @@ TEST(Starter, CesiumManGetsARingAtEveryJointOnEveryTessellation) {
   for (const std::string& path : cesium_meshes()) {
     SCOPED_TRACE(path);
     const StarterResult r = make_starter(load_mesh(path), joints);
-    std::printf("%s: %d rings, %d components, %d joins, %d unjoined\n", path.c_str(), r.rings, r.net_components, r.joins,
-                r.unjoined);
+    std::printf("%s: %d rings, %d components, %d joins, %d unjoined\n", path.c_str(), r.rings, r.net_components,
+                r.joins, r.unjoined);
     for (const auto& [joint, why] : r.ringless)
       ADD_FAILURE() << joint << " has no ring: " << why;
     EXPECT_EQ(static_cast<int>(ring_ids(r).size()), 19);
@@ -343,9 +344,8 @@ TEST(Starter, NetsMadeOnDifferentTessellationsShareIdsAndPlaces) {
   // same nodes. The rings' nodes lie within 1 % of the diagonal of each
   // other; where a join lands on its parent ring depends on the plane
   // section its path takes, and lands within 1.5 %.
-  for (const auto& [skeleton, meshes] :
-       {std::pair{test::data("xr_tools_hand/hand_l.gltf"), hand_meshes()},
-        std::pair{test::data("cesium_man/CesiumMan.glb"), cesium_meshes()}}) {
+  for (const auto& [skeleton, meshes] : {std::pair{test::data("xr_tools_hand/hand_l.gltf"), hand_meshes()},
+                                         std::pair{test::data("cesium_man/CesiumMan.glb"), cesium_meshes()}}) {
     const auto joints = load_skinned_mesh(skeleton).joints;
     const SurfaceMesh first = load_mesh(meshes.front());
     const StarterResult base = make_starter(first, joints);
@@ -531,8 +531,9 @@ TEST(Starter, EveryQuaterniusAnimalGetsOneConnectedNet) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   for (const char* a : {"Horse", "Wolf", "Trex", "Apatosaurus"})
-    for (const std::string path : {test::data("quaternius/" + std::string(a) + ".glb"),
-                                   std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + a + "_decimated.glb"}) {
+    for (const std::string path :
+         {test::data("quaternius/" + std::string(a) + ".glb"),
+          std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + a + "_decimated.glb"}) {
       SCOPED_TRACE(path);
       const SurfaceMesh mesh = load_mesh(path);
       const SkinnedMesh skin = load_skinned_mesh(path);

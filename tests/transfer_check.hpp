@@ -55,7 +55,7 @@ struct Target {
   std::string path;
   Mat4 frame = Mat4::Identity(); ///< the target mesh's space to the source's
   int levels = 0;                ///< Catmull-Clark levels applied to the file (a control cage)
-  int cage_levels = 0;           ///< TransferOptions::target_cage_levels: the file is a cage, transferred through its limit
+  int cage_levels = 0; ///< TransferOptions::target_cage_levels: the file is a cage, transferred through its limit
 };
 
 struct Family {
@@ -198,7 +198,8 @@ inline Carried closest_on_source(const SurfaceMesh& target_in_source_space, cons
 /// The target posed as a perfect transfer would pose it: each vertex moved
 /// with its closest point on the source, whose triangle's corners move as
 /// the posed source's vertices (the offset rides along, unturned).
-inline SurfaceMesh ideally_posed(SurfaceMesh target_in_source_space, const Carried& c, const SurfaceMesh& posed_source) {
+inline SurfaceMesh ideally_posed(SurfaceMesh target_in_source_space, const Carried& c,
+                                 const SurfaceMesh& posed_source) {
   for (size_t v = 0; v < target_in_source_space.positions.size(); ++v) {
     Vec3 p = c.offset[v];
     for (int k = 0; k < 3; ++k)
@@ -208,14 +209,18 @@ inline SurfaceMesh ideally_posed(SurfaceMesh target_in_source_space, const Carri
   return target_in_source_space;
 }
 
-inline std::string short_name(const std::string& path) { return path.substr(path.find_last_of('/') + 1); }
+inline std::string short_name(const std::string& path) {
+  return path.substr(path.find_last_of('/') + 1);
+}
 
 /// Rows for every target and pose; targets the transfer refuses get a row
 /// with the refusal in `clip` and no distances.
-inline std::vector<Row> run_family(const std::string& name, const std::string& data, const std::vector<std::string>& clips,
-                                   std::vector<std::string>* refusals = nullptr, const BindOptions& bind_options = {}) {
+inline std::vector<Row> run_family(const std::string& name, const std::string& data,
+                                   const std::vector<std::string>& clips, std::vector<std::string>* refusals = nullptr,
+                                   const BindOptions& bind_options = {}) {
   const Family f = make_family(name, data, clips);
-  const SurfaceMesh source = f.source_levels > 0 ? catmull_clark(load_mesh(f.source), f.source_levels) : load_mesh(f.source);
+  const SurfaceMesh source =
+      f.source_levels > 0 ? catmull_clark(load_mesh(f.source), f.source_levels) : load_mesh(f.source);
   const Rig rig = make_starter(source, f.joints, f.starter).rig;
   const Binding sb = bind(source, rig, bind_options);
   // Refined twice (16 times the faces of a triangle mesh), or once on a large one.
@@ -272,10 +277,10 @@ inline std::vector<Row> run_family(const std::string& name, const std::string& d
       r.rest = rest;
       r.posed = surface_distance(posed_source[k], transformed(posed_mesh(target, tb, f.poses[k].second), frame));
       r.ideal = surface_distance(posed_source[k], ideally_posed(placed, carried, posed_source[k]));
-      r.refined = surface_distance(
-          posed_refined[k], transformed(fine_target ? posed_mesh(*fine_target, *ftb, f.poses[k].second)
-                                                    : posed_mesh(target, tb, f.poses[k].second),
-                                        frame));
+      r.refined =
+          surface_distance(posed_refined[k], transformed(fine_target ? posed_mesh(*fine_target, *ftb, f.poses[k].second)
+                                                                     : posed_mesh(target, tb, f.poses[k].second),
+                                                         frame));
       r.refined.diagonal = rest.diagonal;
       r.agreement = tr.report.agreement;
       for (int v = 0; v < source.num_vertices(); ++v)
@@ -288,15 +293,18 @@ inline std::vector<Row> run_family(const std::string& name, const std::string& d
 
 inline void print_table(const std::vector<Row>& rows, FILE* out, bool markdown = false) {
   if (markdown) {
-    std::fprintf(out, "| pair | clip | moved | rest mean | posed mean | rest max | ideal max | posed max | refined mean "
-                      "| refined max | region agreement | within bound | within 1.5 x rest of the refined |\n"
-                      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::fprintf(out,
+                 "| pair | clip | moved | rest mean | posed mean | rest max | ideal max | posed max | refined mean "
+                 "| refined max | region agreement | within bound | within 1.5 x rest of the refined |\n"
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows)
-      std::fprintf(out, "| %s | %s | %.2f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.2f%% | %s | %s |\n",
-                   r.pair.c_str(), r.clip.c_str(), r.moved, r.rest.percent(r.rest.mean), r.rest.percent(r.posed.mean),
-                   r.rest.percent(r.rest.max), r.rest.percent(r.ideal.max), r.rest.percent(r.posed.max),
-                   r.rest.percent(r.refined.mean), r.rest.percent(r.refined.max), 100 * r.agreement,
-                   r.pass_mean() && r.pass_max() ? "yes" : "NO", r.pass_refined() ? "yes" : "NO");
+      std::fprintf(
+          out,
+          "| %s | %s | %.2f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.3f%% | %.2f%% | %s | %s |\n",
+          r.pair.c_str(), r.clip.c_str(), r.moved, r.rest.percent(r.rest.mean), r.rest.percent(r.posed.mean),
+          r.rest.percent(r.rest.max), r.rest.percent(r.ideal.max), r.rest.percent(r.posed.max),
+          r.rest.percent(r.refined.mean), r.rest.percent(r.refined.max), 100 * r.agreement,
+          r.pass_mean() && r.pass_max() ? "yes" : "NO", r.pass_refined() ? "yes" : "NO");
     return;
   }
   std::fprintf(out, "%-64s %-14s %8s %9s %9s %9s %9s %9s %9s %9s %8s %5s %5s\n", "pair", "clip", "moved", "rest_mean",

@@ -75,7 +75,7 @@ TEST(Weights, GivenBonesOnlyAPointFollowsThoseWhateverLiesNearer) {
   }
   const Vec3 p(1.5, 0.12, 0);
   EXPECT_NEAR(weight_of(auto_weights(j, p), 3), 1.0, 1e-12); // nearest: c -> d
-  const auto w = auto_weights(j, p, {}, {1, 2});              // bones root -> a, a -> b
+  const auto w = auto_weights(j, p, {}, {1, 2});             // bones root -> a, a -> b
   EXPECT_NEAR(weight_of(w, 1), 1.0, 1e-12);
   EXPECT_EQ(weight_of(w, 3) + weight_of(w, 4), 0.0);
   // No bones given: all of them.

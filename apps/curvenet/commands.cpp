@@ -45,7 +45,6 @@ SurfaceMesh load_mesh_noting(const std::string& path, std::ostream& notes = std:
   return m;
 }
 
-
 Coverage parse_coverage(const std::string& s) {
   if (s == "full")
     return Coverage::Full;
@@ -432,8 +431,9 @@ int run_bake(const BakeArgs& a) {
   }
   std::cout << "Curvenet bake: SUCCESS\n";
   print_bind(std::cout, b);
-  std::cout << "weights: " << (fit ? "fitted to the deformation over " + a.fit : std::string("harmonic, top ") +
-                                                                                     std::to_string(w.influences))
+  std::cout << "weights: "
+            << (fit ? "fitted to the deformation over " + a.fit
+                    : std::string("harmonic, top ") + std::to_string(w.influences))
             << ", " << std::fixed << std::setprecision(2)
             << (w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0) << std::defaultfloat
             << std::setprecision(6) << " joints per vertex on average, " << most << " at most, " << w.joints.size()
@@ -487,16 +487,18 @@ int run_transfer(const TransferArgs& a) {
   opt.target_cage_levels = a.to_cage;
   opt.max_faces = a.max_faces;
   // Which cage option gave the levels a refusal names.
-  const std::string cage_option = a.from_cage == 0   ? "--to-cage"
-                                  : a.to_cage == 0   ? "--from-cage"
+  const std::string cage_option = a.from_cage == 0           ? "--to-cage"
+                                  : a.to_cage == 0           ? "--from-cage"
                                   : a.from_cage == a.to_cage ? "--to-cage/--from-cage"
                                                              : "";
-  const TransferResult r = cage_option.empty()
-                               ? naming_levels_option(a.to, "--to-cage", [&] {
-                                   return naming_levels_option(a.from, "--from-cage",
-                                                               [&] { return transfer(rig, source, target, opt); });
-                                 })
-                               : naming_levels_option("", cage_option, [&] { return transfer(rig, source, target, opt); });
+  const TransferResult r =
+      cage_option.empty() ? naming_levels_option(a.to, "--to-cage",
+                                                 [&] {
+                                                   return naming_levels_option(a.from, "--from-cage", [&] {
+                                                     return transfer(rig, source, target, opt);
+                                                   });
+                                                 })
+                          : naming_levels_option("", cage_option, [&] { return transfer(rig, source, target, opt); });
   const TransferReport& rep = r.report;
   OutputFiles files; // the report and the rig, all or nothing
   if (!a.report.empty())
@@ -532,7 +534,8 @@ int run_transfer(const TransferArgs& a) {
 
 int run_subdivide(const SubdivideArgs& a) {
   const SurfaceMesh cage = load_mesh_noting(a.cage);
-  const SurfaceMesh s = naming_levels_option("", "--levels", [&] { return catmull_clark(cage, a.levels, a.max_faces); });
+  const SurfaceMesh s =
+      naming_levels_option("", "--levels", [&] { return catmull_clark(cage, a.levels, a.max_faces); });
   write_file_atomic(a.out, mesh_to_obj(s.positions, s.face_offsets, s.face_vertices));
   std::cout << "Catmull-Clark, " << a.levels << (a.levels == 1 ? " level: " : " levels: ") << cage.num_faces()
             << " faces -> " << s.num_faces() << " quads, " << s.num_vertices() << " vertices\n"
@@ -606,8 +609,9 @@ int run_starter(const StarterArgs& a) {
   std::cout << "joins: " << r.joins << "\n";
   std::cout << "unjoined chains: " << r.unjoined << "\n";
   std::cout << "weights: "
-            << (opt.weights.rule == WeightRule::Segment ? std::string("segment")
-                                                         : "blend-zone " + std::to_string(opt.weights.blend).substr(0, 4))
+            << (opt.weights.rule == WeightRule::Segment
+                    ? std::string("segment")
+                    : "blend-zone " + std::to_string(opt.weights.blend).substr(0, 4))
             << "\n";
   std::cout << "joints without a ring: " << r.ringless.size() << "\n";
   for (const auto& [joint, why] : r.ringless)
@@ -719,8 +723,8 @@ int run_demo(const DemoArgs& a) {
       bake.up = GltfBakeOptions::Up::Z;
       const SkinWeights w = bake_weights(b, 4);
       write_file_atomic(base + ".baked.glb", skinned_glb(base + ".obj", b.joints(), w, nullptr, bake));
-      lines.push_back(std::string("bake ") + c.name + ": " + c.name + ".baked.glb, a skin of " + std::to_string(w.joints.size()) +
-                      " joints, 4 influences at most");
+      lines.push_back(std::string("bake ") + c.name + ": " + c.name + ".baked.glb, a skin of " +
+                      std::to_string(w.joints.size()) + " joints, 4 influences at most");
     }
   }
   std::cout << "\nsummary:\n";

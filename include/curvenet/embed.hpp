@@ -9,8 +9,8 @@
 #include <array>
 #include <functional>
 #include <memory>
-#include <span>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -136,6 +136,7 @@ Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& opt
 /// cutting: per profile in rig order, the path its cut will follow (for
 /// drawing a net while it is edited).
 /// \throw EmbedError as embed() does when a node or profile cannot be placed.
-std::vector<std::vector<Vec3>> trace_profiles(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options = {});
+std::vector<std::vector<Vec3>> trace_profiles(const SurfaceMesh& mesh, const Rig& rig,
+                                              const EmbedOptions& options = {});
 
 } // namespace curvenet

@@ -31,7 +31,7 @@ struct QualityOptions {
 };
 
 struct DeformationQuality {
-  double volume_change = 0;    ///< posed / rest - 1
+  double volume_change = 0; ///< posed / rest - 1
   /// Smallest posed / rest area of a section across a limb (1 when no limb is measured).
   double smallest_section = 1;
   /// Largest growth of a vertex's distance to the skeleton's bones, posed

@@ -61,6 +61,7 @@ struct StarterResult {
 /// \throw InputError when the skeleton lies outside the mesh (no plane
 ///   through a joint cuts a loop around it).
 /// \throw EmbedError when no net could be made to embed.
-StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& joints, const StarterOptions& options = {});
+StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& joints,
+                           const StarterOptions& options = {});
 
 } // namespace curvenet

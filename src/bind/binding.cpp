@@ -5,9 +5,9 @@
 #include "curvenet/deform.hpp"
 
 #include "bind/gradient.hpp"
+#include "bind/laplacian.hpp"
 #include "core/dual_quaternion.hpp"
 #include "core/tolerances.hpp"
-#include "bind/laplacian.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
@@ -150,9 +150,10 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   eat(mesh.input_to_welded.data(), mesh.input_to_welded.size() * sizeof(int));
   const std::string text = rig_to_json(rig);
   eat(text.data(), text.size());
-  const int options[] = {static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid),
-                         static_cast<int>(opt.weights.rule), static_cast<int>(opt.method), opt.cut_aware ? 1 : 0,
-                         static_cast<int>(opt.rotation_blend), opt.curve_frames ? 1 : 0, opt.sections ? 1 : 0};
+  const int options[] = {
+      static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid), static_cast<int>(opt.weights.rule),
+      static_cast<int>(opt.method),    opt.cut_aware ? 1 : 0,       static_cast<int>(opt.rotation_blend),
+      opt.curve_frames ? 1 : 0,        opt.sections ? 1 : 0};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -427,7 +428,8 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   rep.flips = ls.flips;
   for (int c = 0; c < L.outerSize(); ++c)
     for (Eigen::SparseMatrix<double>::InnerIterator it(L, c); it; ++it)
-      if (it.row() < c && it.value() > 0.5 * Tolerances::cot_weight_zero && (!constrained[it.row()] || !constrained[c])) // L_ij = -w_ij
+      if (it.row() < c && it.value() > 0.5 * Tolerances::cot_weight_zero &&
+          (!constrained[it.row()] || !constrained[c])) // L_ij = -w_ij
         ++rep.negative_weights_solved;
   lap("laplacian");
 
@@ -640,8 +642,8 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
     gi.curve_frames = opt.curve_frames;
     gi.sections = opt.sections;
     gi.joints = &impl->joints;
-    gi.rotation = opt.rotation_blend == BindOptions::RotationBlend::Quaternion ? RotationBlend::Quaternion
-                                                                               : RotationBlend::Polar;
+    gi.rotation =
+        opt.rotation_blend == BindOptions::RotationBlend::Quaternion ? RotationBlend::Quaternion : RotationBlend::Polar;
     impl->gradient = build_gradient(gi);
     lap("gradient");
   }
@@ -662,10 +664,9 @@ void Binding::deform_frames(std::span<const Mat4> M, std::span<Eigen::Vector3d> 
   const size_t frames = nj ? M.size() / nj : 0;
   if (nj == 0 || M.size() % nj != 0 || out.size() != frames * nv)
     throw Error("deform_frames: " + std::to_string(M.size()) + " matrices and " + std::to_string(out.size()) +
-                " positions do not make whole frames of " + std::to_string(nj) + " joints and " +
-                std::to_string(nv) + " vertices");
-  tbb::parallel_for(size_t{0}, frames,
-                    [&](size_t f) { deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv)); });
+                " positions do not make whole frames of " + std::to_string(nj) + " joints and " + std::to_string(nv) +
+                " vertices");
+  tbb::parallel_for(size_t{0}, frames, [&](size_t f) { deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv)); });
 }
 
 void Binding::deform(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) const {

@@ -6,8 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <cstdint>
+#include <deque>
 
 namespace curvenet::detail {
 namespace {
@@ -65,7 +65,8 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
       m.origin[h] = a;
       m.next[h] = 3 * t + (k + 1) % 3;
       m.length[h] = (pos[a] - pos[b]).norm();
-      const std::uint64_t lo = static_cast<std::uint32_t>(std::min(a, b)), hi = static_cast<std::uint32_t>(std::max(a, b));
+      const std::uint64_t lo = static_cast<std::uint32_t>(std::min(a, b)),
+                          hi = static_cast<std::uint32_t>(std::max(a, b));
       keys[h] = {(lo << 32) | hi, h};
     }
   std::sort(keys.begin(), keys.end());
@@ -190,7 +191,7 @@ Eigen::SparseMatrix<double> intrinsic_delaunay_laplacian(int nv, const std::vect
     outer[v + 1] = static_cast<int>(inner.size());
   }
   L = Eigen::Map<const Eigen::SparseMatrix<double>>(nv, nv, static_cast<Eigen::Index>(inner.size()), outer.data(),
-                                                   inner.data(), value.data());
+                                                    inner.data(), value.data());
   if (stats)
     *stats = st;
   return L;

@@ -49,7 +49,8 @@ OneWayDistance one_way(const SurfaceMesh& from, const detail::TraceMesh& to, int
     }
   }
   std::vector<double> dist(samples.size());
-  tbb::parallel_for(size_t{0}, samples.size(), [&](size_t i) { dist[i] = to.nearest(samples[i].p).distance(samples[i].p); });
+  tbb::parallel_for(size_t{0}, samples.size(),
+                    [&](size_t i) { dist[i] = to.nearest(samples[i].p).distance(samples[i].p); });
   OneWayDistance out;
   double total = 0;
   for (size_t i = 0; i < samples.size(); ++i) {

@@ -44,7 +44,7 @@ bool segment_meets_triangle(const Vec3& p, const Vec3& q, const Vec3& a, const V
   if (sp == 0 && sq == 0)
     return false; // in the plane: left to the coplanar test
   const int s1 = orient3d(p, q, a, b), s2 = orient3d(p, q, b, c), s3 = orient3d(p, q, c, a);
-  const bool neg = s1 < 0 || s2 < 0 || s3 < 0, pos = s1 > 0 || s2 > 0 || s3 > 0;
+  const bool neg = s1 < 0 || s2 < 0 || s3<0, pos = s1> 0 || s2 > 0 || s3 > 0;
   return !(neg && pos);
 }
 
@@ -55,7 +55,9 @@ bool coplanar_overlap(const std::array<Vec3, 3>& t, const std::array<Vec3, 3>& u
   int drop = 0;
   n.cwiseAbs().maxCoeff(&drop);
   auto p2 = [drop](const Vec3& v) {
-    return drop == 0 ? Eigen::Vector2d(v.y(), v.z()) : drop == 1 ? Eigen::Vector2d(v.z(), v.x()) : Eigen::Vector2d(v.x(), v.y());
+    return drop == 0   ? Eigen::Vector2d(v.y(), v.z())
+           : drop == 1 ? Eigen::Vector2d(v.z(), v.x())
+                       : Eigen::Vector2d(v.x(), v.y());
   };
   std::array<Eigen::Vector2d, 3> a, b;
   for (int k = 0; k < 3; ++k) {
@@ -130,7 +132,8 @@ int self_intersecting_pairs(const SurfaceMesh& mesh, std::span<const Vec3> pos) 
   };
   std::unordered_map<std::uint64_t, std::vector<int>> grid;
   auto key = [](int x, int y, int z) {
-    return (static_cast<std::uint64_t>(x) << 42) ^ (static_cast<std::uint64_t>(y) << 21) ^ static_cast<std::uint64_t>(z);
+    return (static_cast<std::uint64_t>(x) << 42) ^ (static_cast<std::uint64_t>(y) << 21) ^
+           static_cast<std::uint64_t>(z);
   };
   for (int t = 0; t < n; ++t) {
     const Eigen::Vector3i a = cell_of(box[t].min()), b = cell_of(box[t].max());

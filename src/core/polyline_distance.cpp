@@ -116,7 +116,8 @@ std::vector<size_t> simplify_polyline(const std::vector<Eigen::Vector3d>& points
     for (size_t k = i + 1; k < j; ++k) {
       double d = point_segment_distance(points[k], points[i], points[j]);
       if (off_surface && d <= tolerance) {
-        const double t = ab.squaredNorm() > 0 ? std::clamp((points[k] - points[i]).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+        const double t =
+            ab.squaredNorm() > 0 ? std::clamp((points[k] - points[i]).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
         d = std::max(d, off_surface(points[i] + t * ab));
       }
       if (d > worst) {

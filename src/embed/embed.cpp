@@ -280,8 +280,8 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
     const double diagonal = mesh.positions.empty() ? 0 : box.diagonal().stableNorm(); // no underflow at 1e-200
     if (largest > Tolerances::max_coordinate || (diagonal > 0 && diagonal < 1 / Tolerances::max_coordinate)) {
       std::ostringstream msg;
-      msg << "embed: " << mesh.source << " spans " << std::setprecision(3) << diagonal << " and reaches "
-          << largest << ": an embedding takes coordinates and sizes within 1e-40 to 1e40 (scale "
+      msg << "embed: " << mesh.source << " spans " << std::setprecision(3) << diagonal << " and reaches " << largest
+          << ": an embedding takes coordinates and sizes within 1e-40 to 1e40 (scale "
           << "the mesh, and the rig's frame with it)";
       throw EmbedError(msg.str());
     }
@@ -542,8 +542,8 @@ std::string Embedding::cut_mesh_obj() const {
 std::string Embedding::cut_mesh_obj(std::span<const Vec3> positions) const {
   const CutMesh& m = impl_->cut;
   if (positions.size() != static_cast<size_t>(m.num_vertices()))
-    throw Error("cut mesh: " + std::to_string(positions.size()) + " positions for " +
-                std::to_string(m.num_vertices()) + " vertices");
+    throw Error("cut mesh: " + std::to_string(positions.size()) + " positions for " + std::to_string(m.num_vertices()) +
+                " vertices");
   for (size_t v = 0; v < positions.size(); ++v)
     if (!positions[v].allFinite())
       throw Error("cut mesh: vertex " + std::to_string(v) + " is not finite; nothing was written");

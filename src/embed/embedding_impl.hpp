@@ -14,8 +14,8 @@ struct Embedding::Impl {
   detail::CutInput input;   ///< ids, node placements and traced paths
   detail::CutResult result; ///< chains and node vertices
   detail::RegionResult regions;
-  std::vector<std::vector<double>> sample_t;              ///< per profile: normalised arc length of each sample
-  std::vector<std::vector<Eigen::Vector3d>> samples;      ///< per profile: the samples, in mesh space
+  std::vector<std::vector<double>> sample_t;         ///< per profile: normalised arc length of each sample
+  std::vector<std::vector<Eigen::Vector3d>> samples; ///< per profile: the samples, in mesh space
 
   /// The profile parameter t (normalised arc length of the curve as written,
   /// ends at the nodes) of vertex i of profile p's CutChain.

@@ -102,7 +102,8 @@ template <class F> auto naming_levels(const SurfaceMesh& cage, int levels, F&& f
 } // namespace
 
 SurfaceMesh catmull_clark(const SurfaceMesh& cage, int levels, long long max_faces) {
-  return naming_levels(cage, levels, [&] { return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces); });
+  return naming_levels(cage, levels,
+                       [&] { return refine(cage, levels, Sdc::SCHEME_CATMARK, "Catmull-Clark", max_faces); });
 }
 
 SurfaceMesh midpoint_subdivide(const SurfaceMesh& mesh, int levels, long long max_faces) {

@@ -1,22 +1,22 @@
 #include "io/gltf_scene.hpp"
 
-#include "curvenet/errors.hpp"
 #include "core/matrix_checks.hpp"
+#include "curvenet/errors.hpp"
 #include "io/json_text.hpp"
 
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-#include <optional>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <limits>
+#include <optional>
+#include <sstream>
 
 namespace curvenet::detail {
 namespace {
@@ -474,7 +474,8 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
         const bool key = sampler.interpolation != "CUBICSPLINE" || k % 3 == 1;
         if (target == "rotation" && key && values.ncomp == 4 &&
             !(std::abs(values.get(k, 0)) + std::abs(values.get(k, 1)) + std::abs(values.get(k, 2)) +
-                  std::abs(values.get(k, 3)) > 1e-6))
+                  std::abs(values.get(k, 3)) >
+              1e-6))
           throw InputError(path, w + " output", "rotation key " + std::to_string(k) + " is a zero quaternion");
       }
     }

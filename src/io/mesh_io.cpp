@@ -3,13 +3,13 @@
 // accessors), PLY and OFF through readers of our own (ply_off.cpp), and FBX
 // through assimp. Validation and welding happen in make_surface_mesh.
 
+#include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "io/assimp_scene.hpp"
 #include "io/gltf_scene.hpp"
 #include "io/obj_check.hpp"
 #include "io/ply_off.hpp"
-#include "core/numbers.hpp"
 
 #include <tiny_obj_loader.h>
 

@@ -457,7 +457,8 @@ std::string checked_json(const Rig& rig, const std::string& source, bool writing
     if (message.rfind("rig: ", 0) == 0)
       message = message.substr(5);
     const std::string tail = "; nothing was written";
-    if (!writing && message.size() > tail.size() && message.compare(message.size() - tail.size(), tail.size(), tail) == 0)
+    if (!writing && message.size() > tail.size() &&
+        message.compare(message.size() - tail.size(), tail.size(), tail) == 0)
       message.resize(message.size() - tail.size());
     throw InputError(source, "", message);
   }

@@ -190,7 +190,8 @@ std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, 
     return x;
   };
   auto node = [&](int v, int f) {
-    return static_cast<int>(std::lower_bound(vface.begin() + vstart[v], vface.begin() + vstart[v + 1], f) - vface.begin());
+    return static_cast<int>(std::lower_bound(vface.begin() + vstart[v], vface.begin() + vstart[v + 1], f) -
+                            vface.begin());
   };
   for (int e = 0; e < edges.num_edges(); ++e)
     if (edges.uses(e) == 2) {
@@ -331,8 +332,9 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
                                           raw.positions[raw.face_vertices[b + i + 1]]);
     if (degenerate || all_collinear) {
       if (dropped++ == 0)
-        first_reason = "face " + std::to_string(f) + (degenerate ? ": degenerate: two of its corners are one point"
-                                                                  : ": degenerate: its corners are collinear (no area)");
+        first_reason = "face " + std::to_string(f) +
+                       (degenerate ? ": degenerate: two of its corners are one point"
+                                   : ": degenerate: its corners are collinear (no area)");
       continue;
     }
     verts.insert(verts.end(), raw.face_vertices.begin() + b, raw.face_vertices.begin() + b + n);
@@ -458,10 +460,10 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   mesh.face_offsets = offsets;
   mesh.face_vertices = fverts;
   if (dropped > 0)
-    mesh.notes.push_back("left out " + std::to_string(dropped) +
-                         " degenerate faces (two corners at one point, or no area) of the surface it works on" +
-                         (followers > 0 ? "; " + std::to_string(followers) + " of their vertices follow their nearest neighbour"
-                                        : ""));
+    mesh.notes.push_back(
+        "left out " + std::to_string(dropped) +
+        " degenerate faces (two corners at one point, or no area) of the surface it works on" +
+        (followers > 0 ? "; " + std::to_string(followers) + " of their vertices follow their nearest neighbour" : ""));
   if (nw < nin)
     mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) +
                          " by position");

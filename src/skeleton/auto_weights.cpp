@@ -6,7 +6,9 @@
 
 namespace curvenet {
 
-const char* to_string(WeightRule rule) { return rule == WeightRule::Segment ? "segment" : "blend-zone"; }
+const char* to_string(WeightRule rule) {
+  return rule == WeightRule::Segment ? "segment" : "blend-zone";
+}
 
 std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
                                                  const AutoWeightOptions& opt) {

@@ -245,7 +245,8 @@ Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source)
   for (const auto& [node, w] : rig.weights)
     for (const auto& [joint, v] : w)
       if (!names.count(joint))
-        throw InputError(source, joint, "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
+        throw InputError(source, joint,
+                         "the rig's weights for node '" + node + "' name this joint, which the skeleton lacks");
   rig.joints = std::move(joints);
   rig.has_skeleton = true;
   return rig;

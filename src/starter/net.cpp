@@ -9,10 +9,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <queue>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
+#include <queue>
 
 namespace curvenet::detail {
 
@@ -171,8 +171,9 @@ struct Join {
 /// to the parent ring, through vertices that keep the limb's clearance from
 /// every other ring (and from the child ring, away from `from`), then on to
 /// the parent ring's nearest point. Empty when there is none.
-std::vector<Vec3> edge_path_join(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                                 int child, int parent, const Vec3& from, const std::optional<Vec3>& node) {
+std::vector<Vec3> edge_path_join(const StarterContext& c, const std::vector<Ring>& rings,
+                                 const std::vector<int>& active, int child, int parent, const Vec3& from,
+                                 const std::optional<Vec3>& node) {
   const auto& P = c.mesh.positions;
   const int nv = c.mesh.num_vertices();
   const Ring &pr = rings[parent], &cr = rings[child];
@@ -382,7 +383,7 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
         jn.to = loop_point(pr, best_s);
       } else if (mode == 0 && near_node < 0) {
         jn.to = loop_point(pr, best_s);
-      } else if (mode >= 2) { // the middle of the (mode - 1)-th nearest arc
+      } else if (mode >= 2) {                        // the middle of the (mode - 1)-th nearest arc
         std::vector<std::pair<double, double>> mids; // (distance from `from`, arc position)
         for (int k = 0; k < N; ++k) {
           const double a = pr.base_nodes[k], b = pr.base_nodes[(k + 1) % N];

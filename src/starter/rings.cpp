@@ -449,7 +449,8 @@ RingsResult candidate_rings(const StarterContext& c) {
       for (int i = 1; i < R && bone.norm() > 0; ++i) {
         const double f = static_cast<double>(i) / R;
         std::string why;
-        if (auto r = first_local(c, j, {sk.origin[p], bone, bone.normalized(), bone.normalized(), f, f + 0.5 / R}, why)) {
+        if (auto r =
+                first_local(c, j, {sk.origin[p], bone, bone.normalized(), bone.normalized(), f, f + 0.5 / R}, why)) {
           r->id = name + suffix(i);
           r->frac = f;
           out.rings.push_back(std::move(*r));
@@ -563,8 +564,9 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
     const Placement pl{point - c.options.weights.blend * in, out, axis.normalized(), axis.normalized(), 0, 0.25 / R};
     Probe q = probe(c, list, pl, 0);
     if (!is_local(c, q)) {
-      c.say("no trunk ring for " + names + ": " +
-            (q.ring && q.foreign >= 0 ? "its section also encloses bone " + c.bone_name(q.foreign) : "no section there"));
+      c.say(
+          "no trunk ring for " + names + ": " +
+          (q.ring && q.foreign >= 0 ? "its section also encloses bone " + c.bone_name(q.foreign) : "no section there"));
       continue;
     }
     q.ring->id = c.joints[list.front()].name + "_trunk";
@@ -574,7 +576,8 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
     const int common = sk.parent[list.front()];
     if (common >= 0 && std::all_of(list.begin(), list.end(), [&](int j) { return sk.parent[j] == common; })) {
       const auto parents_ring = std::find_if(rings.begin(), rings.end(), [&](const Ring& r) {
-        return r.joint == common && r.frac == 1 && polylines_within(r.loop, true, q.ring->loop, true, c.gap(r, *q.ring));
+        return r.joint == common && r.frac == 1 &&
+               polylines_within(r.loop, true, q.ring->loop, true, c.gap(r, *q.ring));
       });
       if (parents_ring != rings.end()) {
         c.say("no trunk ring for " + names + ": the ring of '" + c.joints[common].name + "' crosses it");
@@ -632,8 +635,8 @@ std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& ri
     }
     if (conflict >= 0) {
       r.replaced_by = conflict;
-      const std::string m = "ring '" + r.id + "' dropped: it comes within " + std::to_string(c.gap(r, rings[conflict])) +
-                            " of ring '" + rings[conflict].id + "'" +
+      const std::string m = "ring '" + r.id + "' dropped: it comes within " +
+                            std::to_string(c.gap(r, rings[conflict])) + " of ring '" + rings[conflict].id + "'" +
                             (r.place.t_max > t0 ? ", moved as far along its bone as it goes" : "");
       c.say(m);
       if (r.frac == 1)
@@ -748,7 +751,8 @@ std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings
       }
       if (best >= 0) {
         parent_ring[o] = best;
-        c.say("ring '" + rings[o].id + "' has no ring up its chain: it joins the nearest ring, '" + rings[best].id + "'");
+        c.say("ring '" + rings[o].id + "' has no ring up its chain: it joins the nearest ring, '" + rings[best].id +
+              "'");
       }
     }
   }

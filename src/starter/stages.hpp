@@ -48,8 +48,8 @@ struct Placement {
 /// A ring: a closed section around a limb (or around several, a trunk).
 struct Ring {
   std::string id;
-  int joint = -1;  ///< the joint it belongs to
-  double frac = 1; ///< its order among the rings of `joint` (1: the joint's own ring; 0: a shared trunk's)
+  int joint = -1;       ///< the joint it belongs to
+  double frac = 1;      ///< its order among the rings of `joint` (1: the joint's own ring; 0: a shared trunk's)
   std::vector<int> own; ///< the joints whose bones it may enclose: `joint`, or a trunk's joints
   Placement place;
   double t = 0; ///< where in `place` it sits

@@ -4,9 +4,9 @@
 
 #include "curvenet/starter.hpp"
 
+#include "core/quoted.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
-#include "core/quoted.hpp"
 #include "starter/stages.hpp"
 
 #include <algorithm>
@@ -76,7 +76,8 @@ double winding_number_at(const SurfaceMesh& mesh, const Vec3& p) {
 /// joint of the rest it lies nearest to. The joints left out come with the
 /// reason.
 std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<Joint>& joints,
-                                    const StarterOptions& opt, std::vector<std::pair<std::string, std::string>>& skipped) {
+                                    const StarterOptions& opt,
+                                    std::vector<std::pair<std::string, std::string>>& skipped) {
   const Skeleton sk(joints);
   const int n = static_cast<int>(joints.size());
   const bool known = !opt.deforming.empty();
@@ -103,8 +104,9 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
   }
   std::vector<std::string> why(n);
   for (int j = 0; j < n; ++j)
-    why[j] = known && !weighted(j) ? (inside[j] ? "carries no skin weight" : "carries no skin weight and lies outside the mesh")
-                                   : "lies outside the mesh";
+    why[j] = known && !weighted(j)
+                 ? (inside[j] ? "carries no skin weight" : "carries no skin weight and lies outside the mesh")
+                 : "lies outside the mesh";
   for (int j = 0; j < n; ++j) {
     int a = sk.parent[j];
     while (a >= 0 && !rigged[a])
@@ -242,8 +244,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
   std::set<int> dropped;
   JoinAttempts join_attempt;
   std::map<int, std::string> join_failure; // child ring -> why its last join was given up
-  std::map<int, int> parent_override;       // child ring -> the ring it joins instead of its own parent
-  std::map<int, std::set<int>> tried;       // child ring -> the parents whose joins were given up
+  std::map<int, int> parent_override;      // child ring -> the ring it joins instead of its own parent
+  std::map<int, std::set<int>> tried;      // child ring -> the parents whose joins were given up
   for (int attempt = 0;; ++attempt) {
     std::vector<int> active;
     for (int i : kept)

@@ -151,10 +151,11 @@ private:
 /// runs the same way as the step between the same points before placing
 /// (`mapped`); the last point (the end node) is always kept, and takes back
 /// the kept points it would double back over.
-constexpr int kReplacements = 8;  ///< re-placements of the profiles a target's embedding names
+constexpr int kReplacements = 8;      ///< re-placements of the profiles a target's embedding names
 constexpr int kRegionSamples = 20000; ///< faces per region the agreement is measured on, at most
-constexpr double kMinAngle = 10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
-constexpr double kKeptAngle = 0.5; ///< a node whose curves keep less of their angle than this is placed again
+constexpr double kMinAngle =
+    10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
+constexpr double kKeptAngle = 0.5;     ///< a node whose curves keep less of their angle than this is placed again
 
 std::vector<Vec3> without_folds(const std::vector<Vec3>& placed, const std::vector<Vec3>& mapped) {
   std::vector<size_t> kept{0};
@@ -208,8 +209,7 @@ public:
   RigPlacer(const Rig& rig, const TraceMesh& source, const TraceMesh& target, const TransferOptions& opt,
             const CageMap* source_cage)
       : rig_(rig), target_(target), source_cage_(source_cage),
-        source_to_target_(opt.target_frame.inverse() * opt.source_frame),
-        to_target_(source_to_target_ * rig.frame),
+        source_to_target_(opt.target_frame.inverse() * opt.source_frame), to_target_(source_to_target_ * rig.frame),
         scale_(std::cbrt(std::abs(to_target_.topLeftCorner<3, 3>().determinant()))),
         diag_(target.mesh().bbox_diagonal()), h_(target.mesh().mean_edge_length()), max_off_(opt.max_offset * diag_),
         project_(source, target, opt.target_frame.inverse() * opt.source_frame, max_off_) {}
@@ -396,11 +396,12 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
   std::vector<std::vector<Vec3>> mapped(out.profiles.size());
   auto place = [&](size_t i) {
     Profile& p = out.profiles[i];
-    if (p.curve.kind != Curve::Kind::Polyline) // a Bezier or NURBS curve keeps its shape, mapped; the embedding places it
+    if (p.curve.kind !=
+        Curve::Kind::Polyline) // a Bezier or NURBS curve keeps its shape, mapped; the embedding places it
       return;
-    p.curve.points = placer.place_profile(rig.profiles[i], chains[i].second, out.nodes[node_index.at(p.from)].position,
-                                          out.nodes[node_index.at(p.to)].position, by_closest.count(p.id) > 0,
-                                          mapped[i]);
+    p.curve.points =
+        placer.place_profile(rig.profiles[i], chains[i].second, out.nodes[node_index.at(p.from)].position,
+                             out.nodes[node_index.at(p.to)].position, by_closest.count(p.id) > 0, mapped[i]);
   };
   for (size_t i = 0; i < out.profiles.size(); ++i) {
     if (out.profiles[i].curve.kind != Curve::Kind::Polyline)
@@ -424,8 +425,8 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
       for (size_t b = a + 1; b < list.size(); ++b) {
         const auto [pa, sa] = list[a];
         const auto [pb, sb] = list[b];
-        const double before = std::acos(std::clamp(
-            leaving(mapped[pa], sa, reach).dot(leaving(mapped[pb], sb, reach)), -1.0, 1.0));
+        const double before =
+            std::acos(std::clamp(leaving(mapped[pa], sa, reach).dot(leaving(mapped[pb], sb, reach)), -1.0, 1.0));
         const double after = std::acos(std::clamp(
             leaving(out.profiles[pa].curve.points, sa, reach).dot(leaving(out.profiles[pb].curve.points, sb, reach)),
             -1.0, 1.0));
@@ -502,7 +503,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const TraceMesh& target_placed = target_cage ? target_cage->limit_trace() : *target_trace;
   const TraceMesh& source_located = source_cage ? source_cage->cage_trace() : *source_trace;
   // A plain mesh is embedded on the trace mesh built here.
-  const Embedding src = source_cage ? embed(source, rig, source_embed) : embed_on(source, *source_trace, rig, source_embed);
+  const Embedding src =
+      source_cage ? embed(source, rig, source_embed) : embed_on(source, *source_trace, rig, source_embed);
   rep.source = src.report();
   if (!rep.source.ok)
     throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
@@ -515,8 +517,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   // where it is.
   const bool same_space = source_to_target.isIdentity(0);
   const std::unique_ptr<TraceMesh> mapped_trace = same_space ? nullptr : trace_of(mapped);
-  rep.shape = detail::surface_distance(mapped, same_space ? source_placed : *mapped_trace, target_surface,
-                                       target_placed, 1);
+  rep.shape =
+      detail::surface_distance(mapped, same_space ? source_placed : *mapped_trace, target_surface, target_placed, 1);
   const std::string apart = " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) +
                             " of the diagonal apart, " + percent(rep.shape.mean / rep.shape.diagonal) + " on average)";
 
