@@ -9,6 +9,7 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/jobs.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
@@ -969,6 +970,29 @@ PYBIND11_MODULE(_curvenet, m) {
         return clip_frames(clips, clip, fps);
       },
       py::arg("clips"), py::arg("clip"), py::arg("fps") = 24.0);
+  m.def(
+      "animate",
+      [](const PyBinding& b, const SkinnedMesh& clips, int clip, const std::string& path, double fps,
+         const std::string& frames, long long max_frames) {
+        if (clip < 0 || clip >= clips.num_clips())
+          throw py::index_error("clip " + std::to_string(clip) + " out of range");
+        if (!(fps > 0 && fps <= 10000))
+          throw py::value_error("fps: expected a number in (0, 10000]");
+        const FrameRange range = frame_range(clips, clip, fps, frames, max_frames);
+        {
+          py::gil_scoped_release release;
+          OutputFiles files;
+          Pc2Sink pc2(files, path, b.binding.num_input_vertices(), range, clips.source);
+          FrameSink* sinks[] = {&pc2};
+          animate(b.binding, clips, clip, range, sinks);
+          files.commit();
+        }
+        return std::make_pair(range.first, range.last);
+      },
+      py::arg("binding"), py::arg("clips"), py::arg("clip"), py::arg("path"), py::kw_only(), py::arg("fps") = 24.0,
+      py::arg("frames") = "", py::arg("max_frames") = 100000LL,
+      "Writes clip `clip` deformed through the binding as a PC2 cache at `path`, streamed in blocks (the same "
+      "frames as `curvenet animate`); returns the (first, last) frame");
 
   // Baking to a linear-blend skin.
   py::class_<SkinWeights>(m, "SkinWeights", "A linear-blend skin: `influences` (joint, weight) slots per input vertex")

@@ -8,6 +8,7 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/jobs.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
@@ -27,8 +28,6 @@
 #include <optional>
 #include <set>
 #include <sstream>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 
 #include <unistd.h>
 
@@ -280,97 +279,38 @@ int run_animate(const AnimateArgs& a) {
   const int clip = a.clip.empty() ? 0 : clips.find_clip(a.clip);
   if (clip < 0)
     throw InputError(a.clip_file, "clip '" + a.clip + "'", "no clip has this name or index");
-  auto [first, last] = clip_frames(clips, clip, a.fps);
-  if (!a.frames.empty()) {
-    // Exactly two whole numbers around one colon: "1.5:3y", "1:2:3" and
-    // "0:1e3" are refused.
-    const auto colon = a.frames.find(':');
-    auto whole = [](std::string_view t, int& out) { return detail::parse_whole(t, out); };
-    const std::string_view text = a.frames;
-    if (colon == std::string::npos || !whole(text.substr(0, colon), first) || !whole(text.substr(colon + 1), last))
-      throw InputError("--frames", a.frames, "expected A:B, two whole frame numbers");
-    if (last < first)
-      throw InputError("--frames", a.frames, "the last frame comes before the first");
-  }
-  if (static_cast<long long>(last) - first + 1 > a.max_frames)
-    throw InputError("--frames", std::to_string(first) + ":" + std::to_string(last),
-                     std::to_string(static_cast<long long>(last) - first + 1) + " frames is more than --max-frames (" +
-                         std::to_string(a.max_frames) + ")");
-  (void)clip_skinning_matrices(rig.joints, clips, clip, first / a.fps); // a clip for this skeleton, before binding
+  const FrameRange range = frame_range(clips, clip, a.fps, a.frames, a.max_frames);
+  (void)clip_skinning_matrices(rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
+  // All or nothing: the frames go to temporary files, moved into place at
+  // the end (a folder this run made goes with them on a failure).
   OutputFiles files;
   const Binding b = bind_for(mesh, rig, a, files);
-  const int frames = last - first + 1, nv = b.num_input_vertices();
-  auto frame_positions = [&](int f, std::vector<Vec3>& out) {
-    b.deform(clip_skinning_matrices(b.joints(), clips, clip, (first + f) / a.fps), out);
-    check_posed(out, a.clip_file, "frame " + std::to_string(first + f) + " ");
-  };
-  // Frames are independent: each is computed in parallel into its own slot,
-  // so the result does not depend on the number of threads. All or nothing:
-  // the frames go to temporary files, moved into place at the end (the
-  // folder, if this run made it, goes with them on a failure).
+  std::optional<InputTopology> topo;
+  std::unique_ptr<FrameSink> sink;
   if (!a.obj_sequence.empty()) {
-    const InputTopology topo = read_input_topology(a.mesh);
-    std::vector<std::string> texts(static_cast<size_t>(frames));
-    tbb::enumerable_thread_specific<std::vector<Vec3>> buffers([nv] { return std::vector<Vec3>(nv); });
-    // In blocks, so that no more than a block of frames is held at once.
-    const int block = 64;
-    for (int b0 = 0; b0 < frames; b0 += block) {
-      const int b1 = std::min(frames, b0 + block);
-      tbb::parallel_for(b0, b1, [&](int f) {
-        std::vector<Vec3>& out = buffers.local(); // one buffer per thread, not per frame
-        frame_positions(f, out);
-        texts[f] = posed_obj(topo, out);
-      });
-      for (int f = b0; f < b1; ++f) {
-        std::ostringstream name;
-        name << "frame_" << std::setw(4) << std::setfill('0') << first + f << ".obj";
-        files.add((std::filesystem::path(a.obj_sequence) / name.str()).string(), texts[f]);
-        std::string().swap(texts[f]);
-      }
-    }
+    topo = read_input_topology(a.mesh);
+    sink = std::make_unique<ObjSequenceSink>(files, a.obj_sequence, *topo);
   } else {
-    // Streamed to the cache in blocks of frames (about 64 MB at a time),
-    // each block computed in parallel.
-    std::ostream& pc2 = files.stream(a.out);
-    pc2 << pc2_header(nv, frames, static_cast<float>(first));
-    const int block = static_cast<int>(std::clamp<long long>((64ll << 20) / (12ll * std::max(nv, 1)), 1, 256));
-    std::vector<float> data(static_cast<size_t>(std::min(block, frames)) * nv * 3);
-    tbb::enumerable_thread_specific<std::vector<Vec3>> buffers([nv] { return std::vector<Vec3>(nv); });
-    for (int b0 = 0; b0 < frames; b0 += block) {
-      const int b1 = std::min(frames, b0 + block);
-      tbb::parallel_for(b0, b1, [&](int f) {
-        std::vector<Vec3>& out = buffers.local(); // one buffer per thread, not per frame
-        frame_positions(f, out);
-        float* dst = data.data() + static_cast<size_t>(f - b0) * nv * 3;
-        for (int i = 0; i < nv; ++i)
-          for (int c = 0; c < 3; ++c) {
-            dst[3 * i + c] = static_cast<float>(out[i][c]);
-            if (!std::isfinite(dst[3 * i + c]))
-              throw InputError(
-                  a.clip_file, "frame " + std::to_string(first + f) + " vertex " + std::to_string(i),
-                  "the pose moves it out of the range of a PC2 cache (single precision); nothing was written");
-          }
-      });
-      pc2.write(reinterpret_cast<const char*>(data.data()),
-                static_cast<std::streamsize>(static_cast<size_t>(b1 - b0) * nv * 3 * sizeof(float)));
-    }
+    sink = std::make_unique<Pc2Sink>(files, a.out, b.num_input_vertices(), range, a.clip_file);
   }
+  FrameSink* sinks[] = {sink.get()};
+  animate(b, clips, clip, range, sinks);
   if (!a.cut_mesh_sequence.empty()) {
     const CutMeshBinding cut = naming_rig(a.rig, [&] { return bind_cut_mesh(mesh, rig, bind_options(a), &b); });
-    for (int f = 0; f < frames; ++f) {
-      std::ostringstream name;
-      name << "cut_frame_" << std::setw(4) << std::setfill('0') << first + f << ".obj";
-      files.add((std::filesystem::path(a.cut_mesh_sequence) / name.str()).string(),
-                cut.posed_obj(clip_skinning_matrices(b.joints(), clips, clip, (first + f) / a.fps)));
-    }
+    FunctionSink cut_frames([&](int frame, std::span<const Vec3> positions) {
+      files.add((std::filesystem::path(a.cut_mesh_sequence) / sequence_name("cut_frame", frame)).string(),
+                cut.embedding.cut_mesh_obj(positions));
+    });
+    FrameSink* cut_sinks[] = {&cut_frames};
+    animate(cut.binding, clips, clip, range, cut_sinks);
   }
   files.commit();
   std::cout << "Curvenet animate: SUCCESS\n";
   print_bind(std::cout, b);
-  std::cout << "clip: " << clips.clip_names[clip] << " (" << clip << "), frames " << first << ":" << last << " at "
-            << a.fps << " fps\n";
-  std::cout << "output: " << (a.obj_sequence.empty() ? a.out : a.obj_sequence) << " (" << frames << " frames, " << nv
-            << " vertices)\n";
+  std::cout << "clip: " << clips.clip_names[clip] << " (" << clip << "), frames " << range.first << ":" << range.last
+            << " at " << a.fps << " fps\n";
+  std::cout << "output: " << (a.obj_sequence.empty() ? a.out : a.obj_sequence) << " (" << range.count() << " frames, "
+            << b.num_input_vertices() << " vertices)\n";
   return 0;
 }
 

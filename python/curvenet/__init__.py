@@ -24,6 +24,7 @@ from ._curvenet import (  # noqa: F401
     StarterResult,
     TopologyError,
     TransferResult,
+    animate,
     bake_weights,
     bind,
     clip_frames,

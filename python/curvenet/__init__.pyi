@@ -392,6 +392,13 @@ def clip_skinning_matrices(skeleton: Skeleton, clips: SkinnedMesh, clip: int, t:
     """(J, 4, 4) at time t of a clip, joints matched by name. Raises InputError when none match."""
 def clip_frames(clips: SkinnedMesh, clip: int, fps: float = 24.0) -> tuple[int, int]:
     """First and last whole frame of a clip at fps."""
+def animate(
+    binding: Binding, clips: SkinnedMesh, clip: int, path: str, *, fps: float = 24.0, frames: str = "",
+    max_frames: int = 100000
+) -> tuple[int, int]:
+    """Writes a clip deformed through the binding as a PC2 cache, streamed in blocks: the frames `curvenet animate`
+    writes. `frames` is "A:B" or "" for the clip's range. Returns (first, last). Raises InputError for a bad range
+    or a non-finite position, writing nothing."""
 def write_pc2(path: str, frames: npt.ArrayLike, start_frame: float = 0.0) -> None:
     """Writes (F, n, 3) positions as a PC2 point cache, all or nothing. Raises InputError for a non-finite value."""
 def validate_rig(rig: Rig, source: str = "rig") -> None:

@@ -261,6 +261,18 @@ def test_deform_frames_gives_exactly_the_cli_animation(tmp_path):
     mine = tmp_path / "mine.pc2"
     curvenet.write_pc2(str(mine), P, first)
     assert mine.read_bytes() == pc2.read_bytes()
+    # The library's animation job, which the CLI runs, streams the same cache.
+    streamed = tmp_path / "streamed.pc2"
+    assert curvenet.animate(b, clips, clip, str(streamed)) == (first, last)
+    assert streamed.read_bytes() == pc2.read_bytes()
+    # A range of frames, checked as the CLI checks --frames (past the
+    # clip's end, its last key holds).
+    part = tmp_path / "part.pc2"
+    assert curvenet.animate(b, clips, clip, str(part), frames=f"{first}:{first + 2}") == (first, first + 2)
+    got, start = read_pc2(part)
+    assert start == first and got.shape[0] == 3 and np.array_equal(got[0], want[0])
+    with pytest.raises(curvenet.InputError, match="--frames"):
+        curvenet.animate(b, clips, clip, str(part), frames="2:1")
 
 
 @needs_data

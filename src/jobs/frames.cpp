@@ -1,0 +1,102 @@
+// Frames of a clip as a job: the range checked up front, deformed block by
+// block through Binding::deform_frames, and streamed to sinks in order.
+
+#include "curvenet/jobs.hpp"
+
+#include "core/numbers.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/pose.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+namespace curvenet {
+
+FrameRange frame_range(const SkinnedMesh& clips, int clip, double fps, const std::string& frames,
+                       long long max_frames) {
+  FrameRange r;
+  r.fps = fps;
+  std::tie(r.first, r.last) = clip_frames(clips, clip, fps);
+  if (!frames.empty()) {
+    // Exactly two whole numbers around one colon: "1.5:3y", "1:2:3" and
+    // "0:1e3" are refused.
+    const auto colon = frames.find(':');
+    const std::string_view text = frames;
+    if (colon == std::string::npos || !detail::parse_whole(text.substr(0, colon), r.first) ||
+        !detail::parse_whole(text.substr(colon + 1), r.last))
+      throw InputError("--frames", frames, "expected A:B, two whole frame numbers");
+    if (r.last < r.first)
+      throw InputError("--frames", frames, "the last frame comes before the first");
+  }
+  const long long count = static_cast<long long>(r.last) - r.first + 1;
+  if (count > max_frames)
+    throw InputError("--frames", std::to_string(r.first) + ":" + std::to_string(r.last),
+                     std::to_string(count) + " frames is more than --max-frames (" + std::to_string(max_frames) + ")");
+  return r;
+}
+
+Pc2Sink::Pc2Sink(OutputFiles& files, const std::string& path, int vertices, const FrameRange& range, std::string blame)
+    : out_(&files.stream(path)), blame_(blame.empty() ? path : std::move(blame)),
+      buffer_(3 * static_cast<size_t>(vertices)) {
+  *out_ << pc2_header(vertices, range.count(), static_cast<float>(range.first));
+}
+
+void Pc2Sink::write(int frame, std::span<const Vec3> positions) {
+  for (size_t i = 0; i < positions.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      buffer_[3 * i + c] = static_cast<float>(positions[i][c]);
+      if (!std::isfinite(buffer_[3 * i + c]))
+        throw InputError(blame_, "frame " + std::to_string(frame) + " vertex " + std::to_string(i),
+                         "the pose moves it out of the range of a PC2 cache (single precision); nothing was written");
+    }
+  out_->write(reinterpret_cast<const char*>(buffer_.data()),
+              static_cast<std::streamsize>(buffer_.size() * sizeof(float)));
+}
+
+std::string sequence_name(const std::string& prefix, int frame) {
+  std::ostringstream name;
+  name << prefix << "_" << std::setw(4) << std::setfill('0') << frame << ".obj";
+  return name.str();
+}
+
+ObjSequenceSink::ObjSequenceSink(OutputFiles& files, std::string dir, const InputTopology& topology, std::string prefix)
+    : files_(files), dir_(std::move(dir)), prefix_(std::move(prefix)), topology_(topology) {}
+
+void ObjSequenceSink::write(int frame, std::span<const Vec3> positions) {
+  files_.add((std::filesystem::path(dir_) / sequence_name(prefix_, frame)).string(),
+             posed_obj(topology_, std::vector<Vec3>(positions.begin(), positions.end())));
+}
+
+void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
+             std::span<FrameSink* const> sinks) {
+  const int frames = range.count(), nv = binding.num_input_vertices();
+  const std::vector<Joint>& joints = binding.joints();
+  // About 64 MB of positions a block, from 1 to 256 frames.
+  const int block = static_cast<int>(std::clamp<long long>((64ll << 20) / (24ll * std::max(nv, 1)), 1, 256));
+  std::vector<Mat4> M;
+  std::vector<Vec3> out;
+  for (int b0 = 0; b0 < frames; b0 += block) {
+    const int b1 = std::min(frames, b0 + block);
+    M.clear();
+    for (int f = b0; f < b1; ++f) {
+      const auto m = clip_skinning_matrices(joints, clips, clip, range.time(range.first + f));
+      M.insert(M.end(), m.begin(), m.end());
+    }
+    out.resize(static_cast<size_t>(b1 - b0) * nv);
+    binding.deform_frames(M, out);
+    for (int f = b0; f < b1; ++f) {
+      const std::span<const Vec3> positions(out.data() + static_cast<size_t>(f - b0) * nv, static_cast<size_t>(nv));
+      for (int i = 0; i < nv; ++i)
+        if (!positions[i].allFinite())
+          throw InputError(clips.source, "frame " + std::to_string(range.first + f) + " vertex " + std::to_string(i),
+                           "the pose moves it out of range (not a finite number); nothing was written");
+      for (FrameSink* s : sinks)
+        s->write(range.first + f, positions);
+    }
+  }
+}
+
+} // namespace curvenet

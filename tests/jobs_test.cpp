@@ -1,0 +1,118 @@
+// The jobs layer (curvenet/jobs.hpp): a clip's frames as a checked range,
+// deformed in blocks and streamed in order to sinks.
+
+#include "curvenet/errors.hpp"
+#include "curvenet/jobs.hpp"
+#include "curvenet/pose.hpp"
+#include "curvenet/starter.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+using namespace curvenet;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Scene {
+  SurfaceMesh mesh;
+  SkinnedMesh clips;
+  Binding binding;
+};
+
+Scene rigged_simple() {
+  const std::string path = test::data("rigged_simple/RiggedSimple.gltf");
+  SurfaceMesh mesh = load_mesh(path);
+  SkinnedMesh clips = load_skinned_mesh(path);
+  Binding binding = bind(mesh, make_starter(mesh, clips.joints).rig);
+  return {std::move(mesh), std::move(clips), std::move(binding)};
+}
+
+} // namespace
+
+TEST(Jobs, AFrameRangeIsTheClipsOrTwoWholeNumbersWithinTheCap) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh clips = load_skinned_mesh(test::data("rigged_simple/RiggedSimple.gltf"));
+  const auto [first, last] = clip_frames(clips, 0, 24);
+  const FrameRange whole = frame_range(clips, 0, 24);
+  EXPECT_EQ(whole.first, first);
+  EXPECT_EQ(whole.last, last);
+  EXPECT_DOUBLE_EQ(whole.time(12), 0.5);
+  const FrameRange part = frame_range(clips, 0, 24, "-3:7");
+  EXPECT_EQ(part.first, -3);
+  EXPECT_EQ(part.count(), 11);
+  for (const char* bad : {"1.5:3", "1:2:3", "0:1e3", "3", "4:2", ":", "a:b"})
+    EXPECT_THROW(frame_range(clips, 0, 24, bad), InputError) << bad;
+  try {
+    frame_range(clips, 0, 24, "0:200", 100);
+    ADD_FAILURE() << "the cap was not kept";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("201 frames is more than --max-frames (100)"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Jobs, FramesReachEverySinkInOrderExactlyAsDeformGivesThem) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Scene s = rigged_simple();
+  const FrameRange range = frame_range(s.clips, 0, 24);
+  ASSERT_GT(range.count(), 2);
+  std::vector<int> seen_a, seen_b;
+  std::vector<std::vector<Vec3>> got;
+  FunctionSink a([&](int f, std::span<const Vec3> p) {
+    seen_a.push_back(f);
+    got.emplace_back(p.begin(), p.end());
+  });
+  FunctionSink b([&](int f, std::span<const Vec3>) { seen_b.push_back(f); });
+  FrameSink* sinks[] = {&a, &b};
+  animate(s.binding, s.clips, 0, range, sinks);
+  ASSERT_EQ(static_cast<int>(seen_a.size()), range.count());
+  EXPECT_EQ(seen_a, seen_b);
+  for (int k = 0; k < range.count(); ++k) {
+    EXPECT_EQ(seen_a[k], range.first + k);
+    std::vector<Vec3> want(s.binding.num_input_vertices());
+    s.binding.deform(clip_skinning_matrices(s.binding.joints(), s.clips, 0, range.time(range.first + k)), want);
+    EXPECT_EQ(got[k], want) << "frame " << range.first + k; // bit for bit
+  }
+}
+
+TEST(Jobs, APc2StreamedOnOneThreadOrManyIsTheSameBytesAndIsAllOrNothing) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Scene s = rigged_simple();
+  const auto dir = test::temp_dir("jobs_pc2");
+  const FrameRange range = frame_range(s.clips, 0, 24);
+  auto write = [&](const fs::path& path, int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    OutputFiles files;
+    Pc2Sink pc2(files, path.string(), s.binding.num_input_vertices(), range);
+    FrameSink* sinks[] = {&pc2};
+    animate(s.binding, s.clips, 0, range, sinks);
+    files.commit();
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  const std::string one = write(dir / "one.pc2", 1), four = write(dir / "four.pc2", 4);
+  EXPECT_EQ(one, four);
+  EXPECT_EQ(one.size(), 32 + static_cast<size_t>(range.count()) * s.binding.num_input_vertices() * 12);
+  // A sink that fails part way: nothing is written.
+  {
+    OutputFiles files;
+    Pc2Sink pc2(files, (dir / "failed.pc2").string(), s.binding.num_input_vertices(), range);
+    FunctionSink fail([&](int f, std::span<const Vec3>) {
+      if (f == range.first + 1)
+        throw Error("stop");
+    });
+    FrameSink* sinks[] = {&pc2, &fail};
+    EXPECT_THROW(animate(s.binding, s.clips, 0, range, sinks), Error);
+  }
+  EXPECT_FALSE(fs::exists(dir / "failed.pc2"));
+}
