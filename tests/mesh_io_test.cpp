@@ -5,6 +5,9 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/mesh_output.hpp"
+#include "helpers.hpp"
+#include "io/gltf_scene.hpp"
+#include "curvenet/skin.hpp"
 
 #include <gtest/gtest.h>
 
@@ -241,5 +244,31 @@ TEST(OutputFiles, ASymbolicLinkKeepsItsPlaceAndTheFileItNamesIsReplaced) {
   EXPECT_EQ(slurp(dir / "real" / "r.json"), "new");
   // A folder is not a file to write.
   EXPECT_THROW(write_file_atomic((dir / "real").string(), "x"), Error);
+  fs::remove_all(dir);
+}
+
+TEST(MeshIo, AGltfFileIsParsedOnceForItsSurfaceTopologyAndSkin) {
+  // What a command takes from one glTF file (pose: the surface, the input
+  // topology, the skin) comes from one parse; a file changed since is
+  // parsed again.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const fs::path dir = fs::temp_directory_path() / "curvenet_gltf_once";
+  fs::create_directories(dir);
+  const fs::path copy = dir / "rs.gltf";
+  fs::copy_file(test::data("rigged_simple/RiggedSimple.gltf"), copy, fs::copy_options::overwrite_existing);
+  const long before = detail::gltf_parses();
+  const SurfaceMesh mesh = load_mesh(copy.string());
+  const InputTopology topology = read_input_topology(copy.string());
+  const SkinnedMesh skin = load_skinned_mesh(copy.string());
+  EXPECT_EQ(detail::gltf_parses() - before, 1);
+  EXPECT_EQ(topology.faces.positions.size(), mesh.input_to_welded.size());
+  EXPECT_EQ(skin.vertex_joint.size(), topology.faces.positions.size());
+  // Rewritten (another size): read again, and what it now holds.
+  std::string text = slurp(copy);
+  text += "\n";
+  std::ofstream(copy, std::ios::binary | std::ios::trunc) << text;
+  (void)load_mesh(copy.string());
+  EXPECT_EQ(detail::gltf_parses() - before, 2);
   fs::remove_all(dir);
 }

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
@@ -495,7 +496,68 @@ std::vector<int> scene_roots(const tinygltf::Model& model, const std::vector<int
 
 } // namespace
 
+namespace {
+
+/// The scenes read last, by file: a command reads its mesh's surface, its
+/// input topology and its skin from one file, and each is built from one
+/// parse. A file is read again when its size or modification time changes.
+struct SceneCache {
+  struct Entry {
+    std::string path;
+    std::uintmax_t size = 0;
+    std::filesystem::file_time_type time;
+    std::shared_ptr<const GltfScene> scene;
+  };
+  std::mutex mutex;
+  std::vector<Entry> entries; // the most recent last, at most kKept
+  long parses = 0;
+  static constexpr size_t kKept = 2;
+};
+
+SceneCache& scene_cache() {
+  static SceneCache cache;
+  return cache;
+}
+
+GltfScene parse_gltf_scene(const std::string& path);
+
+} // namespace
+
+long gltf_parses() {
+  SceneCache& c = scene_cache();
+  std::lock_guard lock(c.mutex);
+  return c.parses;
+}
+
 GltfScene read_gltf_scene(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const std::string key = fs::absolute(path, ec).lexically_normal().string();
+  const std::uintmax_t size = fs::file_size(path, ec);
+  const fs::file_time_type time = ec ? fs::file_time_type{} : fs::last_write_time(path, ec);
+  const bool known = !ec;
+  SceneCache& c = scene_cache();
+  if (known) {
+    std::lock_guard lock(c.mutex);
+    for (const auto& e : c.entries)
+      if (e.path == key && e.size == size && e.time == time)
+        return *e.scene;
+  }
+  auto scene = std::make_shared<const GltfScene>(parse_gltf_scene(path));
+  std::lock_guard lock(c.mutex);
+  ++c.parses;
+  if (known) {
+    std::erase_if(c.entries, [&](const SceneCache::Entry& e) { return e.path == key; });
+    c.entries.push_back({key, size, time, scene});
+    if (c.entries.size() > SceneCache::kKept)
+      c.entries.erase(c.entries.begin());
+  }
+  return *scene;
+}
+
+namespace {
+
+GltfScene parse_gltf_scene(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   tinygltf::TinyGLTF loader;
@@ -579,6 +641,8 @@ GltfScene read_gltf_scene(const std::string& path) {
   scene.model = model;
   return scene;
 }
+
+} // namespace
 
 std::vector<Eigen::Matrix4d> inverse_bind_matrices(const GltfScene& scene) {
   const auto& model = *scene.model;

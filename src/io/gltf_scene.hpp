@@ -32,9 +32,14 @@ struct GltfScene {
   std::vector<std::array<double, 4>> vertex_weight;
 };
 
-/// Reads a .gltf or .glb file.
+/// Reads a .gltf or .glb file. The last two files read are kept (by path,
+/// size and modification time), so a command that takes a file's surface,
+/// topology and skin parses it once.
 /// \throw InputError for an unreadable file or a malformed accessor.
 GltfScene read_gltf_scene(const std::string& path);
+
+/// How many glTF files this process has parsed (for tests of the above).
+long gltf_parses();
 
 /// World matrices of every node, at time `t` (seconds) of animation `clip`,
 /// or at rest when clip < 0. Channels interpolate as their samplers say
