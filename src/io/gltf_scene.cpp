@@ -229,20 +229,23 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   }
 }
 
-/// Every index, type and count the readers below rely on, checked once: a
-/// damaged file is refused naming the element, before anything reads it.
-/// A 4x4 matrix a skeleton can use: finite, affine (last row 0 0 0 1) and
-/// invertible, with a condition number a double can invert.
-std::string matrix_fault(const Eigen::Matrix4d& m) {
+/// What is wrong with a 4x4 matrix for a skeleton ("" if nothing): it must
+/// be finite, affine (last row 0 0 0 1, to 1e-6) and invertible, scaling by
+/// no more than 1e9.
+std::string matrix_fault(Eigen::Matrix4d m) {
   if (!m.allFinite())
     return "has a value that is not a finite number";
-  if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+  // Exporters and single precision leave the last row 0 0 0 1 only to within rounding.
+  if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-6)
     return "is not affine (its last row is not 0 0 0 1)";
+  m.row(3) = Eigen::RowVector4d(0, 0, 0, 1);
   if (!detail::bounded_scale(m))
     return "is singular, nearly so, or scales by more than 1e9 (it has no usable inverse)";
   return "";
 }
 
+/// Every index, type and count the readers below rely on, checked once: a
+/// damaged file is refused naming the element, before anything reads it.
 void validate_model(const tinygltf::Model& m, const std::string& path) {
   auto in_range = [](int i, size_t n) { return i >= 0 && static_cast<size_t>(i) < n; };
   if (m.asset.version.rfind("2.", 0) != 0)
@@ -373,9 +376,6 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
         for (int c = 0; c < 4; ++c)
           for (int r = 0; r < 4; ++r)
             x(r, c) = acc.get(j, 4 * c + r);
-        // Stored in single precision: the last row is 0 0 0 1 to within float rounding.
-        if ((x.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() < 1e-6)
-          x.row(3) = Eigen::RowVector4d(0, 0, 0, 1);
         if (const std::string fault = matrix_fault(x); !fault.empty())
           throw InputError(path, what + " inverse bind matrix " + std::to_string(j), fault);
       }
