@@ -347,6 +347,25 @@ TEST(Deform, BindingCacheRoundTrips) {
   EXPECT_FALSE(reused);
 }
 
+namespace {
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+/// The cache's checksum (FNV-1a over all but its last 8 bytes) made to match.
+void refix_checksum(std::string& bytes) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (size_t i = 0; i + 8 < bytes.size(); ++i)
+    h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ULL;
+  std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
+}
+
+} // namespace
+
 TEST(Deform, ADamagedBindingCacheIsRebuilt) {
   // The right fingerprint, but a byte changed in the tables, or the file cut
   // short, or a joint index made out of range with the checksum fixed up to
@@ -357,20 +376,8 @@ TEST(Deform, ADamagedBindingCacheIsRebuilt) {
   Pose pose;
   pose["mid"] = rotation(50, {0, 0, 1});
   const Binding fresh = bind_cached(m, make_tube_net(), {}, path);
-  std::string good;
-  {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    good = s.str();
-  }
+  const std::string good = file_bytes(path);
   auto rewrite = [&](std::string bytes) { std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes; };
-  auto refix_checksum = [](std::string& bytes) {
-    std::uint64_t h = 1469598103934665603ULL;
-    for (size_t i = 0; i + 8 < bytes.size(); ++i)
-      h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ULL;
-    std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
-  };
   std::string flipped = good;
   flipped[good.size() / 2] ^= 0x5a;
   std::string joint_out_of_range = good;
@@ -416,19 +423,7 @@ TEST(Deform, ACraftedBindingCacheWithAValidChecksumIsCheckedOnItsOwn) {
   Pose pose;
   pose["mid"] = rotation(50, {0, 0, 1});
   const Binding fresh = bind_cached(m, make_tube_net(), {}, path);
-  std::string good;
-  {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
-    good = text.str();
-  }
-  auto refix_checksum = [](std::string& bytes) {
-    std::uint64_t h = 1469598103934665603ULL;
-    for (size_t i = 0; i + 8 < bytes.size(); ++i)
-      h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ULL;
-    std::memcpy(bytes.data() + bytes.size() - 8, &h, 8);
-  };
+  const std::string good = file_bytes(path);
   auto rebind = [&](std::string bytes, bool* reused) {
     refix_checksum(bytes);
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
