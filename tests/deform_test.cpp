@@ -349,13 +349,6 @@ TEST(Deform, BindingCacheRoundTrips) {
 
 namespace {
 
-std::string file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 /// The cache's checksum (FNV-1a over all but its last 8 bytes) made to match.
 void refix_checksum(std::string& bytes) {
   std::uint64_t h = 1469598103934665603ULL;
@@ -376,7 +369,7 @@ TEST(Deform, ADamagedBindingCacheIsRebuilt) {
   Pose pose;
   pose["mid"] = rotation(50, {0, 0, 1});
   const Binding fresh = bind_cached(m, make_tube_net(), {}, path);
-  const std::string good = file_bytes(path);
+  const std::string good = test::file_bytes(path);
   auto rewrite = [&](std::string bytes) { std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes; };
   std::string flipped = good;
   flipped[good.size() / 2] ^= 0x5a;
@@ -423,7 +416,7 @@ TEST(Deform, ACraftedBindingCacheWithAValidChecksumIsCheckedOnItsOwn) {
   Pose pose;
   pose["mid"] = rotation(50, {0, 0, 1});
   const Binding fresh = bind_cached(m, make_tube_net(), {}, path);
-  const std::string good = file_bytes(path);
+  const std::string good = test::file_bytes(path);
   auto rebind = [&](std::string bytes, bool* reused) {
     refix_checksum(bytes);
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;

@@ -8,8 +8,10 @@
 #include <algorithm>
 #include <array>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -68,6 +70,14 @@ inline SurfaceMesh tube(int around, int along, int cap_rings, bool triangulate, 
 }
 
 /// A fresh temporary folder for one test.
+/// A file's bytes, as they are on disk.
+inline std::string file_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 inline std::filesystem::path temp_dir(const std::string& name) {
   auto p = std::filesystem::temp_directory_path() / ("curvenet_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(p);

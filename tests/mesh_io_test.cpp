@@ -174,10 +174,7 @@ TEST(MeshIo, AsciiFbxArraysTheFileCannotHoldAreRefusedBeforeAssimpAllocatesThem)
 
 namespace {
 std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return test::file_bytes(p);
 }
 } // namespace
 
