@@ -163,9 +163,9 @@ std::vector<Joint> make_tube_skeleton(const std::vector<double>& heights) {
   std::vector<Joint> joints;
   for (size_t i = 0; i < heights.size(); ++i) {
     Joint j;
-    j.name = "j" + std::to_string(i);
+    j.name = std::string("j").append(std::to_string(i)); // (GCC 12 warns, wrongly, of "j" + a temporary)
     if (i > 0)
-      j.parent = "j" + std::to_string(i - 1);
+      j.parent = std::string("j").append(std::to_string(i - 1));
     j.bind(1, 3) = heights[i];
     joints.push_back(j);
   }
