@@ -5,9 +5,10 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/mesh_output.hpp"
+#include "curvenet/skin.hpp"
 #include "helpers.hpp"
 #include "io/gltf_scene.hpp"
-#include "curvenet/skin.hpp"
+#include "io/obj_check.hpp"
 
 #include <gtest/gtest.h>
 
@@ -267,5 +268,24 @@ TEST(MeshIo, AGltfFileIsParsedOnceForItsSurfaceTopologyAndSkin) {
   std::ofstream(copy, std::ios::binary | std::ios::trunc) << text;
   (void)load_mesh(copy.string());
   EXPECT_EQ(detail::gltf_parses() - before, 2);
+  fs::remove_all(dir);
+}
+
+TEST(MeshIo, AnObjFileIsParsedOnceForItsSurfaceAndTopology) {
+  // pose reads an OBJ's surface (load_mesh) and its topology (UVs and
+  // normals, read_input_topology): one parse; a changed file is parsed again.
+  const fs::path dir = fs::temp_directory_path() / "curvenet_obj_once";
+  fs::create_directories(dir);
+  const fs::path obj = dir / "quad.obj";
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+  const long before = detail::obj_parses();
+  const SurfaceMesh mesh = load_mesh(obj.string());
+  const InputTopology topology = read_input_topology(obj.string());
+  EXPECT_EQ(detail::obj_parses() - before, 1);
+  EXPECT_EQ(mesh.num_faces(), 1);
+  EXPECT_EQ(topology.uv.size(), 4u);
+  std::ofstream(obj, std::ios::app) << "v 2 2 0\nf 2 5 3\n";
+  EXPECT_EQ(load_mesh(obj.string()).num_faces(), 2);
+  EXPECT_EQ(detail::obj_parses() - before, 2);
   fs::remove_all(dir);
 }

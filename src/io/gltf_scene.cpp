@@ -2,6 +2,7 @@
 
 #include "core/matrix_checks.hpp"
 #include "curvenet/errors.hpp"
+#include "io/file_bytes.hpp"
 #include "io/json_text.hpp"
 
 #include <tiny_gltf.h>
@@ -500,12 +501,12 @@ namespace {
 
 /// The scenes read last, by file: a command reads its mesh's surface, its
 /// input topology and its skin from one file, and each is built from one
-/// parse. A file is read again when its size or modification time changes.
+/// parse. The file's bytes are read each time and hashed (cheap beside the
+/// parse); a file whose bytes changed is parsed again.
 struct SceneCache {
   struct Entry {
     std::string path;
-    std::uintmax_t size = 0;
-    std::filesystem::file_time_type time;
+    size_t size = 0, hash = 0; ///< of the bytes: a file rewritten within the clock's tick keeps its mtime
     std::shared_ptr<const GltfScene> scene;
   };
   std::mutex mutex;
@@ -519,7 +520,7 @@ SceneCache& scene_cache() {
   return cache;
 }
 
-GltfScene parse_gltf_scene(const std::string& path);
+GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes);
 
 } // namespace
 
@@ -530,50 +531,37 @@ long gltf_parses() {
 }
 
 GltfScene read_gltf_scene(const std::string& path) {
-  namespace fs = std::filesystem;
+  const std::string bytes = file_bytes(path);
   std::error_code ec;
-  const std::string key = fs::absolute(path, ec).lexically_normal().string();
-  const std::uintmax_t size = fs::file_size(path, ec);
-  const fs::file_time_type time = ec ? fs::file_time_type{} : fs::last_write_time(path, ec);
-  const bool known = !ec;
+  const std::string key = std::filesystem::absolute(path, ec).lexically_normal().string();
+  const size_t hash = std::hash<std::string_view>{}(bytes);
   SceneCache& c = scene_cache();
-  if (known) {
+  {
     std::lock_guard lock(c.mutex);
     for (const auto& e : c.entries)
-      if (e.path == key && e.size == size && e.time == time)
+      if (e.path == key && e.size == bytes.size() && e.hash == hash)
         return *e.scene;
   }
-  auto scene = std::make_shared<const GltfScene>(parse_gltf_scene(path));
+  auto scene = std::make_shared<const GltfScene>(parse_gltf_scene(path, bytes));
   std::lock_guard lock(c.mutex);
   ++c.parses;
-  if (known) {
-    std::erase_if(c.entries, [&](const SceneCache::Entry& e) { return e.path == key; });
-    c.entries.push_back({key, size, time, scene});
-    if (c.entries.size() > SceneCache::kKept)
-      c.entries.erase(c.entries.begin());
-  }
+  std::erase_if(c.entries, [&](const SceneCache::Entry& e) { return e.path == key; });
+  c.entries.push_back({key, bytes.size(), hash, scene});
+  if (c.entries.size() > SceneCache::kKept)
+    c.entries.erase(c.entries.begin());
   return *scene;
 }
 
 namespace {
 
-GltfScene parse_gltf_scene(const std::string& path) {
+GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&skip_image, nullptr);
   auto model = std::make_shared<tinygltf::Model>();
   std::string err, warn;
-  // Read once, and the JSON's nesting bounded before tinygltf parses it.
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-      throw InputError(path, "", "cannot open the file");
-    std::ostringstream text;
-    text << in.rdbuf();
-    bytes = text.str();
-  }
+  // The JSON's nesting bounded before tinygltf parses it.
   if (bytes.size() > std::numeric_limits<unsigned int>::max())
     throw InputError(path, "", "the file is larger than 4 GB, more than a glTF reader takes");
   std::string_view json = bytes;

@@ -32,9 +32,9 @@ struct GltfScene {
   std::vector<std::array<double, 4>> vertex_weight;
 };
 
-/// Reads a .gltf or .glb file. The last two files read are kept (by path,
-/// size and modification time), so a command that takes a file's surface,
-/// topology and skin parses it once.
+/// Reads a .gltf or .glb file. The last two files parsed are kept with a
+/// hash of their bytes, so a command that takes a file's surface, topology
+/// and skin parses it once; changed bytes are parsed again.
 /// \throw InputError for an unreadable file or a malformed accessor.
 GltfScene read_gltf_scene(const std::string& path);
 

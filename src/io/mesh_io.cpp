@@ -7,11 +7,14 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "io/assimp_scene.hpp"
+#include "io/file_bytes.hpp"
 #include "io/gltf_scene.hpp"
 #include "io/obj_check.hpp"
 #include "io/ply_off.hpp"
 
 #include <tiny_obj_loader.h>
+
+#include <mutex>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -27,6 +30,62 @@
 #include <unistd.h>
 
 namespace curvenet {
+
+namespace detail {
+
+namespace {
+struct ObjCache {
+  std::mutex mutex;
+  std::string path;
+  size_t size = 0, hash = 0; ///< of the bytes: a file rewritten within the clock's tick keeps its mtime
+  std::shared_ptr<const tinyobj::ObjReader> reader;
+  long parses = 0;
+};
+ObjCache& obj_cache() {
+  static ObjCache cache;
+  return cache;
+}
+} // namespace
+
+long obj_parses() {
+  ObjCache& c = obj_cache();
+  std::lock_guard lock(c.mutex);
+  return c.parses;
+}
+
+std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path) {
+  const std::string bytes = file_bytes(path);
+  std::error_code ec;
+  const std::string key = std::filesystem::absolute(path, ec).lexically_normal().string();
+  const size_t hash = std::hash<std::string_view>{}(bytes);
+  ObjCache& c = obj_cache();
+  {
+    std::lock_guard lock(c.mutex);
+    if (c.reader && c.path == key && c.size == bytes.size() && c.hash == hash)
+      return c.reader;
+  }
+  check_obj(path);
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = false;
+  config.vertex_color = false;
+  auto reader = std::make_shared<tinyobj::ObjReader>();
+  if (!reader->ParseFromString(bytes, "", config)) {
+    std::string msg = reader->Error();
+    while (!msg.empty() && std::isspace(static_cast<unsigned char>(msg.back())))
+      msg.pop_back();
+    std::replace(msg.begin(), msg.end(), '\n', ';');
+    throw InputError(path, "", "cannot read OBJ: " + (msg.empty() ? std::string("unknown error") : msg));
+  }
+  std::lock_guard lock(c.mutex);
+  ++c.parses;
+  c.path = key;
+  c.size = bytes.size();
+  c.hash = hash;
+  c.reader = reader;
+  return reader;
+}
+
+} // namespace detail
 namespace {
 
 std::string lower_extension(const std::string& path) {
@@ -36,17 +95,8 @@ std::string lower_extension(const std::string& path) {
 }
 
 RawMesh read_obj(const std::string& path) {
-  detail::check_obj(path);
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = false;
-  config.vertex_color = false;
-  tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(path, config)) {
-    std::string msg = reader.Error();
-    while (!msg.empty() && std::isspace(static_cast<unsigned char>(msg.back())))
-      msg.pop_back();
-    throw InputError(path, "", "cannot read OBJ: " + (msg.empty() ? std::string("unknown error") : msg));
-  }
+  const auto parsed = detail::parse_obj(path);
+  const tinyobj::ObjReader& reader = *parsed;
   const auto& attrib = reader.GetAttrib();
   RawMesh raw;
   const size_t nv = attrib.vertices.size() / 3;

@@ -21,12 +21,8 @@ InputTopology read_input_topology(const std::string& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   InputTopology out;
   if (ext == ".obj") {
-    detail::check_obj(path);
-    tinyobj::ObjReaderConfig config;
-    config.triangulate = false;
-    tinyobj::ObjReader reader;
-    if (!reader.ParseFromFile(path, config))
-      throw InputError(path, "", "cannot read OBJ: " + reader.Error());
+    const auto parsed = detail::parse_obj(path); // the parse load_mesh made, if it read this file
+    const tinyobj::ObjReader& reader = *parsed;
     const auto& a = reader.GetAttrib();
     for (size_t v = 0; v < a.vertices.size() / 3; ++v)
       out.faces.positions.emplace_back(a.vertices[3 * v], a.vertices[3 * v + 1], a.vertices[3 * v + 2]);

@@ -5,7 +5,12 @@
 // number must be a whole, finite number, every index must refer to an
 // element that exists, and every face must have three corners.
 
+#include <memory>
 #include <string>
+
+namespace tinyobj {
+class ObjReader;
+}
 
 namespace curvenet::detail {
 
@@ -20,5 +25,15 @@ struct ObjCounts {
 /// before the face, as the format says), or a face with fewer than three
 /// corners.
 ObjCounts check_obj(const std::string& path);
+
+/// An OBJ file checked (check_obj) and parsed by tinyobjloader, once: the
+/// last file parsed is kept with a hash of its bytes, so that a command
+/// reading a file's surface and its topology parses it once, and a file
+/// whose bytes changed is parsed again.
+/// \throw InputError for a fault check_obj finds or tinyobjloader reports.
+std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path);
+
+/// How many OBJ files this process has parsed (for tests of the above).
+long obj_parses();
 
 } // namespace curvenet::detail
