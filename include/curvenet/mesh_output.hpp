@@ -6,6 +6,7 @@
 
 #include "curvenet/surface_mesh.hpp"
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,7 @@ InputTopology read_input_topology(const std::string& path);
 
 /// OBJ text of the input topology at `positions` (one per input vertex),
 /// coordinates with 17 significant digits so they read back exactly.
-std::string posed_obj(const InputTopology& topology, const std::vector<Eigen::Vector3d>& positions);
+std::string posed_obj(const InputTopology& topology, std::span<const Eigen::Vector3d> positions);
 
 /// A PC2 point cache (Blender's Mesh Cache modifier): float32 positions of
 /// `points` vertices for each of `frames` samples, starting at `start_frame`,

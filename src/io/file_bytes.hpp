@@ -13,7 +13,7 @@ namespace curvenet::detail {
 inline std::string file_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw InputError(path, "", "cannot open the file");
+    throw InputError(path, "", "cannot open the file for reading");
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();

@@ -80,7 +80,7 @@ InputTopology read_input_topology(const std::string& path) {
   return out;
 }
 
-std::string posed_obj(const InputTopology& t, const std::vector<Eigen::Vector3d>& positions) {
+std::string posed_obj(const InputTopology& t, std::span<const Eigen::Vector3d> positions) {
   const RawMesh& f = t.faces;
   for (size_t v = 0; v < positions.size(); ++v)
     if (!positions[v].allFinite())

@@ -8,6 +8,8 @@
 
 #include "io/ply_off.hpp"
 
+#include "io/file_bytes.hpp"
+
 #include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 
@@ -23,15 +25,6 @@
 
 namespace curvenet::detail {
 namespace {
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path, "", "cannot open the file for reading");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 bool is_space(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
@@ -231,7 +224,7 @@ private:
 } // namespace
 
 RawMesh read_ply(const std::string& path) {
-  const std::string file = slurp(path);
+  const std::string file = file_bytes(path);
   const std::string_view text = file;
   // The header: lines up to `end_header`.
   std::vector<Element> elements;
@@ -399,7 +392,7 @@ RawMesh read_ply(const std::string& path) {
 // ---- OFF -------------------------------------------------------------------
 
 RawMesh read_off(const std::string& path) {
-  const std::string file = slurp(path);
+  const std::string file = file_bytes(path);
   Tokens t(file, 0, true);
   std::string_view tok;
   if (!t.next(tok) || (tok != "OFF" && tok != "COFF" && tok != "NOFF" && tok != "CNOFF"))

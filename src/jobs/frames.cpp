@@ -66,8 +66,7 @@ ObjSequenceSink::ObjSequenceSink(OutputFiles& files, std::string dir, const Inpu
     : files_(files), dir_(std::move(dir)), prefix_(std::move(prefix)), topology_(topology) {}
 
 void ObjSequenceSink::write(int frame, std::span<const Vec3> positions) {
-  files_.add((std::filesystem::path(dir_) / sequence_name(prefix_, frame)).string(),
-             posed_obj(topology_, std::vector<Vec3>(positions.begin(), positions.end())));
+  files_.add((std::filesystem::path(dir_) / sequence_name(prefix_, frame)).string(), posed_obj(topology_, positions));
 }
 
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
