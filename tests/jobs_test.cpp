@@ -19,13 +19,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Scene {
+struct Rigged {
   SurfaceMesh mesh;
   SkinnedMesh clips;
   Binding binding;
 };
 
-Scene rigged_simple() {
+Rigged rigged_simple() {
   const std::string path = test::data("rigged_simple/RiggedSimple.gltf");
   SurfaceMesh mesh = load_mesh(path);
   SkinnedMesh clips = load_skinned_mesh(path);
@@ -60,7 +60,7 @@ TEST(Jobs, AFrameRangeIsTheClipsOrTwoWholeNumbersWithinTheCap) {
 TEST(Jobs, FramesReachEverySinkInOrderExactlyAsDeformGivesThem) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const Scene s = rigged_simple();
+  const Rigged s = rigged_simple();
   const FrameRange range = frame_range(s.clips, 0, 24);
   ASSERT_GT(range.count(), 2);
   std::vector<int> seen_a, seen_b;
@@ -85,7 +85,7 @@ TEST(Jobs, FramesReachEverySinkInOrderExactlyAsDeformGivesThem) {
 TEST(Jobs, APc2StreamedOnOneThreadOrManyIsTheSameBytesAndIsAllOrNothing) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const Scene s = rigged_simple();
+  const Rigged s = rigged_simple();
   const auto dir = test::temp_dir("jobs_pc2");
   const FrameRange range = frame_range(s.clips, 0, 24);
   auto write = [&](const fs::path& path, int threads) {

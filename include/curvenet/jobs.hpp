@@ -1,15 +1,20 @@
 #pragma once
 /// \file jobs.hpp
-/// The work a front end asks for, done once in the library: frames of a
-/// clip as a checked range, deformed in parallel blocks of bounded memory
+/// The work a front end asks for, done once in the library. Frames of a
+/// clip are a checked range, deformed in parallel blocks of bounded memory
 /// and streamed, in order, to any number of sinks (a PC2 cache, an OBJ
 /// sequence, a caller's own). The CLI's `animate`, the Python module and
 /// the Blender add-on all compute frames through Binding::deform_frames,
-/// block by block, so they agree bit for bit.
+/// block by block, so they agree bit for bit. The commands that read files
+/// and write files (bind, pose, animate, bake) are jobs: a struct of inputs
+/// and outputs, run() to do all of it, all or nothing, and a summary to
+/// print. The CLI and the farm tasks (farm.hpp) run the same jobs.
 
+#include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/mesh_output.hpp"
+#include "curvenet/scene.hpp"
 #include "curvenet/skin.hpp"
 
 #include <functional>
@@ -91,5 +96,100 @@ std::string sequence_name(const std::string& prefix, int frame);
 ///   position is not finite.
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
              std::span<FrameSink* const> sinks);
+
+/// The same for frames whose skinning matrices `pose` gives (one per joint
+/// of the binding); a non-finite position is refused naming `source`.
+void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
+             std::span<FrameSink* const> sinks, const std::string& source);
+
+/// Raw frames for a farm task (farm.hpp): a header (the magic
+/// `CNFRAMES1`, the first frame, the frame count, the vertex count), each
+/// frame's positions in double precision, and a 64-bit FNV-1a checksum of
+/// all that before it. Merged, they give the same PC2 or OBJ files,
+/// bit for bit, as one `animate` of the whole range.
+class FramesPartSink : public FrameSink {
+public:
+  FramesPartSink(OutputFiles& files, const std::string& path, int vertices, const FrameRange& range);
+  void write(int frame, std::span<const Vec3> positions) override;
+  /// Writes the checksum: call after the last frame, before the commit.
+  void finish();
+
+private:
+  std::ostream* out_;
+  unsigned long long hash_;
+};
+
+/// What a job's summary says of the binding it made.
+struct JobSummary {
+  BindReport bind;
+  std::vector<std::string> notes; ///< repairs made on loading the mesh (load_notes)
+  int vertices = 0;               ///< the mesh file's vertices
+};
+
+/// Binds a rig to a mesh and writes the rig with its nodes' weights filled in.
+struct BindJob {
+  SceneFiles scene;
+  BindOptions options;
+  std::string out; ///< the rig file written
+};
+JobSummary run(const BindJob& job);
+
+/// Poses a mesh: one OBJ on the mesh file's own topology, and the posed cut mesh.
+struct PoseJob {
+  SceneFiles scene;
+  BindOptions options;
+  std::string pose;     ///< a pose file (pose.hpp)
+  std::string out;      ///< the posed mesh, OBJ
+  std::string cut_mesh; ///< optional: the posed cut mesh, OBJ with its curves
+};
+JobSummary run(const PoseJob& job);
+
+/// Deforms a clip's frames to a PC2 cache, an OBJ sequence, a farm part
+/// file, and the cut mesh's OBJ sequence: any of them, all or nothing.
+struct AnimateJob {
+  SceneFiles scene;
+  BindOptions options;
+  std::string clip_file; ///< a glTF/GLB or FBX with clips for the rig's skeleton
+  std::string clip;      ///< a clip's name or index; empty for the first
+  std::string frames;    ///< "A:B"; empty for the clip's own range
+  double fps = 24;
+  long long max_frames = 100000;
+  std::string pc2, obj_sequence, cut_mesh_sequence, frames_part;
+};
+struct AnimateSummary : JobSummary {
+  int clip = 0;
+  std::string clip_name;
+  FrameRange range;
+};
+/// \throw InputError before anything is written: no clips, an unknown clip,
+///   a bad range, a clip for another skeleton, no output named.
+AnimateSummary run(const AnimateJob& job);
+
+/// Bakes the binding to an ordinary skin: a skinned GLB with the clips
+/// retargeted, and the weights as CSV.
+struct BakeJob {
+  SceneFiles scene;
+  BindOptions options;
+  std::string glb, weights_csv;
+  std::string clip_file;               ///< optional: clips to carry into the GLB
+  std::vector<std::string> clip_names; ///< of those, these; empty for all
+  std::string fit;                     ///< optional: fit the weights to the deformation over this file's clips
+  int max_influences = 4;
+  double fps = 24;
+  GltfBakeOptions::Up up = GltfBakeOptions::Up::Y;
+};
+struct BakeSummary : JobSummary {
+  int joints = 0, influences = 0;
+  double mean_joints = 0; ///< joints of non-zero weight per vertex
+  int most_joints = 0;
+  int clips = 0; ///< clips carried into the GLB
+};
+BakeSummary run(const BakeJob& job);
+
+/// Skinning matrices of every frame of every clip of `clips`, for `joints`,
+/// sampled at fps: the poses a weight fit runs over.
+/// \throw InputError naming the clip file past `max_frames` frames.
+std::vector<std::vector<Mat4>> clip_poses(const std::vector<Joint>& joints, const SkinnedMesh& clips, double fps,
+                                          long long max_frames = 100000);
 
 } // namespace curvenet

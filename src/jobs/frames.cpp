@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -69,10 +71,48 @@ void ObjSequenceSink::write(int frame, std::span<const Vec3> positions) {
   files_.add((std::filesystem::path(dir_) / sequence_name(prefix_, frame)).string(), posed_obj(topology_, positions));
 }
 
+namespace {
+constexpr unsigned long long kFnvOffset = 1469598103934665603ull, kFnvPrime = 1099511628211ull;
+unsigned long long fnv1a(unsigned long long h, const char* bytes, size_t n) {
+  for (size_t i = 0; i < n; ++i)
+    h = (h ^ static_cast<unsigned char>(bytes[i])) * kFnvPrime;
+  return h;
+}
+} // namespace
+
+FramesPartSink::FramesPartSink(OutputFiles& files, const std::string& path, int vertices, const FrameRange& range)
+    : out_(&files.stream(path)), hash_(kFnvOffset) {
+  char header[24] = "CNFRAMES1";
+  const std::int32_t fields[3] = {range.first, range.count(), vertices};
+  std::memcpy(header + 12, fields, sizeof fields);
+  hash_ = fnv1a(hash_, header, sizeof header);
+  out_->write(header, sizeof header);
+}
+
+void FramesPartSink::write(int /*frame*/, std::span<const Vec3> positions) {
+  const auto* bytes = reinterpret_cast<const char*>(positions.data());
+  const size_t n = positions.size() * sizeof(Vec3);
+  static_assert(sizeof(Vec3) == 3 * sizeof(double));
+  hash_ = fnv1a(hash_, bytes, n);
+  out_->write(bytes, static_cast<std::streamsize>(n));
+}
+
+void FramesPartSink::finish() {
+  const std::uint64_t h = hash_;
+  out_->write(reinterpret_cast<const char*>(&h), sizeof h);
+}
+
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
              std::span<FrameSink* const> sinks) {
-  const int frames = range.count(), nv = binding.num_input_vertices();
   const std::vector<Joint>& joints = binding.joints();
+  animate(
+      binding, [&](int frame) { return clip_skinning_matrices(joints, clips, clip, range.time(frame)); }, range, sinks,
+      clips.source);
+}
+
+void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
+             std::span<FrameSink* const> sinks, const std::string& source) {
+  const int frames = range.count(), nv = binding.num_input_vertices();
   // About 64 MB of positions a block, from 1 to 256 frames.
   const int block = static_cast<int>(std::clamp<long long>((64ll << 20) / (24ll * std::max(nv, 1)), 1, 256));
   std::vector<Mat4> M;
@@ -81,7 +121,7 @@ void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const F
     const int b1 = std::min(frames, b0 + block);
     M.clear();
     for (int f = b0; f < b1; ++f) {
-      const auto m = clip_skinning_matrices(joints, clips, clip, range.time(range.first + f));
+      const auto m = pose(range.first + f);
       M.insert(M.end(), m.begin(), m.end());
     }
     out.resize(static_cast<size_t>(b1 - b0) * nv);
@@ -90,7 +130,7 @@ void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const F
       const std::span<const Vec3> positions(out.data() + static_cast<size_t>(f - b0) * nv, static_cast<size_t>(nv));
       for (int i = 0; i < nv; ++i)
         if (!positions[i].allFinite())
-          throw InputError(clips.source, "frame " + std::to_string(range.first + f) + " vertex " + std::to_string(i),
+          throw InputError(source, "frame " + std::to_string(range.first + f) + " vertex " + std::to_string(i),
                            "the pose moves it out of range (not a finite number); nothing was written");
       for (FrameSink* s : sinks)
         s->write(range.first + f, positions);

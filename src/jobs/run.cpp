@@ -1,0 +1,189 @@
+// The file-to-file jobs: bind, pose, animate and bake, each read, computed
+// and written all or nothing.
+
+#include "curvenet/errors.hpp"
+#include "curvenet/jobs.hpp"
+#include "curvenet/pose.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+namespace curvenet {
+namespace {
+
+JobSummary summary_of(const BoundScene& s) {
+  JobSummary j;
+  j.bind = s.binding.report();
+  j.notes = s.notes;
+  j.vertices = s.binding.num_input_vertices();
+  return j;
+}
+
+/// The posed cut mesh's binding; an embedding failure names the rig file.
+CutMeshBinding cut_binding(const BoundScene& s, const BindOptions& options) {
+  try {
+    return bind_cut_mesh(s.mesh, s.rig, options, &s.binding);
+  } catch (const EmbedError& e) {
+    throw EmbedError(s.files.rig + ": " + e.what());
+  }
+}
+
+/// The clip file's clip `name` (a name or an index; the first when empty).
+int find_clip(const SkinnedMesh& clips, const std::string& file, const std::string& name) {
+  if (clips.num_clips() == 0)
+    throw InputError(file, "/animations", "the file has no animation clips");
+  const int clip = name.empty() ? 0 : clips.find_clip(name);
+  if (clip < 0)
+    throw InputError(file, "clip '" + name + "'", "no clip has this name or index");
+  return clip;
+}
+
+} // namespace
+
+JobSummary run(const BindJob& job) {
+  OutputFiles files;
+  const BoundScene s = bind_scene(job.scene, job.options, files);
+  Rig out = s.rig;
+  out.weights = s.binding.node_weights();
+  validate_rig(out, job.out);
+  files.add(job.out, rig_to_json(out));
+  files.commit(); // the rig and a new cache together
+  return summary_of(s);
+}
+
+JobSummary run(const PoseJob& job) {
+  const Pose pose = read_pose(job.pose);
+  OutputFiles files; // the mesh, the cut mesh and the binding cache, all or nothing
+  const BoundScene s = bind_scene(job.scene, job.options, files);
+  const InputTopology topology = read_input_topology(job.scene.mesh); // the parse load_mesh made
+  const auto M = skinning_matrices(s.binding.joints(), pose, job.pose);
+  std::vector<Vec3> out(s.binding.num_input_vertices());
+  s.binding.deform(M, out);
+  for (size_t v = 0; v < out.size(); ++v)
+    if (!out[v].allFinite())
+      throw InputError(job.pose, "vertex " + std::to_string(v),
+                       "the pose moves it out of range (not a finite number); nothing was written");
+  files.add(job.out, posed_obj(topology, out)); // deform() gives the file's own vertex order
+  if (!job.cut_mesh.empty())
+    files.add(job.cut_mesh, cut_binding(s, job.options).posed_obj(M));
+  files.commit();
+  return summary_of(s);
+}
+
+AnimateSummary run(const AnimateJob& job) {
+  if (job.pc2.empty() && job.obj_sequence.empty() && job.frames_part.empty() && job.cut_mesh_sequence.empty())
+    throw InputError(job.clip_file, "", "no output named for the frames");
+  const SkinnedMesh clips = load_skinned_mesh(job.clip_file);
+  const int clip = find_clip(clips, job.clip_file, job.clip);
+  const FrameRange range = frame_range(clips, clip, job.fps, job.frames, job.max_frames);
+  // All or nothing: the frames go to temporary files, moved into place at
+  // the end (a folder this run made goes with them on a failure).
+  Scene scene = read_scene(job.scene);
+  (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
+  OutputFiles files;
+  const BoundScene s = bind_scene(std::move(scene), job.options, files);
+  std::optional<InputTopology> topology;
+  std::vector<std::unique_ptr<FrameSink>> sinks;
+  FramesPartSink* part = nullptr;
+  if (!job.pc2.empty())
+    sinks.push_back(std::make_unique<Pc2Sink>(files, job.pc2, s.binding.num_input_vertices(), range, job.clip_file));
+  if (!job.obj_sequence.empty()) {
+    topology = read_input_topology(job.scene.mesh);
+    sinks.push_back(std::make_unique<ObjSequenceSink>(files, job.obj_sequence, *topology));
+  }
+  if (!job.frames_part.empty()) {
+    auto p = std::make_unique<FramesPartSink>(files, job.frames_part, s.binding.num_input_vertices(), range);
+    part = p.get();
+    sinks.push_back(std::move(p));
+  }
+  std::vector<FrameSink*> all;
+  for (const auto& k : sinks)
+    all.push_back(k.get());
+  if (!all.empty())
+    animate(s.binding, clips, clip, range, all);
+  if (part)
+    part->finish();
+  if (!job.cut_mesh_sequence.empty()) {
+    const CutMeshBinding cut = cut_binding(s, job.options);
+    FunctionSink cut_frames([&](int frame, std::span<const Vec3> positions) {
+      files.add((std::filesystem::path(job.cut_mesh_sequence) / sequence_name("cut_frame", frame)).string(),
+                cut.embedding.cut_mesh_obj(positions));
+    });
+    FrameSink* cut_sinks[] = {&cut_frames};
+    animate(cut.binding, clips, clip, range, cut_sinks);
+  }
+  files.commit();
+  AnimateSummary out;
+  static_cast<JobSummary&>(out) = summary_of(s);
+  out.clip = clip;
+  out.clip_name = clips.clip_names[clip];
+  out.range = range;
+  return out;
+}
+
+std::vector<std::vector<Mat4>> clip_poses(const std::vector<Joint>& joints, const SkinnedMesh& clips, double fps,
+                                          long long max_frames) {
+  std::vector<std::vector<Mat4>> poses;
+  for (int c = 0; c < clips.num_clips(); ++c) {
+    const auto [first, last] = clip_frames(clips, c, fps);
+    for (int f = first; f <= last; ++f) {
+      if (static_cast<long long>(poses.size()) >= max_frames)
+        throw InputError(clips.source, "clip '" + clips.clip_names[c] + "'",
+                         "more than " + std::to_string(max_frames) + " frames to fit over");
+      poses.push_back(clip_skinning_matrices(joints, clips, c, f / fps));
+    }
+  }
+  return poses;
+}
+
+BakeSummary run(const BakeJob& job) {
+  std::optional<SkinnedMesh> clips, fit;
+  if (!job.clip_file.empty()) {
+    clips = load_skinned_mesh(job.clip_file);
+    for (const auto& name : job.clip_names)
+      if (clips->find_clip(name) < 0)
+        throw InputError(job.clip_file, "clip '" + name + "'", "no clip has this name");
+  } else if (!job.clip_names.empty()) {
+    throw InputError("--clip-name", job.clip_names.front(), "give the clip file with --clip");
+  }
+  Scene scene = read_scene(job.scene);
+  if (!job.fit.empty()) {
+    fit = load_skinned_mesh(job.fit);
+    if (fit->num_clips() == 0)
+      throw InputError(job.fit, "/animations", "the file has no animation clips to fit over");
+    (void)clip_skinning_matrices(scene.rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
+  }
+  OutputFiles files; // all or nothing
+  const BoundScene s = bind_scene(std::move(scene), job.options, files);
+  const Binding& b = s.binding;
+  const SkinWeights w = fit ? fit_weights(b, clip_poses(b.joints(), *fit, job.fps), job.max_influences)
+                            : bake_weights(b, job.max_influences);
+  GltfBakeOptions opt;
+  opt.up = job.up;
+  opt.fps = job.fps;
+  opt.clips = job.clip_names;
+  if (!job.glb.empty())
+    files.add(job.glb, skinned_glb(job.scene.mesh, b.joints(), w, clips ? &*clips : nullptr, opt));
+  if (!job.weights_csv.empty())
+    files.add(job.weights_csv, weights_csv(w));
+  files.commit();
+  BakeSummary out;
+  static_cast<JobSummary&>(out) = summary_of(s);
+  long long used = 0;
+  for (int v = 0; v < w.num_vertices(); ++v) {
+    int n = 0;
+    for (int i = 0; i < w.influences; ++i)
+      n += w.joint[static_cast<size_t>(v) * w.influences + i] >= 0;
+    used += n;
+    out.most_joints = std::max(out.most_joints, n);
+  }
+  out.mean_joints = w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0;
+  out.joints = static_cast<int>(w.joints.size());
+  out.influences = w.influences;
+  out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;
+  return out;
+}
+
+} // namespace curvenet
