@@ -165,11 +165,16 @@ int run_pose(const PoseArgs& a) {
   return 0;
 }
 
-int run_animate(const AnimateArgs& a) {
+AnimateJob animate_job(const AnimateArgs& a) {
   AnimateJob job{scene_files(a), bind_options(a), a.clip_file, a.clip, a.frames, a.fps, a.max_frames};
-  (a.obj_sequence.empty() ? job.pc2 : job.obj_sequence) = a.obj_sequence.empty() ? a.out : a.obj_sequence;
+  job.pc2 = a.obj_sequence.empty() ? a.out : "";
+  job.obj_sequence = a.obj_sequence;
   job.cut_mesh_sequence = a.cut_mesh_sequence;
-  const AnimateSummary j = run(job);
+  return job;
+}
+
+int run_animate(const AnimateArgs& a) {
+  const AnimateSummary j = run(animate_job(a));
   print_job(std::cout, "animate", j);
   std::cout << "clip: " << j.clip_name << " (" << j.clip << "), frames " << j.range.first << ":" << j.range.last
             << " at " << a.fps << " fps\n";

@@ -1,6 +1,8 @@
 #pragma once
 // The CLI's commands: one function each, over the library.
 
+#include "curvenet/jobs.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,6 +48,20 @@ struct AnimateArgs : DeformArgs {
   long long max_frames = 100000;
 };
 int run_animate(const AnimateArgs& args);
+/// The library's animate job for these arguments.
+AnimateJob animate_job(const AnimateArgs& args);
+
+struct FarmSubmitArgs : AnimateArgs {
+  std::string folder;
+  int shard_frames = 100;
+  bool dry_run = false;
+  std::vector<std::string> sbatch_options;
+  double lock_timeout = 1800;
+};
+int run_farm_submit(const FarmSubmitArgs& args);
+int run_farm_task(const std::string& folder, int index);
+int run_farm_merge(const std::string& folder);
+int run_farm_status(const std::string& folder);
 
 struct BakeArgs : DeformArgs {
   std::string out, weights_csv, clip_file, fit, up = "y";

@@ -130,24 +130,53 @@ int main(int argc, char** argv) {
   pose->add_option("--cut-mesh", pose_args.cut_mesh,
                    "Also write the posed cut mesh as OBJ: the curves' own shape between a coarse mesh's vertices");
 
+  auto animate_options = [&](CLI::App* cmd, curvenet::cli::AnimateArgs& a) {
+    deform_options(cmd, a);
+    cmd->add_option("CLIP", a.clip_file, "glTF or GLB file with skins and animations")->required();
+    cmd->add_option("--clip", a.clip, "Clip name or index (default: the first)");
+    cmd->add_option("--fps", a.fps, "Frames per second")->capture_default_str()->check(finite_in(0, 10000, true));
+    cmd->add_option("--frames", a.frames, "Frames A:B, inclusive (default: the clip's range)");
+    cmd->add_option("--max-frames", a.max_frames, "Refuse more frames than this")
+        ->capture_default_str()
+        ->check(CLI::Range(1ll, 100000000ll));
+    auto* out_opt = cmd->add_option("-o,--output", a.out, "PC2 file to write");
+    auto* seq_opt =
+        cmd->add_option("--obj-sequence", a.obj_sequence, "Write one OBJ per frame into this folder instead");
+    out_opt->excludes(seq_opt);
+  };
   curvenet::cli::AnimateArgs anim_args;
   auto* animate = app.add_subcommand("animate", "Deform a mesh through its rig by a glTF clip, into a PC2 point cache");
-  deform_options(animate, anim_args);
-  animate->add_option("CLIP", anim_args.clip_file, "glTF or GLB file with skins and animations")->required();
-  animate->add_option("--clip", anim_args.clip, "Clip name or index (default: the first)");
-  animate->add_option("--fps", anim_args.fps, "Frames per second")
-      ->capture_default_str()
-      ->check(finite_in(0, 10000, true));
-  animate->add_option("--frames", anim_args.frames, "Frames A:B, inclusive (default: the clip's range)");
-  animate->add_option("--max-frames", anim_args.max_frames, "Refuse more frames than this")
-      ->capture_default_str()
-      ->check(CLI::Range(1ll, 100000000ll));
-  auto* out_opt = animate->add_option("-o,--output", anim_args.out, "PC2 file to write");
-  auto* seq_opt =
-      animate->add_option("--obj-sequence", anim_args.obj_sequence, "Write one OBJ per frame into this folder instead");
-  out_opt->excludes(seq_opt);
+  animate_options(animate, anim_args);
   animate->add_option("--cut-mesh-sequence", anim_args.cut_mesh_sequence,
                       "Also write the posed cut mesh of every frame as OBJ into this folder");
+
+  auto* farm = app.add_subcommand("farm", "Run animate on a Slurm cluster in shards, and merge them (docs/farm.md)");
+  farm->require_subcommand(1);
+  curvenet::cli::FarmSubmitArgs farm_args;
+  auto* farm_submit = farm->add_subcommand(
+      "submit", "Write a job folder (manifest, Slurm array script) for animate's inputs, and submit it with sbatch");
+  animate_options(farm_submit, farm_args);
+  farm_submit->add_option("--folder", farm_args.folder, "The job folder to write (new or empty)")->required();
+  farm_submit->add_option("--shard-frames", farm_args.shard_frames, "Frames per array task")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000000));
+  farm_submit->add_flag("--dry-run", farm_args.dry_run, "Only write the job folder, and print the sbatch line");
+  farm_submit->add_option("--sbatch-option", farm_args.sbatch_options,
+                          "Pass this option to every sbatch line, e.g. --sbatch-option=--partition=anim (repeatable)");
+  farm_submit
+      ->add_option("--lock-timeout", farm_args.lock_timeout,
+                   "Seconds after which a binding-cache lock counts as its owner's death (a task on another host)")
+      ->capture_default_str()
+      ->check(finite_in(0, 1e7, true));
+  std::string farm_folder;
+  int farm_index = 0;
+  auto* farm_task = farm->add_subcommand("task", "Run one array task of a job folder (what task.sbatch runs)");
+  farm_task->add_option("FOLDER", farm_folder, "The job folder")->required();
+  farm_task->add_option("INDEX", farm_index, "The array task index")->required()->check(CLI::Range(0, 100000000));
+  auto* farm_merge = farm->add_subcommand("merge", "Check every part of a job folder and write its output");
+  farm_merge->add_option("FOLDER", farm_folder, "The job folder")->required();
+  auto* farm_status = farm->add_subcommand("status", "Each task's state, from squeue and sacct or the part files");
+  farm_status->add_option("FOLDER", farm_folder, "The job folder")->required();
 
   curvenet::cli::BakeArgs bake_args;
   auto* bake = app.add_subcommand(
@@ -259,6 +288,17 @@ int main(int argc, char** argv) {
         throw curvenet::Error("animate: give -o OUT.pc2 or --obj-sequence DIR");
       return curvenet::cli::run_animate(anim_args);
     }
+    if (*farm_submit) {
+      if (farm_args.out.empty() && farm_args.obj_sequence.empty())
+        throw curvenet::Error("farm submit: give -o OUT.pc2 or --obj-sequence DIR");
+      return curvenet::cli::run_farm_submit(farm_args);
+    }
+    if (*farm_task)
+      return curvenet::cli::run_farm_task(farm_folder, farm_index);
+    if (*farm_merge)
+      return curvenet::cli::run_farm_merge(farm_folder);
+    if (*farm_status)
+      return curvenet::cli::run_farm_status(farm_folder);
     if (*bake) {
       if (bake_args.out.empty() && bake_args.weights_csv.empty())
         throw curvenet::Error("bake: give -o OUT.glb, --weights-csv OUT.csv, or both");

@@ -17,6 +17,7 @@
 #include "curvenet/scene.hpp"
 #include "curvenet/skin.hpp"
 
+#include <cstdint>
 #include <functional>
 #include <span>
 #include <string>
@@ -102,23 +103,6 @@ void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const F
 void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
              std::span<FrameSink* const> sinks, const std::string& source);
 
-/// Raw frames for a farm task (farm.hpp): a header (the magic
-/// `CNFRAMES1`, the first frame, the frame count, the vertex count), each
-/// frame's positions in double precision, and a 64-bit FNV-1a checksum of
-/// all that before it. Merged, they give the same PC2 or OBJ files,
-/// bit for bit, as one `animate` of the whole range.
-class FramesPartSink : public FrameSink {
-public:
-  FramesPartSink(OutputFiles& files, const std::string& path, int vertices, const FrameRange& range);
-  void write(int frame, std::span<const Vec3> positions) override;
-  /// Writes the checksum: call after the last frame, before the commit.
-  void finish();
-
-private:
-  std::ostream* out_;
-  unsigned long long hash_;
-};
-
 /// What a job's summary says of the binding it made.
 struct JobSummary {
   BindReport bind;
@@ -154,7 +138,11 @@ struct AnimateJob {
   std::string frames;    ///< "A:B"; empty for the clip's own range
   double fps = 24;
   long long max_frames = 100000;
-  std::string pc2, obj_sequence, cut_mesh_sequence, frames_part;
+  std::string pc2, obj_sequence, cut_mesh_sequence;
+  /// A farm task's part file (farm.hpp): the frames in double precision,
+  /// checksummed, marked with `part_key` (the farm job's).
+  std::string frames_part;
+  std::uint64_t part_key = 0;
 };
 struct AnimateSummary : JobSummary {
   int clip = 0;

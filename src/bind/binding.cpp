@@ -2,6 +2,7 @@
 // per input vertex the harmonic joint weights and rest terms. Deforming: a
 // sum over each vertex's joints (docs/deform.md).
 
+#include "core/fnv1a.hpp"
 #include "curvenet/deform.hpp"
 
 #include "bind/gradient.hpp"
@@ -137,12 +138,8 @@ namespace {
 
 /// FNV-1a over the mesh, the rig as written, and the options.
 std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt) {
-  std::uint64_t h = 1469598103934665603ULL;
-  auto eat = [&](const void* data, size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i)
-      h = (h ^ p[i]) * 1099511628211ULL;
-  };
+  detail::Fnv1a h;
+  auto eat = [&](const void* data, size_t n) { h.eat(data, n); };
   for (const auto& p : mesh.positions)
     eat(p.data(), 3 * sizeof(double));
   eat(mesh.face_offsets.data(), mesh.face_offsets.size() * sizeof(int));
@@ -157,17 +154,12 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
-  return h;
+  return h.value;
 }
 
 constexpr char kMagic[8] = {'C', 'N', 'B', 'I', 'N', 'D', '0', '2'};
 
-std::uint64_t checksum(const char* data, size_t n) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (size_t i = 0; i < n; ++i)
-    h = (h ^ static_cast<unsigned char>(data[i])) * 1099511628211ULL;
-  return h;
-}
+std::uint64_t checksum(const char* data, size_t n) { return detail::fnv1a({data, n}); }
 
 template <class T> void put(std::string& out, const std::vector<T>& v) {
   const std::uint64_t n = v.size();

@@ -9,8 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -69,37 +67,6 @@ ObjSequenceSink::ObjSequenceSink(OutputFiles& files, std::string dir, const Inpu
 
 void ObjSequenceSink::write(int frame, std::span<const Vec3> positions) {
   files_.add((std::filesystem::path(dir_) / sequence_name(prefix_, frame)).string(), posed_obj(topology_, positions));
-}
-
-namespace {
-constexpr unsigned long long kFnvOffset = 1469598103934665603ull, kFnvPrime = 1099511628211ull;
-unsigned long long fnv1a(unsigned long long h, const char* bytes, size_t n) {
-  for (size_t i = 0; i < n; ++i)
-    h = (h ^ static_cast<unsigned char>(bytes[i])) * kFnvPrime;
-  return h;
-}
-} // namespace
-
-FramesPartSink::FramesPartSink(OutputFiles& files, const std::string& path, int vertices, const FrameRange& range)
-    : out_(&files.stream(path)), hash_(kFnvOffset) {
-  char header[24] = "CNFRAMES1";
-  const std::int32_t fields[3] = {range.first, range.count(), vertices};
-  std::memcpy(header + 12, fields, sizeof fields);
-  hash_ = fnv1a(hash_, header, sizeof header);
-  out_->write(header, sizeof header);
-}
-
-void FramesPartSink::write(int /*frame*/, std::span<const Vec3> positions) {
-  const auto* bytes = reinterpret_cast<const char*>(positions.data());
-  const size_t n = positions.size() * sizeof(Vec3);
-  static_assert(sizeof(Vec3) == 3 * sizeof(double));
-  hash_ = fnv1a(hash_, bytes, n);
-  out_->write(bytes, static_cast<std::streamsize>(n));
-}
-
-void FramesPartSink::finish() {
-  const std::uint64_t h = hash_;
-  out_->write(reinterpret_cast<const char*>(&h), sizeof h);
 }
 
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,

@@ -1,9 +1,11 @@
 // The file-to-file jobs: bind, pose, animate and bake, each read, computed
 // and written all or nothing.
 
+#include "jobs/run.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/jobs.hpp"
 #include "curvenet/pose.hpp"
+#include "io/frames_part.hpp"
 
 #include <algorithm>
 #include <filesystem>
@@ -73,6 +75,11 @@ JobSummary run(const PoseJob& job) {
 }
 
 AnimateSummary run(const AnimateJob& job) {
+  return detail::run_animate(
+      job, [&](Scene scene, OutputFiles& files) { return bind_scene(std::move(scene), job.options, files); });
+}
+
+AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) {
   if (job.pc2.empty() && job.obj_sequence.empty() && job.frames_part.empty() && job.cut_mesh_sequence.empty())
     throw InputError(job.clip_file, "", "no output named for the frames");
   const SkinnedMesh clips = load_skinned_mesh(job.clip_file);
@@ -83,10 +90,10 @@ AnimateSummary run(const AnimateJob& job) {
   Scene scene = read_scene(job.scene);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
   OutputFiles files;
-  const BoundScene s = bind_scene(std::move(scene), job.options, files);
+  const BoundScene s = binder(std::move(scene), files);
   std::optional<InputTopology> topology;
   std::vector<std::unique_ptr<FrameSink>> sinks;
-  FramesPartSink* part = nullptr;
+  detail::FramesPartSink* part = nullptr;
   if (!job.pc2.empty())
     sinks.push_back(std::make_unique<Pc2Sink>(files, job.pc2, s.binding.num_input_vertices(), range, job.clip_file));
   if (!job.obj_sequence.empty()) {
@@ -94,7 +101,8 @@ AnimateSummary run(const AnimateJob& job) {
     sinks.push_back(std::make_unique<ObjSequenceSink>(files, job.obj_sequence, *topology));
   }
   if (!job.frames_part.empty()) {
-    auto p = std::make_unique<FramesPartSink>(files, job.frames_part, s.binding.num_input_vertices(), range);
+    auto p = std::make_unique<detail::FramesPartSink>(files, job.frames_part, s.binding.num_input_vertices(), range,
+                                                      job.part_key);
     part = p.get();
     sinks.push_back(std::move(p));
   }
