@@ -10,6 +10,7 @@ packages=(
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev libosd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   blender pybind11-dev python3-dev python3-numpy python3-pytest
+  slurmctld slurmd slurm-client munge
 )
 
 missing=()

@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -482,17 +483,24 @@ FarmMerge merge_farm(const std::string& folder) {
 FarmStatus farm_status(const std::string& folder) {
   const Manifest m = read_manifest(folder);
   FarmStatus st;
-  std::map<int, std::string> queued, accounted;
+  // A task's latest state in the queue, split into those still under way
+  // and those that ended (kept by squeue for MinJobAge, by sacct for good).
+  std::map<int, std::string> active, ended;
+  auto note = [&](int index, const std::string& state) {
+    static const std::set<std::string> over = {"COMPLETED", "CANCELLED", "FAILED",    "TIMEOUT",  "NODE_FAIL",
+                                               "PREEMPTED", "BOOT_FAIL", "DEADLINE", "OUT_OF_MEMORY"};
+    (over.count(state) ? ended : active)[index] = state;
+  };
   if (on_path("squeue")) {
     // Every array task of this job's name, reruns included.
-    const auto [out, ok] = run_command("squeue -h -r --name=" + m.job_name + " -o '%K %T'");
+    const auto [out, ok] = run_command("squeue -h -r -t all --name=" + m.job_name + " -o '%K %T'");
     if (ok) {
       st.sources.push_back("squeue");
       std::istringstream lines(out);
-      int index = 0;
-      std::string state;
+      std::string index, state;
       while (lines >> index >> state)
-        queued[index] = state;
+        if (!index.empty() && std::all_of(index.begin(), index.end(), ::isdigit))
+          note(std::stoi(index), state);
     }
   }
   if (on_path("sacct")) {
@@ -505,13 +513,9 @@ FarmStatus farm_status(const std::string& folder) {
         const auto us = line.find('_'), bar = line.find('|');
         if (us == std::string::npos || bar == std::string::npos || bar < us)
           continue;
-        int index = -1;
-        try {
-          index = std::stoi(line.substr(us + 1, bar - us - 1));
-        } catch (const std::exception&) {
-          continue;
-        }
-        accounted[index] = line.substr(bar + 1, line.find(' ', bar) - bar - 1); // the latest run last
+        const std::string index = line.substr(us + 1, bar - us - 1);
+        if (!index.empty() && index.size() < 9 && std::all_of(index.begin(), index.end(), ::isdigit))
+          note(std::stoi(index), line.substr(bar + 1, line.find(' ', bar) - bar - 1));
       }
     }
   }
@@ -519,8 +523,8 @@ FarmStatus farm_status(const std::string& folder) {
   for (const FarmShard& s : m.plan.shards) {
     FarmShardState one{s, "missing", ""};
     const std::string path = part_path(m.plan, s.index);
-    if (queued.count(s.index)) {
-      one.state = queued[s.index];
+    if (active.count(s.index)) {
+      one.state = active[s.index];
     } else if (fs::exists(path)) {
       try {
         detail::FramesPartReader part(path);
@@ -534,8 +538,8 @@ FarmStatus farm_status(const std::string& folder) {
       } catch (const InputError& e) {
         one = {s, "damaged", e.what()};
       }
-    } else if (accounted.count(s.index)) {
-      one.state = accounted[s.index];
+    } else if (ended.count(s.index)) {
+      one = {s, ended[s.index], "no part file"};
     }
     st.done += one.state == "done";
     st.shards.push_back(one);
