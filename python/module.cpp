@@ -9,6 +9,7 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/farm.hpp"
 #include "curvenet/jobs.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
@@ -993,6 +994,94 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("frames") = "", py::arg("max_frames") = 100000LL,
       "Writes clip `clip` deformed through the binding as a PC2 cache at `path`, streamed in blocks (the same "
       "frames as `curvenet animate`); returns the (first, last) frame");
+
+  m.def(
+      "animate_poses",
+      [](const PyBinding& b, const py::function& pose, int first, int last, const std::string& path, double fps) {
+        if (last < first)
+          throw InputError("frames", std::to_string(first) + ":" + std::to_string(last),
+                           "the last frame comes before the first");
+        const FrameRange range{first, last, fps};
+        const size_t nj = b.binding.joints().size();
+        py::gil_scoped_release release;
+        OutputFiles files;
+        Pc2Sink pc2(files, path, b.binding.num_input_vertices(), range);
+        FrameSink* sinks[] = {&pc2};
+        animate(
+            b.binding,
+            [&](int frame) {
+              py::gil_scoped_acquire acquire; // the caller's function runs with the interpreter
+              const py::object m = pose(frame);
+              const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(m);
+              if (!a || a.ndim() != 3 || static_cast<size_t>(a.shape(0)) != nj || a.shape(1) != 4 || a.shape(2) != 4)
+                throw py::value_error("pose(" + std::to_string(frame) + "): expected a (" + std::to_string(nj) +
+                                      ", 4, 4) array");
+              std::vector<Mat4> M;
+              matrices_into(a, M);
+              return M;
+            },
+            range, sinks, "pose");
+        files.commit();
+      },
+      py::arg("binding"), py::arg("pose"), py::arg("first"), py::arg("last"), py::arg("path"), py::kw_only(),
+      py::arg("fps") = 24.0,
+      "Writes frames first..last as a PC2 cache at `path`, `pose(frame)` giving each frame's (J, 4, 4) skinning "
+      "matrices: the frame job `animate` runs, in blocks of bounded memory, all or nothing");
+
+  // The farm (farm.hpp): a Slurm array job of animate's shards, for pipeline tools.
+  m.def(
+      "farm_submit",
+      [](const std::string& mesh, const std::string& rig, const std::string& clip_file, const std::string& folder,
+         const std::string& output, const std::string& obj_sequence, const std::string& clip,
+         const std::string& frames, double fps, int shard_frames, const std::string& skeleton,
+         const std::string& method, const std::vector<std::string>& sbatch_options, const std::string& executable,
+         bool dry_run) {
+        FarmJob job;
+        job.animate.scene = {mesh, rig, skeleton, ""};
+        if (!parse_deform_method(method, job.animate.options.method))
+          throw py::value_error("method: expected dq, harmonic or gradient");
+        job.animate.clip_file = clip_file;
+        job.animate.clip = clip;
+        job.animate.frames = frames;
+        job.animate.fps = fps;
+        job.animate.pc2 = output;
+        job.animate.obj_sequence = obj_sequence;
+        job.folder = folder;
+        job.shard_frames = shard_frames;
+        job.sbatch_options = sbatch_options;
+        job.executable = executable;
+        const FarmPlan plan = prepare_farm(job);
+        if (!dry_run)
+          (void)submit_farm(plan);
+        return plan.folder;
+      },
+      py::arg("mesh"), py::arg("rig"), py::arg("clip_file"), py::arg("folder"), py::kw_only(), py::arg("output") = "",
+      py::arg("obj_sequence") = "", py::arg("clip") = "", py::arg("frames") = "", py::arg("fps") = 24.0,
+      py::arg("shard_frames") = 100, py::arg("skeleton") = "", py::arg("method") = "dq",
+      py::arg("sbatch_options") = std::vector<std::string>{}, py::arg("executable") = "", py::arg("dry_run") = false,
+      "Writes a farm job folder for `curvenet animate`'s inputs (a PC2 `output` or an `obj_sequence` folder) and "
+      "submits it to Slurm with sbatch, unless `dry_run`; returns the job folder");
+  m.def(
+      "farm_merge",
+      [](const std::string& folder) {
+        using namespace py::literals;
+        const FarmMerge r = merge_farm(folder);
+        return py::dict("output"_a = r.output, "frames"_a = r.frames, "vertices"_a = r.vertices, "parts"_a = r.parts);
+      },
+      py::arg("folder"),
+      "Checks every part of a farm job and writes its output, bit for bit one `animate`; raises naming the parts "
+      "to rerun");
+  m.def(
+      "farm_status",
+      [](const std::string& folder) {
+        using namespace py::literals;
+        py::list out;
+        for (const auto& s : farm_status(folder).shards)
+          out.append(py::dict("task"_a = s.shard.index, "first"_a = s.shard.first, "last"_a = s.shard.last,
+                              "state"_a = s.state, "detail"_a = s.detail));
+        return out;
+      },
+      py::arg("folder"), "Each farm task's state: from squeue and sacct where they answer, else its part file");
 
   // Baking to a linear-blend skin.
   py::class_<SkinWeights>(m, "SkinWeights", "A linear-blend skin: `influences` (joint, weight) slots per input vertex")

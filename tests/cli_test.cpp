@@ -26,9 +26,11 @@ struct CliRun {
   std::string out, err;
 };
 
-CliRun run(const std::string& args, const fs::path& dir) {
+/// Runs the CLI with `args`; `env` (NAME=VALUE ...) changes its environment.
+CliRun run(const std::string& args, const fs::path& dir, const std::string& env = "") {
   const fs::path o = dir / "stdout.txt", e = dir / "stderr.txt";
-  const std::string cmd = std::string(CURVENET_CLI) + " " + args + " >" + o.string() + " 2>" + e.string();
+  const std::string cmd = (env.empty() ? "" : "env " + env + " ") + std::string(CURVENET_CLI) + " " + args + " >" +
+                          o.string() + " 2>" + e.string();
   const int status = std::system(cmd.c_str());
   auto slurp = [](const fs::path& p) {
     std::ifstream in(p);
@@ -792,4 +794,40 @@ TEST(Cli, PoseAndAnimateWriteThePosedCutMeshOnRequest) {
   ASSERT_EQ(out.code, 0) << out.err;
   for (const char* f : {"cut_frame_0000.obj", "cut_frame_0001.obj", "cut_frame_0002.obj"})
     EXPECT_EQ(count(dir / "cut" / f, "v "), count(dir / "rest_cut.obj", "v ")) << f;
+}
+
+TEST(Cli, FarmCommandsRefuseBadInputInOneLineAndSbatchAbsentLeavesTheFolderReady) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("cli_farm");
+  const std::string mesh = test::data("xr_tools_hand/hand_l.gltf"),
+                    rig = test::data("xr_tools_hand/example/hand_l.cnrig.json"),
+                    clips = test::data("xr_tools_hand/hand_l_poses.glb");
+  const std::string base = "farm submit " + mesh + " " + rig + " " + clips + " --frames 0:29";
+  CliRun r = run(base + " --clip Grip --folder " + (dir / "a").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "curvenet: error: farm submit: give -o OUT.pc2 or --obj-sequence DIR\n");
+  r = run(base + " --clip Nope -o x.pc2 --folder " + (dir / "b").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("hand_l_poses.glb: clip 'Nope': no clip has this name or index"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "b"));
+  // No sbatch on PATH: the folder is written and the line to submit it named.
+  r = run("farm submit " + mesh + " " + rig + " " + clips + " --clip Grip --frames 0:29 --shard-frames 7 -o " +
+              (dir / "m.pc2").string() + " --folder " + (dir / "c").string() + " --sbatch-option=--partition=anim",
+          dir, "PATH=/nonexistent");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("sbatch is not on PATH"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("sbatch --parsable --array=0-4 '--partition=anim' '"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "c" / "manifest.json"));
+  r = run("farm status " + (dir / "c").string(), dir, "PATH=/nonexistent");
+  EXPECT_EQ(r.code, 1); // not done
+  EXPECT_NE(r.out.find("task 4 (frames 28:29): missing"), std::string::npos) << r.out;
+  r = run("farm merge " + (dir / "nowhere").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("nowhere/manifest.json: cannot open the file for reading"), std::string::npos) << r.err;
+  write(dir / "c" / "manifest.json", "{\"format\": \"curvenet-farm 1\"}");
+  r = run("farm merge " + (dir / "c").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("manifest.json: a damaged farm manifest"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1);
 }

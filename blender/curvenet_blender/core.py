@@ -792,15 +792,18 @@ def bake_cache(obj, path, frame_start, frame_end, scene=None):
     if binding is None or arm is None:
         raise curvenet.InputError(obj.name, "binding", "bind the mesh to an armature first")
     st = state(obj)
-    frames = frame_end - frame_start + 1
-    M = np.empty((frames, len(st.bone_names), 4, 4))
+    M = np.empty((len(st.bone_names), 4, 4))
     current = scene.frame_current
-    for i, f in enumerate(range(frame_start, frame_end + 1)):
+
+    def pose(f):
         scene.frame_set(f)
-        skinning_matrices(obj, arm, M[i], bpy.context.evaluated_depsgraph_get())
-    scene.frame_set(current)
-    positions = binding.deform_frames(M)
-    curvenet.write_pc2(path, positions, float(frame_start))
+        return skinning_matrices(obj, arm, M, bpy.context.evaluated_depsgraph_get())
+
+    try:
+        # The library's frame job: blocks of bounded memory, streamed to the cache.
+        curvenet.animate_poses(binding, pose, frame_start, frame_end, path, fps=scene.render.fps)
+    finally:
+        scene.frame_set(current)
     unbind(obj)
     for mod in obj.modifiers:
         if mod.type == "MESH_CACHE" and mod.name == "curvenet":
@@ -819,4 +822,3 @@ def bake_cache(obj, path, frame_start, frame_end, scene=None):
         if m.type == "ARMATURE":
             m.show_viewport = False
             m.show_render = False
-    return positions

@@ -399,6 +399,27 @@ def animate(
     """Writes a clip deformed through the binding as a PC2 cache, streamed in blocks: the frames `curvenet animate`
     writes. `frames` is "A:B" or "" for the clip's range. Returns (first, last). Raises InputError for a bad range
     or a non-finite position, writing nothing."""
+def animate_poses(
+    binding: Binding, pose: Callable[[int], npt.ArrayLike], first: int, last: int, path: str, *, fps: float = 24.0
+) -> None:
+    """Writes frames first..last as a PC2 cache, `pose(frame)` giving each frame's (J, 4, 4) skinning matrices, in
+    frame order: the frame job of `animate`, in blocks of bounded memory, all or nothing (the Blender add-on's bake).
+    Raises what `pose` raises, or InputError for a non-finite position, writing nothing."""
+def farm_submit(
+    mesh: str, rig: str, clip_file: str, folder: str, *, output: str = "", obj_sequence: str = "", clip: str = "",
+    frames: str = "", fps: float = 24.0, shard_frames: int = 100, skeleton: str = "", method: str = "dq",
+    sbatch_options: list[str] = ..., executable: str = "", dry_run: bool = False
+) -> str:
+    """Writes a farm job folder (docs/farm.md) for `curvenet animate`'s inputs, to a PC2 `output` or an
+    `obj_sequence` folder, in shards of `shard_frames`, and submits it to Slurm with sbatch unless `dry_run`.
+    `executable` is the curvenet program the tasks run (found on PATH when empty). Returns the job folder.
+    Raises InputError for bad inputs before anything is written, Error when sbatch refuses."""
+def farm_merge(folder: str) -> dict[str, Any]:
+    """Checks every part of a farm job and writes its output, bit for bit one `animate`: {'output', 'frames',
+    'vertices', 'parts'}. Raises InputError naming every missing or damaged part with the sbatch line to rerun it."""
+def farm_status(folder: str) -> list[dict[str, Any]]:
+    """Each task's {'task', 'first', 'last', 'state', 'detail'}: from squeue and sacct where they answer, else its
+    part file (done, damaged or missing)."""
 def write_pc2(path: str, frames: npt.ArrayLike, start_frame: float = 0.0) -> None:
     """Writes (F, n, 3) positions as a PC2 point cache, all or nothing. Raises InputError for a non-finite value."""
 def validate_rig(rig: Rig, source: str = "rig") -> None:

@@ -389,7 +389,8 @@ std::string submit_farm(const FarmPlan& plan, const std::string& indices) {
   const std::string first = out.substr(0, out.find('\n'));
   const std::string id = first.substr(0, first.find(';'));
   if (!ok || id.empty() || !std::all_of(id.begin(), id.end(), ::isdigit))
-    throw Error("farm: sbatch refused the job in " + plan.folder + ": " + first);
+    throw Error("farm: sbatch refused the job in " + plan.folder + ": " + first +
+                " (the folder is ready; submit it with: " + plan.sbatch_line(indices) + ")");
   std::ofstream(fs::path(plan.folder) / "slurm_job_ids", std::ios::app) << id << "\n";
   return id;
 }

@@ -518,3 +518,48 @@ def test_the_gradient_mode_gives_exactly_the_clis_output(tmp_path):
     with pytest.raises(ValueError):
         curvenet.bind(curvenet.load_mesh(example("hand_l_welded.obj")), curvenet.read_rig(example("hand_l.cnrig.json")),
                       method="spline")
+
+
+@needs_data
+def test_a_farm_job_from_python_merges_to_the_cli_animation(tmp_path):
+    mesh, rig, clips = hand(), example("hand_l.cnrig.json"), hand("hand_l_poses.glb")
+    single = tmp_path / "single.pc2"
+    cli("animate", mesh, rig, clips, "--clip", "Grip", "--frames", "0:44", "-o", str(single))
+    folder = curvenet.farm_submit(mesh, rig, clips, str(tmp_path / "job"), output=str(tmp_path / "merged.pc2"),
+                                  clip="Grip", frames="0:44", shard_frames=10, executable=CLI, dry_run=True)
+    assert folder == str((tmp_path / "job").resolve())
+    assert [s["state"] for s in curvenet.farm_status(folder)] == ["missing"] * 5
+    for i in range(5):  # what each Slurm array task runs
+        cli("farm", "task", folder, str(i))
+    status = curvenet.farm_status(folder)
+    assert [(s["first"], s["last"], s["state"]) for s in status] == [(f, f + 9 if f < 40 else 44, "done")
+                                                                      for f in range(0, 45, 10)]
+    r = curvenet.farm_merge(folder)
+    assert r == {"output": str((tmp_path / "merged.pc2").resolve()), "frames": 45, "vertices": 1764, "parts": 5}
+    assert (tmp_path / "merged.pc2").read_bytes() == single.read_bytes()
+    os.remove(os.path.join(folder, "parts", "part_0003.frames"))
+    with pytest.raises(curvenet.InputError, match=r"part_0003.frames: missing.*--array=3 "):
+        curvenet.farm_merge(folder)
+
+
+@needs_data
+def test_animate_poses_streams_what_deform_frames_gives(tmp_path):
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    clips = curvenet.load_skinned_mesh(hand("hand_l_poses.glb"))
+    clip = clips.find_clip("Grip")
+    asked = []
+
+    def pose(f):
+        asked.append(f)
+        return curvenet.clip_skinning_matrices(b, clips, clip, f / 24.0)
+
+    curvenet.animate_poses(b, pose, 3, 40, str(tmp_path / "poses.pc2"))
+    assert asked == list(range(3, 41))  # each frame once, in order
+    M = np.stack([pose(f) for f in range(3, 41)])
+    curvenet.write_pc2(str(tmp_path / "frames.pc2"), b.deform_frames(M), 3.0)
+    assert (tmp_path / "poses.pc2").read_bytes() == (tmp_path / "frames.pc2").read_bytes()
+    with pytest.raises(ValueError, match=r"pose\(3\): expected a"):
+        curvenet.animate_poses(b, lambda f: np.eye(4), 3, 5, str(tmp_path / "bad.pc2"))
+    with pytest.raises(ZeroDivisionError):
+        curvenet.animate_poses(b, lambda f: 1 / 0, 3, 5, str(tmp_path / "bad.pc2"))
+    assert not (tmp_path / "bad.pc2").exists()
