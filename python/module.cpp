@@ -8,8 +8,8 @@
 #include "curvenet/deform.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
-#include "curvenet/io.hpp"
 #include "curvenet/farm.hpp"
+#include "curvenet/io.hpp"
 #include "curvenet/jobs.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
@@ -1032,10 +1032,9 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def(
       "farm_submit",
       [](const std::string& mesh, const std::string& rig, const std::string& clip_file, const std::string& folder,
-         const std::string& output, const std::string& obj_sequence, const std::string& clip,
-         const std::string& frames, double fps, int shard_frames, const std::string& skeleton,
-         const std::string& method, const std::vector<std::string>& sbatch_options, const std::string& executable,
-         bool dry_run) {
+         const std::string& output, const std::string& obj_sequence, const std::string& clip, const std::string& frames,
+         double fps, int shard_frames, const std::string& skeleton, const std::string& method,
+         const std::vector<std::string>& sbatch_options, const std::string& executable, bool dry_run) {
         FarmJob job;
         job.animate.scene = {mesh, rig, skeleton, ""};
         if (!parse_deform_method(method, job.animate.options.method))

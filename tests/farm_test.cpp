@@ -115,6 +115,8 @@ TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 16));
   run_all(plan);
   EXPECT_TRUE(fs::exists(fs::path(plan.folder) / "binding.cache")); // bound once, then read by the others
+  // A PC2 job's parts keep floats, what the cache keeps: half the bytes.
+  EXPECT_EQ(fs::file_size(part(plan, 0)), 40u + 16u * 1764u * 12u + 8u);
   const FarmMerge m = merge_farm(plan.folder);
   EXPECT_EQ(m.frames, 70);
   EXPECT_EQ(m.parts, 5);
@@ -125,6 +127,7 @@ TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
   seq.obj_sequence = (dir / "frames").string();
   const FarmPlan seq_plan = prepare_farm(farm_of(seq, dir / "seq_job", 5));
   run_all(seq_plan);
+  EXPECT_EQ(fs::file_size(part(seq_plan, 0)), 40u + 5u * 1764u * 24u + 8u); // an OBJ sequence's keep doubles
   (void)merge_farm(seq_plan.folder);
   AnimateJob one = seq;
   one.obj_sequence = (dir / "frames_single").string();

@@ -139,10 +139,12 @@ struct AnimateJob {
   double fps = 24;
   long long max_frames = 100000;
   std::string pc2, obj_sequence, cut_mesh_sequence;
-  /// A farm task's part file (farm.hpp): the frames in double precision,
-  /// checksummed, marked with `part_key` (the farm job's).
+  /// A farm task's part file (farm.hpp): the frames checksummed, marked
+  /// with `part_key` (the farm job's), in single precision (what a PC2
+  /// cache keeps) or double (what an OBJ sequence prints).
   std::string frames_part;
   std::uint64_t part_key = 0;
+  bool part_single_precision = false;
 };
 struct AnimateSummary : JobSummary {
   int clip = 0;

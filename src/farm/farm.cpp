@@ -410,6 +410,7 @@ void run_farm_task(const std::string& folder, int index, std::ostream& log) {
   job.scene.binding_cache = m.cache;
   job.frames_part = part_path(m.plan, index);
   job.part_key = m.key;
+  job.part_single_precision = !m.job.pc2.empty(); // a PC2 cache keeps floats: half the bytes to move
   const auto t0 = std::chrono::steady_clock::now();
   const AnimateSummary r = detail::run_animate(
       job, [&](Scene scene, OutputFiles& files) { return bind_shared(std::move(scene), job.options, files, m, log); });
@@ -451,6 +452,8 @@ FarmMerge merge_farm(const std::string& folder) {
       if (h.vertices != nv)
         throw InputError(path, "header",
                          std::to_string(h.vertices) + " vertices, not the mesh's " + std::to_string(nv));
+      if (h.precision != (m.job.pc2.empty() ? 8 : 4))
+        throw InputError(path, "header", "written for another output (its precision)");
       if (!part.complete())
         throw InputError(path, "", "the file's size is not what its header says (truncated or padded)");
       for (int f = s.first; part.next(frame); ++f) {
@@ -488,7 +491,7 @@ FarmStatus farm_status(const std::string& folder) {
   // and those that ended (kept by squeue for MinJobAge, by sacct for good).
   std::map<int, std::string> active, ended;
   auto note = [&](int index, const std::string& state) {
-    static const std::set<std::string> over = {"COMPLETED", "CANCELLED", "FAILED",    "TIMEOUT",  "NODE_FAIL",
+    static const std::set<std::string> over = {"COMPLETED", "CANCELLED", "FAILED",   "TIMEOUT",      "NODE_FAIL",
                                                "PREEMPTED", "BOOT_FAIL", "DEADLINE", "OUT_OF_MEMORY"};
     (over.count(state) ? ended : active)[index] = state;
   };

@@ -102,7 +102,8 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   }
   if (!job.frames_part.empty()) {
     auto p = std::make_unique<detail::FramesPartSink>(files, job.frames_part, s.binding.num_input_vertices(), range,
-                                                      job.part_key);
+                                                      job.part_key, job.part_single_precision ? 4 : 8,
+                                                      job.clip_file);
     part = p.get();
     sinks.push_back(std::move(p));
   }
