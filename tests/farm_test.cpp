@@ -6,6 +6,8 @@
 #include "curvenet/farm.hpp"
 
 #include "curvenet/errors.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
 #include "helpers.hpp"
 #include "io/frames_part.hpp"
 
@@ -23,15 +25,20 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kHand = "xr_tools_hand/";
-
-AnimateJob hand_grip(const fs::path& out_dir, int frames) {
+/// CesiumMan's walk with a starter net, sampled at 200 fps from frame 8,
+/// so that every frame differs.
+AnimateJob walk(const fs::path& out_dir, int frames) {
   AnimateJob a;
-  a.scene.mesh = test::data(kHand + "hand_l.gltf");
-  a.scene.rig = test::data(kHand + "example/hand_l.cnrig.json");
-  a.clip_file = test::data(kHand + "hand_l_poses.glb");
-  a.clip = "Grip";
-  a.frames = "0:" + std::to_string(frames - 1);
+  a.scene.mesh = a.clip_file = test::data("cesium_man/CesiumMan.glb");
+  a.scene.rig = (out_dir / "cesium.cnrig.json").string();
+  if (!fs::exists(a.scene.rig)) {
+    const SkinnedMesh skin = load_skinned_mesh(a.scene.mesh);
+    StarterOptions opt;
+    opt.deforming = weighted_joints(skin);
+    write_rig(make_starter(load_mesh(a.scene.mesh), skin.joints, opt).rig, a.scene.rig);
+  }
+  a.fps = 200;
+  a.frames = "8:" + std::to_string(8 + frames - 1);
   a.pc2 = (out_dir / "merged.pc2").string();
   return a;
 }
@@ -79,11 +86,11 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const fs::path dir = test::temp_dir("farm_folder");
-  const FarmPlan plan = prepare_farm(farm_of(hand_grip(dir, 95), dir / "job", 20));
+  const FarmPlan plan = prepare_farm(farm_of(walk(dir, 95), dir / "job", 20));
   ASSERT_EQ(plan.shards.size(), 5u); // 20, 20, 20, 20 and 15 frames
-  EXPECT_EQ(plan.shards.back().first, 80);
-  EXPECT_EQ(plan.shards.back().last, 94);
-  EXPECT_EQ(plan.vertices, 1764);
+  EXPECT_EQ(plan.shards.back().first, 88);
+  EXPECT_EQ(plan.shards.back().last, 102);
+  EXPECT_EQ(plan.vertices, 3273);
   const auto m = nlohmann::json::parse(test::file_bytes(plan.manifest));
   EXPECT_EQ(m["format"], "curvenet-farm 1");
   for (const char* role : {"mesh", "rig", "clip_file"}) {
@@ -91,8 +98,8 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
     EXPECT_TRUE(fs::path(m["inputs"][role]["path"].get<std::string>()).is_absolute()) << role;
   }
   EXPECT_EQ(m["bind"]["method"], "dq");
-  EXPECT_EQ(m["frames"], nlohmann::json::array({0, 94}));
-  EXPECT_EQ(m["clip"], "Grip");
+  EXPECT_EQ(m["frames"], nlohmann::json::array({8, 102}));
+  EXPECT_EQ(m["fps"], 200.0);
   const std::string script = test::file_bytes(plan.script);
   EXPECT_NE(script.find("#SBATCH --job-name=curvenet-"), std::string::npos);
   EXPECT_NE(script.find("farm task '" + plan.folder + "' \"$SLURM_ARRAY_TASK_ID\""), std::string::npos) << script;
@@ -100,9 +107,10 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
   EXPECT_EQ(plan.sbatch_line("3"), "sbatch --parsable --array=3 '" + plan.script + "'");
   // A folder that holds a job already is refused; so is a bad clip, before
   // anything is written.
-  EXPECT_THROW(prepare_farm(farm_of(hand_grip(dir, 95), dir / "job", 20)), Error);
-  AnimateJob bad = hand_grip(dir, 95);
+  EXPECT_THROW(prepare_farm(farm_of(walk(dir, 95), dir / "job", 20)), Error);
+  AnimateJob bad = walk(dir, 95);
   bad.clip = "NoSuchClip";
+  fs::remove_all(dir / "job2");
   EXPECT_THROW(prepare_farm(farm_of(bad, dir / "job2", 20)), InputError);
   EXPECT_FALSE(fs::exists(dir / "job2"));
 }
@@ -111,28 +119,28 @@ TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const fs::path dir = test::temp_dir("farm_merge");
-  const AnimateJob a = hand_grip(dir, 70);
+  const AnimateJob a = walk(dir, 70);
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 16));
   run_all(plan);
   EXPECT_TRUE(fs::exists(fs::path(plan.folder) / "binding.cache")); // bound once, then read by the others
   // A PC2 job's parts keep floats, what the cache keeps: half the bytes.
-  EXPECT_EQ(fs::file_size(part(plan, 0)), 40u + 16u * 1764u * 12u + 8u);
+  EXPECT_EQ(fs::file_size(part(plan, 0)), 40u + 16u * 3273u * 12u + 8u);
   const FarmMerge m = merge_farm(plan.folder);
   EXPECT_EQ(m.frames, 70);
   EXPECT_EQ(m.parts, 5);
   EXPECT_EQ(test::file_bytes(a.pc2), single_pc2(a, dir));
 
-  AnimateJob seq = hand_grip(dir, 12);
+  AnimateJob seq = walk(dir, 12);
   seq.pc2.clear();
   seq.obj_sequence = (dir / "frames").string();
   const FarmPlan seq_plan = prepare_farm(farm_of(seq, dir / "seq_job", 5));
   run_all(seq_plan);
-  EXPECT_EQ(fs::file_size(part(seq_plan, 0)), 40u + 5u * 1764u * 24u + 8u); // an OBJ sequence's keep doubles
+  EXPECT_EQ(fs::file_size(part(seq_plan, 0)), 40u + 5u * 3273u * 24u + 8u); // an OBJ sequence's keep doubles
   (void)merge_farm(seq_plan.folder);
   AnimateJob one = seq;
   one.obj_sequence = (dir / "frames_single").string();
   (void)run(one);
-  for (int f = 0; f < 12; ++f) {
+  for (int f = 8; f < 20; ++f) {
     const std::string name = sequence_name("frame", f);
     EXPECT_EQ(test::file_bytes(dir / "frames" / name), test::file_bytes(dir / "frames_single" / name)) << name;
   }
@@ -142,7 +150,7 @@ TEST(Farm, AMissingTruncatedOrForeignPartIsNamedWithTheSbatchLineForItAlone) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const fs::path dir = test::temp_dir("farm_faults");
-  const AnimateJob a = hand_grip(dir, 40);
+  const AnimateJob a = walk(dir, 40);
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 10));
   run_all(plan);
   const std::string good = test::file_bytes(part(plan, 2));
@@ -171,7 +179,7 @@ TEST(Farm, AMissingTruncatedOrForeignPartIsNamedWithTheSbatchLineForItAlone) {
   std::ofstream(part(plan, 2), std::ios::binary) << flipped;
   std::ostringstream log;
   run_farm_task(plan.folder, 1, log);
-  EXPECT_NE(merge_error(plan.folder).find("part 2 (frames 20:29): " + part(plan, 2) + ": the checksum"),
+  EXPECT_NE(merge_error(plan.folder).find("part 2 (frames 28:37): " + part(plan, 2) + ": the checksum"),
             std::string::npos)
       << merge_error(plan.folder);
 
@@ -181,7 +189,7 @@ TEST(Farm, AMissingTruncatedOrForeignPartIsNamedWithTheSbatchLineForItAlone) {
   EXPECT_EQ(test::file_bytes(a.pc2), single_pc2(a, dir));
 
   // A part of another job (its manifest differs) is not taken.
-  const FarmPlan other = prepare_farm(farm_of(hand_grip(dir, 40), dir / "other", 10));
+  const FarmPlan other = prepare_farm(farm_of(walk(dir, 40), dir / "other", 10));
   run_farm_task(other.folder, 0, log);
   fs::copy_file(part(other, 0), part(plan, 0), fs::copy_options::overwrite_existing);
   EXPECT_NE(merge_error(plan.folder).find("written for another job"), std::string::npos);
@@ -191,7 +199,7 @@ TEST(Farm, ALockWhoseOwnerDiedIsTakenOverAndTheCacheBuilt) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const fs::path dir = test::temp_dir("farm_lock");
-  const AnimateJob a = hand_grip(dir, 20);
+  const AnimateJob a = walk(dir, 20);
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 10));
   // A task that took the lock and died: its PID is of a process that has
   // exited and been reaped.
@@ -217,9 +225,9 @@ TEST(Farm, ATaskRefusesInputsThatChangedSinceTheSubmission) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const fs::path dir = test::temp_dir("farm_changed");
-  AnimateJob a = hand_grip(dir, 10);
-  fs::copy_file(a.scene.rig, dir / "hand.cnrig.json", fs::copy_options::overwrite_existing);
-  a.scene.rig = (dir / "hand.cnrig.json").string();
+  AnimateJob a = walk(dir, 10);
+  fs::copy_file(a.scene.rig, dir / "walk.cnrig.json", fs::copy_options::overwrite_existing);
+  a.scene.rig = (dir / "walk.cnrig.json").string();
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 10));
   std::ofstream(a.scene.rig, std::ios::app) << "\n";
   std::ostringstream log;
@@ -227,7 +235,7 @@ TEST(Farm, ATaskRefusesInputsThatChangedSinceTheSubmission) {
     run_farm_task(plan.folder, 0, log);
     ADD_FAILURE() << "a changed rig was used";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("hand.cnrig.json: rig: changed since the farm job was submitted"),
+    EXPECT_NE(std::string(e.what()).find("walk.cnrig.json: rig: changed since the farm job was submitted"),
               std::string::npos)
         << e.what();
   }

@@ -20,9 +20,19 @@ import pytest
 HERE = Path(__file__).resolve().parent
 CLI = os.environ.get("CURVENET_CLI", "curvenet")
 DATA = Path(os.environ.get("CURVENET_DATA_DIR", HERE.parents[2] / "shared" / "data"))
-HAND = DATA / "xr_tools_hand"
-MESH, RIG, CLIPS = HAND / "hand_l.gltf", HAND / "example" / "hand_l.cnrig.json", HAND / "hand_l_poses.glb"
+# CesiumMan's walk (2 s), sampled finely so that every frame differs: the
+# hand's 35 clips are one pose each.
+MESH = CLIPS = DATA / "cesium_man" / "CesiumMan.glb"
+FPS = ("--fps", "200")
 TIMEOUT = 180  # seconds for a job to finish on a busy 2-core machine
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rig") / "cesium.cnrig.json"
+    r = subprocess.run([CLI, "starter", str(MESH), "-o", str(path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return path
 
 
 @pytest.fixture(scope="module")
@@ -90,19 +100,19 @@ def rerun_line(message):
     return message.split(" with: ", 1)[1].strip()
 
 
-def animate(env, tmp, out_name, *extra):
+def animate(env, rig, tmp, out_name, *extra):
     out = tmp / out_name
-    run(env, "animate", MESH, RIG, CLIPS, "--clip", "Grip", "-o", out, *extra)
+    run(env, "animate", MESH, rig, CLIPS, "-o", out, *extra)
     return out.read_bytes()
 
 
-def test_eight_shards_merge_bit_for_bit_and_a_truncated_part_is_rerun_alone(slurm, tmp_path):
+def test_eight_shards_merge_bit_for_bit_and_a_truncated_part_is_rerun_alone(slurm, rig, tmp_path):
     env = slurm
-    single = animate(env, tmp_path, "single.pc2", "--frames", "0:399")
+    single = animate(env, rig, tmp_path, "single.pc2", "--frames", "8:399", *FPS)
     job = tmp_path / "job"
-    r = run(env, "farm", "submit", MESH, RIG, CLIPS, "--clip", "Grip", "--frames", "0:399", "--shard-frames", "50",
+    r = run(env, "farm", "submit", MESH, rig, CLIPS, "--frames", "8:399", *FPS, "--shard-frames", "49",
             "--folder", job, "-o", tmp_path / "merged.pc2")
-    assert "tasks: 8 of at most 50 frames" in r.stdout, r.stdout
+    assert "tasks: 8 of at most 49 frames" in r.stdout, r.stdout
     assert "slurm job: " in r.stdout
     s = wait_until_settled(env, job, 8)
     assert all(v == "done" for v in s.values()), s
@@ -110,6 +120,9 @@ def test_eight_shards_merge_bit_for_bit_and_a_truncated_part_is_rerun_alone(slur
     assert logs.count("building the binding cache") == 1, logs  # bound once, read by the others
     run(env, "farm", "merge", job)
     assert (tmp_path / "merged.pc2").read_bytes() == single
+    frame = 12 * 3273  # bytes of one frame: the walk moves, so no two shards could be swapped unseen
+    frames = [single[32 + k * frame: 32 + (k + 1) * frame] for k in (0, 49, 98, 391)]
+    assert len(set(frames)) == 4
 
     # A part truncated by hand: named, with the sbatch line for it alone.
     part = job / "parts" / "part_0005.frames"
@@ -129,14 +142,14 @@ def test_eight_shards_merge_bit_for_bit_and_a_truncated_part_is_rerun_alone(slur
     assert (tmp_path / "merged.pc2").read_bytes() == single
 
 
-def test_a_task_cancelled_mid_frame_leaves_no_part_and_is_rerun_alone(slurm, tmp_path):
+def test_a_task_cancelled_mid_frame_leaves_no_part_and_is_rerun_alone(slurm, rig, tmp_path):
     env = slurm
     # Two long shards in the gradient mode, so that one can be cancelled
-    # while it writes its frames.
-    frames, method = "0:2999", ("--method", "gradient")
+    # while it writes its frames (CesiumMan's 2 s walk at 1500 fps).
+    extra = ("--frames", "60:3059", "--fps", "1500", "--method", "gradient")
     job = tmp_path / "job"
-    run(env, "farm", "submit", MESH, RIG, CLIPS, "--clip", "Grip", "--frames", frames, "--shard-frames", "1500",
-        "--folder", job, "-o", tmp_path / "merged.pc2", *method)
+    run(env, "farm", "submit", MESH, rig, CLIPS, "--shard-frames", "1500", "--folder", job, "-o",
+        tmp_path / "merged.pc2", *extra)
     job_id = (job / "slurm_job_ids").read_text().split()[0]
     parts = job / "parts"
     deadline = time.time() + TIMEOUT
@@ -159,14 +172,14 @@ def test_a_task_cancelled_mid_frame_leaves_no_part_and_is_rerun_alone(slurm, tmp
     assert s == {0: "done", 1: "done"}, s
     assert not list(parts.glob("*.tmp-curvenet-*")), "the killed task's temporary file was left"
     run(env, "farm", "merge", job)
-    assert (tmp_path / "merged.pc2").read_bytes() == animate(env, tmp_path, "single.pc2", "--frames", frames, *method)
+    assert (tmp_path / "merged.pc2").read_bytes() == animate(env, rig, tmp_path, "single.pc2", *extra)
 
 
-def test_a_binding_cache_lock_held_by_a_dead_task_is_taken_over(slurm, tmp_path):
+def test_a_binding_cache_lock_held_by_a_dead_task_is_taken_over(slurm, rig, tmp_path):
     env = slurm
     job = tmp_path / "job"
-    r = run(env, "farm", "submit", MESH, RIG, CLIPS, "--clip", "Grip", "--frames", "0:59", "--shard-frames", "20",
-            "--folder", job, "--obj-sequence", tmp_path / "frames", "--dry-run")
+    r = run(env, "farm", "submit", MESH, rig, CLIPS, "--frames", "0:59", "--shard-frames", "20", "--folder", job,
+            "--obj-sequence", tmp_path / "frames", "--dry-run")
     line = r.stdout.split("submit with: ", 1)[1].strip()
     assert not (job / "slurm_job_ids").exists()  # a dry run submits nothing
     # A task that took the lock and died: the PID of a process that exited.
@@ -181,7 +194,7 @@ def test_a_binding_cache_lock_held_by_a_dead_task_is_taken_over(slurm, tmp_path)
     assert "which is gone: binding here" in logs, logs
     assert not (job / "binding.cache.lock").exists()
     run(env, "farm", "merge", job)
-    run(env, "animate", MESH, RIG, CLIPS, "--clip", "Grip", "--frames", "0:59", "--obj-sequence", tmp_path / "single")
+    run(env, "animate", MESH, rig, CLIPS, "--frames", "0:59", "--obj-sequence", tmp_path / "single")
     names = sorted(p.name for p in (tmp_path / "single").glob("*.obj"))
     assert len(names) == 60
     for n in names:

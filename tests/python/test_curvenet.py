@@ -522,11 +522,13 @@ def test_the_gradient_mode_gives_exactly_the_clis_output(tmp_path):
 
 @needs_data
 def test_a_farm_job_from_python_merges_to_the_cli_animation(tmp_path):
-    mesh, rig, clips = hand(), example("hand_l.cnrig.json"), hand("hand_l_poses.glb")
+    mesh = clips = os.path.join(DATA, "cesium_man", "CesiumMan.glb")  # a walk: every frame differs
+    rig = str(tmp_path / "cesium.cnrig.json")
+    cli("starter", mesh, "-o", rig)
     single = tmp_path / "single.pc2"
-    cli("animate", mesh, rig, clips, "--clip", "Grip", "--frames", "0:44", "-o", str(single))
+    cli("animate", mesh, rig, clips, "--fps", "100", "--frames", "0:44", "-o", str(single))
     folder = curvenet.farm_submit(mesh, rig, clips, str(tmp_path / "job"), output=str(tmp_path / "merged.pc2"),
-                                  clip="Grip", frames="0:44", shard_frames=10, executable=CLI, dry_run=True)
+                                  fps=100.0, frames="0:44", shard_frames=10, executable=CLI, dry_run=True)
     assert folder == str((tmp_path / "job").resolve())
     assert [s["state"] for s in curvenet.farm_status(folder)] == ["missing"] * 5
     for i in range(5):  # what each Slurm array task runs
@@ -535,7 +537,7 @@ def test_a_farm_job_from_python_merges_to_the_cli_animation(tmp_path):
     assert [(s["first"], s["last"], s["state"]) for s in status] == [(f, f + 9 if f < 40 else 44, "done")
                                                                       for f in range(0, 45, 10)]
     r = curvenet.farm_merge(folder)
-    assert r == {"output": str((tmp_path / "merged.pc2").resolve()), "frames": 45, "vertices": 1764, "parts": 5}
+    assert r == {"output": str((tmp_path / "merged.pc2").resolve()), "frames": 45, "vertices": 3273, "parts": 5}
     assert (tmp_path / "merged.pc2").read_bytes() == single.read_bytes()
     os.remove(os.path.join(folder, "parts", "part_0003.frames"))
     with pytest.raises(curvenet.InputError, match=r"part_0003.frames: missing.*--array=3 "):
