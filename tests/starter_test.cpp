@@ -11,6 +11,7 @@
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 #include "starter/plane_section.hpp"
+#include "starter/stages.hpp"
 #include "transfer_check.hpp"
 
 #include <gtest/gtest.h>
@@ -637,4 +638,144 @@ TEST(Starter, ANodeTakesItsWeightsFromTheLimbItLiesOnNotFromOneThatPassesNear) {
   }
   EXPECT_GT(thigh_nodes, 0);
   EXPECT_GT(neck_nodes, 0);
+}
+
+// ---- the stages one by one (src/starter/stages.hpp), on the capped tube --
+
+namespace {
+
+/// The tube along +y (radius 1) with a 5-joint chain up its axis, and the
+/// context every stage reads.
+struct TubeStages {
+  SurfaceMesh mesh = tube();
+  std::vector<Joint> joints = make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7});
+  StarterOptions options;
+  std::vector<std::string> said;
+  detail::StarterContext c{mesh, joints, options, [this](const std::string& m) { said.push_back(m); }};
+};
+
+} // namespace
+
+TEST(StarterStages, RingsAreLoopsRoundTheTubeAtEachJoint) {
+  TubeStages t;
+  const detail::RingsResult found = detail::candidate_rings(t.c);
+  std::set<int> joints;
+  for (const detail::Ring& r : found.rings) {
+    joints.insert(r.joint);
+    ASSERT_GE(r.loop.size(), 8u) << r.id;
+    EXPECT_NEAR(r.perimeter, 2 * std::numbers::pi, 0.05 * 2 * std::numbers::pi) << r.id; // radius 1, 16 sides
+    EXPECT_LT(std::hypot(r.centre.x(), r.centre.z()), 1e-6) << r.id;                     // on the axis
+    EXPECT_NEAR(std::abs(r.axis.y()), 1.0, 1e-6) << r.id;                                // across the bone
+    for (const Vec3& p : r.loop)
+      EXPECT_NEAR(std::hypot(p.x(), p.z()), 1.0, 0.02) << r.id; // on the surface
+  }
+  // The root's ring sits at the joint; each child joint has its own.
+  EXPECT_GE(joints.size(), 4u);
+  for (const auto& [j, why] : found.ringless)
+    EXPECT_FALSE(why.empty()) << t.joints[j].name;
+}
+
+TEST(StarterStages, ClearanceKeepsRingsApartAndChainsFollowTheSkeleton) {
+  TubeStages t;
+  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::trunk_rings(t.c, found.shared_start, found.rings);
+  const std::vector<int> kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
+  ASSERT_EQ(kept.size(), 5u);
+  for (int i : kept) {
+    EXPECT_TRUE(found.rings[i].active);
+    EXPECT_LT(detail::ring_conflict(t.c, found.rings[i], found.rings, kept, i), 0) << found.rings[i].id;
+  }
+  const std::map<int, int> parent = detail::chain_rings(t.c, found.rings, kept);
+  int roots = 0;
+  for (int i : kept) {
+    const int p = parent.at(i);
+    if (p < 0) {
+      ++roots;
+      continue;
+    }
+    // The parent ring lies down the chain: lower on the tube, on the same or the parent joint.
+    EXPECT_LT(found.rings[p].centre.y(), found.rings[i].centre.y()) << found.rings[i].id;
+  }
+  EXPECT_EQ(roots, 1);
+}
+
+TEST(StarterStages, TheNetHasArcsOnEveryRingAndLongitudinalsAlongTheChain) {
+  TubeStages t;
+  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::NetRepairs st;
+  st.kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, found.rings, st.kept);
+  const detail::NetResult net = detail::build_net(
+      t.c, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  EXPECT_EQ(net.failure, "");
+  EXPECT_EQ(detail::check_net(t.c, net), "");
+  std::map<char, int> kinds;
+  for (const auto& [id, who] : net.owner)
+    ++kinds[who.first];
+  EXPECT_EQ(kinds['a'], 5 * 4); // 4 arcs a ring
+  EXPECT_EQ(kinds['l'], 4 * 4); // 4 longitudinals between consecutive rings
+  EXPECT_EQ(kinds['j'], 0);     // one chain: no forks to join
+  EXPECT_EQ(net.node_ring.size(), net.rig.nodes.size());
+  EXPECT_TRUE(embed(t.mesh, net.rig).report().ok);
+}
+
+TEST(StarterStages, NodeWeightsSumToOneOnTheBonesNearTheirRing) {
+  TubeStages t;
+  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::NetRepairs st;
+  st.kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, found.rings, st.kept);
+  const std::vector<int> active = st.active();
+  detail::NetResult net = detail::build_net(
+      t.c, found.rings, active, [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  net.rig.weights.clear();
+  detail::node_weights(t.c, found.rings, active, net);
+  ASSERT_EQ(net.rig.weights.size(), net.rig.nodes.size());
+  for (size_t k = 0; k < net.rig.nodes.size(); ++k) {
+    const auto& w = net.rig.weights.at(net.rig.nodes[k].id);
+    double sum = 0;
+    for (const auto& [joint, v] : w) {
+      EXPECT_GE(v, 0);
+      sum += v;
+      // Only joints within one bone of the ring's own: never the far end of the chain.
+      const int ring_joint = found.rings[net.node_ring[k]].joint;
+      int j = 0;
+      while (t.joints[j].name != joint)
+        ++j;
+      EXPECT_LE(std::abs(j - ring_joint), 1) << net.rig.nodes[k].id << " " << joint;
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12) << net.rig.nodes[k].id;
+  }
+}
+
+TEST(StarterStages, ARepairGivesUpWhatTheFailureNamesAndStopsWhenNothingIsLeft) {
+  TubeStages t;
+  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::NetRepairs st;
+  st.kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, found.rings, st.kept);
+  const detail::NetResult net = detail::build_net(
+      t.c, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  // A failure that names an arc of the middle ring: that ring, and only it,
+  // is moved along its bone or dropped.
+  int middle = -1;
+  std::string arc;
+  for (const auto& [id, who] : net.owner)
+    if (who.first == 'a' && found.rings[who.second].joint == 2) {
+      arc = id;
+      middle = who.second;
+    }
+  ASSERT_GE(middle, 0);
+  const std::vector<detail::Ring> before = found.rings;
+  detail::repair_net(t.c, found.rings, found.ringless, net, "profile '" + arc + "' crosses another", st);
+  const bool moved = found.rings[middle].t != before[middle].t, dropped = st.dropped.count(middle) > 0;
+  EXPECT_TRUE(moved != dropped) << "moved " << moved << ", dropped " << dropped;
+  for (size_t i = 0; i < before.size(); ++i)
+    if (static_cast<int>(i) != middle)
+      EXPECT_EQ(found.rings[i].t, before[i].t) << found.rings[i].id;
+  ASSERT_FALSE(t.said.empty());
+  EXPECT_NE(t.said.back().find(found.rings[middle].id), std::string::npos) << t.said.back();
+  // Repairs are bounded: past the limit, the starter gives up in one line.
+  st.attempts = 1000;
+  EXPECT_THROW(detail::repair_net(t.c, found.rings, found.ringless, net, "not ok", st), EmbedError);
 }

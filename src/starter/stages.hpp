@@ -185,4 +185,44 @@ NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, con
 /// node part at a clear angle. The first fault, or empty.
 std::string check_net(const StarterContext& c, const NetResult& net);
 
+// ---- stage 7: repairs ----------------------------------------------------
+
+/// What the repairs have changed so far: the rings dropped, the joins moved
+/// or given up, and the parents that chains join instead of their own.
+struct NetRepairs {
+  std::vector<int> kept;          ///< the rings clearance kept
+  std::map<int, int> parent_ring; ///< chain_rings()
+  std::set<int> dropped;
+  JoinAttempts join_attempt;
+  std::map<int, std::string> join_failure; ///< child ring -> why its last join was given up
+  std::map<int, int> parent_override;      ///< child ring -> the ring it joins instead of its own parent
+  std::map<int, std::set<int>> tried;      ///< child ring -> the parents whose joins were given up
+  int attempts = 0;
+  /// The kept rings not dropped.
+  [[nodiscard]] std::vector<int> active() const;
+  /// The ring that ring i's chain joins: its override, or its parent, past dropped rings.
+  [[nodiscard]] int effective_parent(int i) const;
+};
+
+/// Gives up what `failure` (why `net` cannot be used) names, cheapest
+/// first: a join (moved to a node, to an arc's middle, then to another
+/// ring up the chain), the child ring of a longitudinal, the ring of an arc,
+/// a trunk's ring last; with no profile named, the largest ring. A ring is
+/// moved along its bone where it keeps clear, dropped otherwise, and rings
+/// it had displaced come back.
+/// \throw EmbedError when nothing is left to give up.
+void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int, std::string>& ringless,
+                const NetResult& net, const std::string& failure, NetRepairs& state);
+
+// ---- stage 8: weights -----------------------------------------------------
+
+/// Each node's weights, from the bones near its ring's joints in the
+/// skeleton (those that meet at them, at their parents or at their
+/// children): a node follows the limb it lies on, whatever passes near it.
+/// A ring out beyond a weighted joint that ends its chain (a foot, a head)
+/// is that joint's alone, as is the joint's own ring when that ring is
+/// the last.
+void node_weights(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
+                  NetResult& net);
+
 } // namespace curvenet::detail

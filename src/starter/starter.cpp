@@ -4,7 +4,6 @@
 
 #include "curvenet/starter.hpp"
 
-#include "core/quoted.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "starter/stages.hpp"
@@ -196,6 +195,37 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
   return out;
 }
 
+/// The result of a net that embeds: its rig, counts, joints without a
+/// ring, and the record of what was made (`x_starter`).
+void finish(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active, NetResult& net,
+            const NetRepairs& st, const std::map<int, std::string>& ringless,
+            const std::vector<std::pair<std::string, std::string>>& skipped, int components,
+            const std::vector<Joint>& all_joints, StarterResult& result) {
+  const std::vector<Joint>& joints = c.joints;
+  result.rig = std::move(net.rig);
+  result.rig.joints = all_joints; // the rig drives the whole skeleton; the net was made for the part that deforms
+  result.rings = static_cast<int>(active.size());
+  result.joins = net.joins;
+  result.unjoined = static_cast<int>(net.unjoined.size());
+  result.net_components = components;
+  for (int ch : net.unjoined)
+    c.say("ring '" + rings[ch].id + "' is not joined to ring '" + rings[st.effective_parent(ch)].id +
+          "': " + (st.join_failure.count(ch) ? st.join_failure.at(ch) : std::string()));
+  if (!net.unjoined.empty())
+    c.say(std::to_string(net.unjoined.size()) + " chain(s) could not be joined to their parent ring; the net has " +
+          std::to_string(result.net_components) + " components, and the expected region count accounts for them");
+  std::set<int> ringed;
+  for (int i : active)
+    if (rings[i].frac > 0 && rings[i].frac <= 1) // a trunk's ring is not a joint's own, nor one out beyond it
+      ringed.insert(rings[i].joint);
+  for (int j = 0; j < static_cast<int>(joints.size()); ++j)
+    if (!ringed.count(j))
+      result.ringless.emplace_back(joints[j].name, ringless.count(j) ? ringless.at(j) : "its ring was dropped");
+  for (const auto& entry : skipped)
+    result.ringless.push_back(entry);
+  result.rig.extensions["x_starter"] = starter_extension(rings, active, net.unjoined, result);
+}
+
 } // namespace
 
 StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& all_joints, const StarterOptions& opt) {
@@ -225,7 +255,6 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     if (opt.message)
       opt.message(m);
   });
-  const int nj = static_cast<int>(joints.size());
 
   // 1 to 4: rings, trunks, clearance, chains.
   RingsResult found = candidate_rings(c);
@@ -236,28 +265,14 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     throw InputError(
         mesh.source, "skeleton",
         "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
-  std::vector<int> kept = keep_clear_rings(c, rings, ringless);
-  std::map<int, int> parent_ring = chain_rings(c, rings, kept);
+  NetRepairs st;
+  st.kept = keep_clear_rings(c, rings, ringless);
+  st.parent_ring = chain_rings(c, rings, st.kept);
 
-  // 5 to 7: build the net, check it, embed it; on a failure move or drop
-  // what failed, and repeat.
-  std::set<int> dropped;
-  JoinAttempts join_attempt;
-  std::map<int, std::string> join_failure; // child ring -> why its last join was given up
-  std::map<int, int> parent_override;      // child ring -> the ring it joins instead of its own parent
-  std::map<int, std::set<int>> tried;      // child ring -> the parents whose joins were given up
-  for (int attempt = 0;; ++attempt) {
-    std::vector<int> active;
-    for (int i : kept)
-      if (!dropped.count(i))
-        active.push_back(i);
-    std::function<int(int)> effective_parent = [&](int i) {
-      const auto o = parent_override.find(i);
-      int p = o != parent_override.end() ? o->second : parent_ring.at(i);
-      while (p >= 0 && dropped.count(p)) // a dropped ring's children go up its own chain
-        p = parent_ring.at(p);
-      return p;
-    };
+  // 5 to 8: build the net, check it, embed it; on a failure give up what
+  // failed (7), and repeat; then the weights.
+  for (;;) {
+    const std::vector<int> active = st.active();
     if (active.empty()) {
       // Nothing to write: an empty net would embed, bind and pose nothing.
       std::string why = ringless.empty() ? std::string("every ring was dropped") : ringless.begin()->second;
@@ -265,69 +280,14 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
                        "no joint gets a ring, so there is no net to make (joint '" +
                            joints[ringless.empty() ? 0 : ringless.begin()->first].name + "': " + why + ")");
     }
-    NetResult net = build_net(c, rings, active, effective_parent, join_attempt);
+    const auto parent_of = [&](int i) { return st.effective_parent(i); };
+    NetResult net = build_net(c, rings, active, parent_of, st.join_attempt);
     std::string failure = net.failure.empty() ? check_net(c, net) : net.failure;
     try {
       const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
       if (failure.empty() && e.report().ok) {
-        // 8: weights, from the bones near the ring's joints in the
-        // skeleton (those that meet at them, at their parents or at their
-        // children): a node follows the limb it lies on, whatever passes
-        // near it.
-        std::map<int, bool> end_of; // weighted joint ending its chain -> whether its end ring is in the net
-        for (int j = 0; j < nj; ++j)
-          if (c.sk.kids[j].empty() && c.sk.parent[j] >= 0 && opt.deforming.count(joints[j].name))
-            end_of[j] = false;
-        for (int i : active)
-          if (rings[i].frac > 1)
-            end_of[rings[i].joint] = true;
-        for (size_t k = 0; k < net.rig.nodes.size(); ++k) {
-          const Node& n = net.rig.nodes[k];
-          std::set<int> near;
-          for (int j : rings[net.node_ring[k]].own) {
-            near.insert(j);
-            if (c.sk.parent[j] >= 0)
-              near.insert(c.sk.parent[j]);
-            near.insert(c.sk.kids[j].begin(), c.sk.kids[j].end());
-          }
-          // The ring out beyond a weighted joint that ends its chain (a
-          // foot, a head): what lies there is that joint's alone. Without
-          // that ring, the joint's own ring is the last, and takes it.
-          const Ring& r = rings[net.node_ring[k]];
-          if (r.frac > 1 || (r.frac == 1 && end_of.count(r.joint) && !end_of.at(r.joint))) {
-            net.rig.weights[n.id][joints[r.joint].name] = 1;
-            continue;
-          }
-          std::vector<int> bones;
-          for (int b = 0; b < nj; ++b)
-            if (c.sk.parent[b] >= 0 && (near.count(b) || near.count(c.sk.parent[b])))
-              bones.push_back(b);
-          for (const auto& [j, w] : auto_weights(joints, n.position, opt.weights, bones))
-            net.rig.weights[n.id][joints[j].name] = w;
-        }
-        result.rig = std::move(net.rig);
-        result.rig.joints = all_joints; // the rig drives the whole skeleton; the net was made for the part that deforms
-        result.rings = static_cast<int>(active.size());
-        result.joins = net.joins;
-        result.unjoined = static_cast<int>(net.unjoined.size());
-        result.net_components = e.report().components;
-        for (int ch : net.unjoined)
-          c.say("ring '" + rings[ch].id + "' is not joined to ring '" + rings[effective_parent(ch)].id +
-                "': " + join_failure[ch]);
-        if (!net.unjoined.empty())
-          c.say(std::to_string(net.unjoined.size()) +
-                " chain(s) could not be joined to their parent ring; the net has " +
-                std::to_string(result.net_components) + " components, and the expected region count accounts for them");
-        std::set<int> ringed;
-        for (int i : active)
-          if (rings[i].frac > 0 && rings[i].frac <= 1) // a trunk's ring is not a joint's own, nor one out beyond it
-            ringed.insert(rings[i].joint);
-        for (int j = 0; j < nj; ++j)
-          if (!ringed.count(j))
-            result.ringless.emplace_back(joints[j].name, ringless.count(j) ? ringless[j] : "its ring was dropped");
-        for (const auto& entry : skipped)
-          result.ringless.push_back(entry);
-        result.rig.extensions["x_starter"] = starter_extension(rings, active, net.unjoined, result);
+        node_weights(c, rings, active, net);
+        finish(c, rings, active, net, st, ringless, skipped, e.report().components, all_joints, result);
         return result;
       }
       if (failure.empty())
@@ -335,129 +295,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     } catch (const EmbedError& e) {
       failure = e.what();
     }
-    if (attempt > 6 * static_cast<int>(rings.size()) + 8)
-      throw EmbedError("starter: could not make a net that embeds: " + failure);
-    // Find what to give up, of what the failure names: a join first, then
-    // the child ring of a longitudinal, then the ring of an arc; a trunk's
-    // ring last of all.
-    int culprit = -1, best_rank = 4;
-    char kind = 0;
-    for (const std::string& id : quoted(failure)) {
-      auto it = net.owner.find(id);
-      if (it == net.owner.end())
-        continue;
-      const auto [k, who] = it->second;
-      const int rank = k == 'j' ? 0 : rings[who].frac == 0 ? 3 : k == 'l' ? 1 : 2;
-      if (rank < best_rank) {
-        best_rank = rank;
-        kind = k;
-        culprit = who;
-      }
-    }
-    if (culprit < 0) {
-      // No profile named (for example a wrong region count): drop the largest ring.
-      for (int i : active)
-        if (culprit < 0 || rings[i].perimeter > rings[culprit].perimeter)
-          culprit = i;
-      kind = 'a';
-    }
-    if (kind == 'j') {
-      const int m = ++join_attempt[culprit];
-      const std::string& child = rings[culprit / 2].id;
-      c.say("join " + std::string(culprit % 2 ? "1 " : "") + "of ring '" + child + "' " +
-            (m >= kJoinTries ? "abandoned"
-             : m == 1        ? "moved to an existing node"
-                             : "moved to the middle of an arc") +
-            ": " + failure);
-      if (m >= kJoinTries)
-        join_failure[culprit / 2] = failure;
-      // Both joins given up: join the nearest other ring up its chain or
-      // hanging from one (the trunk it hangs from, the limb beside it; never
-      // further down another limb), a few times over.
-      const int ch = culprit / 2;
-      if (join_attempt[2 * ch] >= kJoinTries && join_attempt[2 * ch + 1] >= kJoinTries && tried[ch].size() < 3) {
-        tried[ch].insert(effective_parent(ch));
-        std::set<int> up;
-        for (int i = parent_ring.at(ch); i >= 0 && up.size() <= rings.size(); i = parent_ring.at(i))
-          up.insert(i);
-        int best = -1;
-        double best_d = INFINITY;
-        for (int i : active) {
-          if (i == ch || tried[ch].count(i) || !(up.count(i) || up.count(parent_ring.at(i))))
-            continue;
-          const double d = polyline_distance(rings[ch].loop, true, rings[i].loop, true);
-          if (d < best_d) {
-            best_d = d;
-            best = i;
-          }
-        }
-        if (best >= 0) {
-          parent_override[ch] = best;
-          join_attempt[2 * ch] = join_attempt[2 * ch + 1] = 0;
-          c.say("ring '" + rings[ch].id + "' joins ring '" + rings[best].id + "' instead");
-        }
-      }
-      continue;
-    }
-    Ring& r = rings[culprit];
-    std::vector<int> others;
-    for (int i : active)
-      if (i != culprit)
-        others.push_back(i);
-    const double t0 = r.t;
-    const Ring before = r;
-    bool moved = false;
-    while (move_ring_on(c, r))
-      if (ring_conflict(c, r, rings, others, culprit) < 0) {
-        moved = true;
-        break;
-      }
-    if (moved) {
-      place_nodes(r, c.N, opt.first_angle_deg);
-      c.say("ring '" + r.id + "' moved along its bone (" + percent(t0) + " to " + percent(r.t) + "): " + failure);
-      continue;
-    }
-    r = before;
-    dropped.insert(culprit);
-    const std::string m = "ring '" + r.id + "' dropped: " + failure;
-    c.say(m);
-    if (r.frac == 1)
-      ringless[r.joint] = m;
-    if (dropped.size() == kept.size())
-      throw EmbedError("starter: could not make a net that embeds: " + failure);
-    // Rings dropped for coming too close to this one come back, where they
-    // now keep clear of every ring left.
-    std::vector<int> left;
-    for (int i : kept)
-      if (!dropped.count(i))
-        left.push_back(i);
-    bool back = false;
-    for (size_t i = 0; i < rings.size(); ++i) {
-      Ring& q = rings[i];
-      if (q.active || q.replaced_by != culprit)
-        continue;
-      if (ring_conflict(c, q, rings, left, static_cast<int>(i)) >= 0)
-        continue;
-      q.active = true;
-      q.replaced_by = -1;
-      left.push_back(static_cast<int>(i));
-      back = true;
-      c.say("ring '" + q.id + "' comes back: ring '" + r.id + "', which it came too close to, is dropped");
-      if (q.frac == 1)
-        ringless.erase(q.joint);
-    }
-    if (back) { // chains and nodes again, over the rings left
-      rings[culprit].active = false;
-      for (int i : kept)
-        if (dropped.count(i))
-          rings[i].active = false;
-      kept = left;
-      dropped.clear();
-      parent_ring = chain_rings(c, rings, kept);
-      join_attempt.clear();
-      parent_override.clear();
-      tried.clear();
-    }
+    repair_net(c, rings, ringless, net, failure, st);
   }
 }
 

@@ -1,0 +1,154 @@
+// Stage 7 of the starter: when the net fails its check or its embedding,
+// give up what the failure names, cheapest first.
+
+#include "core/quoted.hpp"
+#include "curvenet/errors.hpp"
+#include "starter/stages.hpp"
+
+#include <cmath>
+
+namespace curvenet::detail {
+
+std::vector<int> NetRepairs::active() const {
+  std::vector<int> out;
+  for (int i : kept)
+    if (!dropped.count(i))
+      out.push_back(i);
+  return out;
+}
+
+int NetRepairs::effective_parent(int i) const {
+  const auto o = parent_override.find(i);
+  int p = o != parent_override.end() ? o->second : parent_ring.at(i);
+  while (p >= 0 && dropped.count(p)) // a dropped ring's children go up its own chain
+    p = parent_ring.at(p);
+  return p;
+}
+
+namespace {
+
+/// A join given up once more; with both of a chain's joins given up, the
+/// chain joins the nearest other ring up its chain or hanging from one (the
+/// trunk it hangs from, the limb beside it; never further down another
+/// limb), a few times over.
+void give_up_join(const StarterContext& c, const std::vector<Ring>& rings, int slot, const std::string& failure,
+                  NetRepairs& st) {
+  const int m = ++st.join_attempt[slot];
+  const int ch = slot / 2;
+  c.say("join " + std::string(slot % 2 ? "1 " : "") + "of ring '" + rings[ch].id + "' " +
+        (m >= kJoinTries ? "abandoned"
+         : m == 1        ? "moved to an existing node"
+                         : "moved to the middle of an arc") +
+        ": " + failure);
+  if (m >= kJoinTries)
+    st.join_failure[ch] = failure;
+  if (st.join_attempt[2 * ch] < kJoinTries || st.join_attempt[2 * ch + 1] < kJoinTries || st.tried[ch].size() >= 3)
+    return;
+  st.tried[ch].insert(st.effective_parent(ch));
+  std::set<int> up;
+  for (int i = st.parent_ring.at(ch); i >= 0 && up.size() <= rings.size(); i = st.parent_ring.at(i))
+    up.insert(i);
+  int best = -1;
+  double best_d = INFINITY;
+  for (int i : st.active()) {
+    if (i == ch || st.tried[ch].count(i) || !(up.count(i) || up.count(st.parent_ring.at(i))))
+      continue;
+    const double d = polyline_distance(rings[ch].loop, true, rings[i].loop, true);
+    if (d < best_d) {
+      best_d = d;
+      best = i;
+    }
+  }
+  if (best >= 0) {
+    st.parent_override[ch] = best;
+    st.join_attempt[2 * ch] = st.join_attempt[2 * ch + 1] = 0;
+    c.say("ring '" + rings[ch].id + "' joins ring '" + rings[best].id + "' instead");
+  }
+}
+
+/// A ring moved along its bone where it keeps clear of the others, or
+/// dropped; rings it had displaced come back where they now keep clear.
+void move_or_drop(const StarterContext& c, std::vector<Ring>& rings, std::map<int, std::string>& ringless, int culprit,
+                  const std::string& failure, NetRepairs& st) {
+  Ring& r = rings[culprit];
+  std::vector<int> others;
+  for (int i : st.active())
+    if (i != culprit)
+      others.push_back(i);
+  const double t0 = r.t;
+  const Ring before = r;
+  while (move_ring_on(c, r))
+    if (ring_conflict(c, r, rings, others, culprit) < 0) {
+      place_nodes(r, c.N, c.options.first_angle_deg);
+      c.say("ring '" + r.id + "' moved along its bone (" + percent(t0) + " to " + percent(r.t) + "): " + failure);
+      return;
+    }
+  r = before;
+  st.dropped.insert(culprit);
+  const std::string m = "ring '" + r.id + "' dropped: " + failure;
+  c.say(m);
+  if (r.frac == 1)
+    ringless[r.joint] = m;
+  if (st.dropped.size() == st.kept.size())
+    throw EmbedError("starter: could not make a net that embeds: " + failure);
+  std::vector<int> left = st.active();
+  bool back = false;
+  for (size_t i = 0; i < rings.size(); ++i) {
+    Ring& q = rings[i];
+    if (q.active || q.replaced_by != culprit || ring_conflict(c, q, rings, left, static_cast<int>(i)) >= 0)
+      continue;
+    q.active = true;
+    q.replaced_by = -1;
+    left.push_back(static_cast<int>(i));
+    back = true;
+    c.say("ring '" + q.id + "' comes back: ring '" + r.id + "', which it came too close to, is dropped");
+    if (q.frac == 1)
+      ringless.erase(q.joint);
+  }
+  if (back) { // chains and nodes again, over the rings left
+    for (int i : st.dropped)
+      rings[i].active = false;
+    st.kept = left;
+    st.dropped.clear();
+    st.parent_ring = chain_rings(c, rings, st.kept);
+    st.join_attempt.clear();
+    st.parent_override.clear();
+    st.tried.clear();
+  }
+}
+
+} // namespace
+
+void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int, std::string>& ringless,
+                const NetResult& net, const std::string& failure, NetRepairs& st) {
+  if (++st.attempts > 6 * static_cast<int>(rings.size()) + 9)
+    throw EmbedError("starter: could not make a net that embeds: " + failure);
+  // What the failure names: a join first, then the child ring of a
+  // longitudinal, then the ring of an arc; a trunk's ring last of all.
+  int culprit = -1, best_rank = 4;
+  char kind = 0;
+  for (const std::string& id : quoted(failure)) {
+    const auto it = net.owner.find(id);
+    if (it == net.owner.end())
+      continue;
+    const auto [k, who] = it->second;
+    const int rank = k == 'j' ? 0 : rings[who].frac == 0 ? 3 : k == 'l' ? 1 : 2;
+    if (rank < best_rank) {
+      best_rank = rank;
+      kind = k;
+      culprit = who;
+    }
+  }
+  if (culprit < 0) { // no profile named (a wrong region count, say): the largest ring
+    for (int i : st.active())
+      if (culprit < 0 || rings[i].perimeter > rings[culprit].perimeter)
+        culprit = i;
+    kind = 'a';
+  }
+  if (kind == 'j')
+    give_up_join(c, rings, culprit, failure, st);
+  else
+    move_or_drop(c, rings, ringless, culprit, failure, st);
+}
+
+} // namespace curvenet::detail
