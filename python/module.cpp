@@ -798,22 +798,23 @@ PYBIND11_MODULE(_curvenet, m) {
       [](const SurfaceMesh& mesh, const py::object& skeleton, int nodes_per_ring, int rings_per_bone,
          const std::string& coverage, double first_angle, const std::string& weight_rule, double blend,
          const py::object& deforming) {
-        const std::vector<Joint> joints = joints_from(skeleton);
+        std::vector<Joint> joints;
         StarterOptions o;
-        if (!deforming.is_none())
+        if (py::isinstance<py::str>(skeleton)) { // a file, read once: its joints, and which its skin weights
+          const std::string path = skeleton.cast<std::string>();
+          py::gil_scoped_release release;
+          SkeletonFile f = read_skeleton_file(path);
+          joints = std::move(f.joints);
+          o.deforming = std::move(f.deforming);
+        } else {
+          joints = joints_from(skeleton);
+          if (py::isinstance<SkinnedMesh>(skeleton)) // a skin says which joints deform
+            o.deforming = weighted_joints(skeleton.cast<const SkinnedMesh&>());
+        }
+        if (!deforming.is_none()) {
+          o.deforming.clear();
           for (const auto& name : deforming.cast<std::vector<std::string>>())
             o.deforming.insert(name);
-        else if (py::isinstance<SkinnedMesh>(skeleton)) // a skin says which joints deform
-          o.deforming = weighted_joints(skeleton.cast<const SkinnedMesh&>());
-        else if (py::isinstance<py::str>(skeleton)) {
-          const std::string path = skeleton.cast<std::string>();
-          const auto dot = path.find_last_of('.');
-          std::string ext = dot == std::string::npos ? "" : path.substr(dot);
-          std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-          if (ext == ".gltf" || ext == ".glb" || ext == ".fbx") {
-            py::gil_scoped_release release;
-            o.deforming = weighted_joints(load_skinned_mesh(path));
-          }
         }
         if (nodes_per_ring < 3 || nodes_per_ring > 64)
           throw py::value_error("nodes_per_ring: expected 3 to 64");

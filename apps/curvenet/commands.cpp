@@ -128,12 +128,6 @@ int run_embed(const EmbedArgs& a) {
 
 namespace {
 
-std::string lower_ext(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-
 SceneFiles scene_files(const DeformArgs& a) {
   return {a.mesh, a.rig, a.skeleton, a.binding_cache};
 }
@@ -306,23 +300,14 @@ int run_compare(const CompareArgs& a) {
 
 int run_starter(const StarterArgs& a) {
   const SurfaceMesh mesh = load_mesh_noting(a.mesh);
-  std::vector<Joint> joints;
+  if (a.skeleton.empty() && !is_skinned_file(a.mesh))
+    throw InputError(
+        a.mesh, "",
+        "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
+  const SkeletonFile skeleton = read_skeleton_file(a.skeleton.empty() ? a.mesh : a.skeleton);
+  const std::vector<Joint>& joints = skeleton.joints;
   StarterOptions opt;
-  if (!a.skeleton.empty()) {
-    joints = load_skeleton(a.skeleton);
-    const std::string ext = lower_ext(a.skeleton);
-    if (ext == ".gltf" || ext == ".glb" || ext == ".fbx") // a skin says which joints deform
-      opt.deforming = weighted_joints(load_skinned_mesh(a.skeleton));
-  } else {
-    const std::string ext = lower_ext(a.mesh);
-    if (ext != ".gltf" && ext != ".glb" && ext != ".fbx")
-      throw InputError(
-          a.mesh, "",
-          "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
-    const SkinnedMesh skin = load_skinned_mesh(a.mesh);
-    joints = skin.joints;
-    opt.deforming = weighted_joints(skin);
-  }
+  opt.deforming = skeleton.deforming; // a skin says which joints deform
   opt.nodes_per_ring = a.nodes_per_ring;
   opt.rings_per_bone = a.rings_per_bone;
   opt.first_angle_deg = a.first_angle;

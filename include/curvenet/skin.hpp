@@ -76,6 +76,17 @@ std::vector<Eigen::Vector3d> skin_positions(const SkinnedMesh& skin, const std::
 /// \throw InputError when the file has none.
 std::vector<Joint> load_skeleton(const std::string& path);
 
+/// A skeleton file's joints, and, for a skinned file, the joints its skin
+/// weights (the starter makes rings for those; docs/starter.md).
+struct SkeletonFile {
+  std::vector<Joint> joints;
+  std::set<std::string> deforming; ///< empty for a rig file
+};
+/// \throw InputError as load_skeleton() does.
+SkeletonFile read_skeleton_file(const std::string& path);
+/// Whether a path names a file with skins (glTF, GLB or FBX), by its extension.
+bool is_skinned_file(const std::string& path);
+
 /// The rig with its skeleton replaced by `joints`, which its weights name by joint name.
 /// \throw InputError naming `source` and the joint when a weight names a joint the skeleton lacks.
 Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source);

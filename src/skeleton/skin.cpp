@@ -227,15 +227,26 @@ std::set<std::string> weighted_joints(const SkinnedMesh& skin) {
   return out;
 }
 
-std::vector<Joint> load_skeleton(const std::string& path) {
+bool is_skinned_file(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (ext == ".gltf" || ext == ".glb" || ext == ".fbx")
-    return load_skinned_mesh(path).joints;
-  const Rig rig = read_rig(path);
+  return ext == ".gltf" || ext == ".glb" || ext == ".fbx";
+}
+
+SkeletonFile read_skeleton_file(const std::string& path) {
+  if (is_skinned_file(path)) {
+    SkinnedMesh skin = load_skinned_mesh(path);
+    std::set<std::string> deforming = weighted_joints(skin);
+    return {std::move(skin.joints), std::move(deforming)};
+  }
+  Rig rig = read_rig(path);
   if (!rig.has_skeleton)
     throw InputError(path, "/skeleton", "the rig file has no skeleton");
-  return rig.joints;
+  return {std::move(rig.joints), {}};
+}
+
+std::vector<Joint> load_skeleton(const std::string& path) {
+  return read_skeleton_file(path).joints;
 }
 
 Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source) {
