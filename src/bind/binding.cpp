@@ -5,6 +5,7 @@
 #include "core/fnv1a.hpp"
 #include "curvenet/deform.hpp"
 
+#include "bind/constraints.hpp"
 #include "bind/gradient.hpp"
 #include "bind/laplacian.hpp"
 #include "core/dual_quaternion.hpp"
@@ -159,7 +160,9 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
 
 constexpr char kMagic[8] = {'C', 'N', 'B', 'I', 'N', 'D', '0', '2'};
 
-std::uint64_t checksum(const char* data, size_t n) { return detail::fnv1a({data, n}); }
+std::uint64_t checksum(const char* data, size_t n) {
+  return detail::fnv1a({data, n});
+}
 
 template <class T> void put(std::string& out, const std::vector<T>& v) {
   const std::uint64_t n = v.size();
@@ -337,6 +340,55 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
   return b;
 }
 
+ChainConstraints detail::chain_constraints(const Embedding::Impl& emb, const Rig& rig,
+                                           const std::map<std::string, int>& joint_index) {
+  const int nc = emb.cut.num_vertices();
+  ChainConstraints out;
+  out.constrained.assign(nc, 0);
+  out.cw.resize(nc);
+  out.nodes.assign(nc, {-1, -1});
+  out.t.assign(nc, 0.0);
+  auto node_w = [&](int node) {
+    std::map<int, double> w;
+    for (const auto& [name, v] : rig.weights.at(rig.nodes[node].id))
+      w[joint_index.at(name)] = v;
+    return w;
+  };
+  for (size_t p = 0; p < emb.result.chains.size(); ++p) {
+    const auto& chain = emb.result.chains[p];
+    const int na = emb.input.profile_from[p], nb = emb.input.profile_to[p];
+    const auto wa = node_w(na), wb = node_w(nb);
+    for (size_t i = 0; i < chain.vertices.size(); ++i) {
+      const int v = chain.vertices[i].idx;
+      if (out.constrained[v])
+        continue; // a node, already set (nodes come first and last in their chains)
+      out.constrained[v] = 1;
+      out.nodes[v] = {na, nb};
+      std::map<int, double> w;
+      if (i == 0) {
+        w = wa;
+      } else if (i + 1 == chain.vertices.size()) {
+        w = wb;
+        out.t[v] = 1;
+      } else {
+        const double t = emb.chain_t(static_cast<int>(p), i);
+        out.t[v] = t;
+        for (const auto& [j, x] : wa)
+          w[j] += (1 - t) * x;
+        for (const auto& [j, x] : wb)
+          w[j] += t * x;
+        double sum = 0;
+        for (const auto& [j, x] : w)
+          sum += x;
+        for (auto& [j, x] : w)
+          x /= sum;
+      }
+      out.cw[v] = std::move(w);
+    }
+  }
+  return out;
+}
+
 Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& opt) {
   auto impl = std::make_shared<Binding::Impl>();
   impl->fingerprint = fingerprint(mesh, input_rig, opt);
@@ -372,42 +424,9 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   const int nc = cut.num_vertices();
 
   // Constraints: every CutChain vertex, with its profile's interpolated weights.
-  std::vector<std::map<int, double>> cw(nc);
-  std::vector<char> constrained(nc, 0);
-  auto node_w = [&](int node) {
-    std::map<int, double> w;
-    for (const auto& [name, v] : rig.weights.at(rig.nodes[node].id))
-      w[joint_index.at(name)] = v;
-    return w;
-  };
-  for (size_t p = 0; p < emb.result.chains.size(); ++p) {
-    const auto& chain = emb.result.chains[p];
-    const auto wa = node_w(emb.input.profile_from[p]), wb = node_w(emb.input.profile_to[p]);
-    for (size_t i = 0; i < chain.vertices.size(); ++i) {
-      const int v = chain.vertices[i].idx;
-      if (constrained[v])
-        continue; // a node, already set (nodes come first and last in their chains)
-      constrained[v] = 1;
-      std::map<int, double> w;
-      if (i == 0) {
-        w = wa;
-      } else if (i + 1 == chain.vertices.size()) {
-        w = wb;
-      } else {
-        const double t = emb.chain_t(static_cast<int>(p), i);
-        for (const auto& [j, x] : wa)
-          w[j] += (1 - t) * x;
-        for (const auto& [j, x] : wb)
-          w[j] += t * x;
-        double sum = 0;
-        for (const auto& [j, x] : w)
-          sum += x;
-        for (auto& [j, x] : w)
-          x /= sum;
-      }
-      cw[v] = std::move(w);
-    }
-  }
+  const ChainConstraints constraints = chain_constraints(emb, rig, joint_index);
+  const std::vector<char>& constrained = constraints.constrained;
+  const std::vector<std::map<int, double>>& cw = constraints.cw;
   for (int v = 0; v < nc; ++v)
     rep.constrained += constrained[v];
   lap("constraints");

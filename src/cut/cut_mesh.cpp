@@ -353,6 +353,32 @@ Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
   return out;
 }
 
+std::vector<std::pair<int, double>> CutMesh::input_weights(Vertex v) const {
+  const VertexOrigin& o = origin(v);
+  if (o.kind == VertexOrigin::Kind::Input)
+    return {{o.index, 1.0}};
+  if (o.kind == VertexOrigin::Kind::OnEdge)
+    return {{input_edge_ends_[o.index][0], 1 - o.t}, {input_edge_ends_[o.index][1], o.t}};
+  const auto it = layouts_.find(o.index); // a face with a vertex inside was laid out when it was split
+  if (it == layouts_.end())
+    throw Error("cut mesh: vertex " + std::to_string(v.idx) + " lies inside input face " + std::to_string(o.index) +
+                ", which was never laid out");
+  const Layout& l = it->second;
+  const Eigen::Vector3d& p = position(v);
+  double best = std::numeric_limits<double>::infinity();
+  std::vector<std::pair<int, double>> out;
+  for (const auto& c : l.tris) {
+    const TriClosest cl = closest_on_triangle(p, position(Vertex(l.corners[c[0]])), position(Vertex(l.corners[c[1]])),
+                                              position(Vertex(l.corners[c[2]])));
+    const double d = (cl.point - p).squaredNorm();
+    if (d < best) {
+      best = d;
+      out = {{l.corners[c[0]], cl.bary[0]}, {l.corners[c[1]], cl.bary[1]}, {l.corners[c[2]], cl.bary[2]}};
+    }
+  }
+  return out;
+}
+
 std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> chords) {
   const std::vector<Halfedge> loop = face_loop(f);
   (void)layout(f); // fixed now, from the whole face, and inherited by its pieces

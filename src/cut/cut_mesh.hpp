@@ -118,6 +118,10 @@ public:
   [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, Vertex v) const;
   /// The same for a point of the surface inside face f that is not a vertex.
   [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, const Eigen::Vector3d& inside) const;
+  /// A vertex as an affine combination of input vertices, on the input
+  /// surface: itself; the two ends of its input edge; or, inside an input
+  /// face, the corners of the face's triangle nearest to it (barycentric).
+  [[nodiscard]] std::vector<std::pair<int, double>> input_weights(Vertex v) const;
 
   /// The first broken invariant, or nothing when the mesh is valid: twin
   /// symmetry, next/prev inverse, closed loops with one face, vertex

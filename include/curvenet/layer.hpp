@@ -1,0 +1,86 @@
+#pragma once
+/// \file layer.hpp
+/// Curvenet as a layer (docs/deform.md, "Layered over a skin"). The base is
+/// the mesh moved by its own skin (linear or dual-quaternion skinning with
+/// the file's weights), or by the net's own deformation. The correction
+/// takes the base surface's cut chains to the net's posed curves, and to
+/// their nodes' offsets where a pose gives them. It spreads that
+/// displacement over each region the curves bound, as the harmonic
+/// extension of its values on the chains (the cut mesh's Laplacian, the
+/// chains held). The correction is scaled by an envelope (per frame) and a
+/// mask (per vertex). Envelope 0, or mask 0, gives the base exactly.
+
+#include "curvenet/deform.hpp"
+#include "curvenet/skin.hpp"
+
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace curvenet {
+
+/// Per node id: an offset in rest space that turns with the node's joints
+/// (the blend of its weights). The curves through the node follow it,
+/// interpolated along each curve, and the mesh follows inside the regions
+/// those curves bound.
+using NodeOffsets = std::map<std::string, Vec3>;
+
+struct LayerOptions {
+  /// How the net is bound: its method also poses the curves (dq: the
+  /// chains' weights blended as dual quaternions; harmonic: linearly).
+  BindOptions bind;
+  /// The base: the mesh's own skin (`skin` given to bind_layer), or the
+  /// net's deformation (no skin): then only node offsets correct it.
+  Skinning skinning = Skinning::Linear;
+  /// Per input vertex, 0 to 1: how much of the correction it takes (empty:
+  /// all of it). A region left out of the correction is masked with 0.
+  std::vector<double> mask;
+};
+
+class CurveLayer {
+public:
+  struct Impl;
+  explicit CurveLayer(std::shared_ptr<const Impl> impl);
+
+  /// The joints, in mesh space: the order of the skinning matrices.
+  [[nodiscard]] const std::vector<Joint>& joints() const;
+  [[nodiscard]] int num_input_vertices() const;
+  /// The net's binding (its embedding, its report).
+  [[nodiscard]] const Binding& binding() const;
+  [[nodiscard]] bool over_skin() const;
+
+  /// The base moved by `skinning` (one matrix per joint, as Binding::deform
+  /// takes them), plus `envelope` times the masked correction. Output in
+  /// the input file's vertex order. Thread-safe.
+  /// \throw Error for wrong sizes; InputError naming a node of `offsets`
+  ///   that the rig lacks.
+  void deform(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope = 1,
+              const NodeOffsets* offsets = nullptr) const;
+  /// The posed cut mesh (Embedding::cut_surface's vertices): the base
+  /// surface at each cut vertex, corrected; its chain vertices lie on the
+  /// posed curves, and their nodes' offsets, at envelope 1. The mask, per
+  /// input vertex, does not apply.
+  void deform_cut(std::span<const Mat4> skinning, std::vector<Vec3>& cut, double envelope = 1,
+                  const NodeOffsets* offsets = nullptr) const;
+  /// Many frames at once, in parallel: frames x joints matrices, frames x
+  /// vertices positions; each frame exactly what deform() gives.
+  void deform_frames(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope = 1) const;
+
+private:
+  void deform_impl(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope, const NodeOffsets* offsets,
+                   std::vector<Vec3>* cut) const;
+  std::shared_ptr<const Impl> impl_;
+};
+
+/// Binds `rig` to `mesh` as a layer over `skin` (the mesh file's own skin,
+/// per file vertex), or over the net's own deformation when `skin` is null.
+/// \throw InputError naming the skin file when a joint its weights use is
+///   missing from the rig's skeleton, or has another bind matrix there; or
+///   when the mask does not have one finite value in [0, 1] per input
+///   vertex. \throw EmbedError as bind() does.
+CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh* skin,
+                      const LayerOptions& options = {});
+
+} // namespace curvenet

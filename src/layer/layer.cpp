@@ -1,0 +1,352 @@
+// Curvenet as a layer over a skin, or over its own deformation: the base
+// surface's chains taken to the posed curves (and their nodes' offsets),
+// the displacement extended harmonically over each region, scaled by an
+// envelope and a mask (docs/deform.md).
+
+#include "curvenet/layer.hpp"
+
+#include "bind/constraints.hpp"
+#include "bind/laplacian.hpp"
+#include "core/dual_quaternion.hpp"
+#include "curvenet/errors.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <Eigen/SparseCholesky>
+
+#include <cmath>
+
+namespace curvenet {
+
+using namespace detail;
+
+struct CurveLayer::Impl {
+  explicit Impl(Binding b) : binding(std::move(b)) {}
+  Binding binding;
+  bool over_skin = false;
+  SkinnedMesh skin;               ///< the base skin (over_skin)
+  std::vector<int> skin_to_joint; ///< skin joint -> binding joint (-1: unweighted, left at rest)
+  Skinning skinning = Skinning::Linear;
+  bool dual = true;             ///< the curves are posed as dual quaternions (else linearly)
+  std::vector<Vec3> input_rest; ///< per input vertex
+  std::vector<int> input_to_welded;
+  std::vector<int> welded_input; ///< per welded vertex, one of its input vertices
+  std::vector<double> mask;      ///< per input vertex (empty: 1)
+  // The chains: per constrained cut vertex.
+  struct Chain {
+    int vertex; ///< cut-mesh vertex
+    Vec3 rest;
+    std::vector<std::pair<int, double>> joints;  ///< (binding joint, weight)
+    std::vector<std::pair<int, double>> surface; ///< (welded vertex, weight): where it lies on the input surface
+    int node_a, node_b;                          ///< rig node indices
+    double t;
+  };
+  std::vector<Chain> chains;
+  std::vector<std::string> node_ids;
+  // The harmonic extension: L_ff d_f = -L_fc d_c.
+  std::vector<std::vector<std::pair<int, double>>> cut_surface; ///< per cut vertex: where it lies on the input surface
+  std::vector<int> free_index;                                  ///< per cut vertex, -1 off the solve
+  std::vector<int> chain_index;                                 ///< per cut vertex, -1 off the chains
+  std::vector<std::vector<std::pair<int, double>>> fc;          ///< free row -> (chain index, L entry)
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  int num_welded = 0, num_free = 0;
+};
+
+CurveLayer::CurveLayer(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+const std::vector<Joint>& CurveLayer::joints() const {
+  return impl_->binding.joints();
+}
+int CurveLayer::num_input_vertices() const {
+  return static_cast<int>(impl_->input_to_welded.size());
+}
+const Binding& CurveLayer::binding() const {
+  return impl_->binding;
+}
+bool CurveLayer::over_skin() const {
+  return impl_->over_skin;
+}
+
+namespace {
+
+/// Over a skin, the rig on the skin's own skeleton: the same joints by
+/// name, whose bind matrices agree to 1e-6 (the rig's file keeps fewer
+/// digits), so that the base is the skin exactly.
+Rig on_skin_skeleton(const Rig& rig, const SkinnedMesh& skin) {
+  std::map<std::string, const Joint*> by_name;
+  for (const Joint& j : rig.joints)
+    by_name[j.name] = &j;
+  const std::set<std::string> weighted = weighted_joints(skin);
+  for (const Joint& sj : skin.joints) {
+    const auto it = by_name.find(sj.name);
+    if (it == by_name.end()) {
+      if (weighted.count(sj.name))
+        throw InputError(skin.source, "joint '" + sj.name + "'",
+                         "the skin weights this joint, which the rig's skeleton lacks: a layer over the skin needs "
+                         "the rig on the skin's own skeleton (--skeleton)");
+      continue;
+    }
+    const Mat4 rb = rig.frame * it->second->bind;
+    const double scale = 1 + rb.block<3, 1>(0, 3).norm();
+    if (weighted.count(sj.name) && (rb - sj.bind).cwiseAbs().maxCoeff() > 1e-6 * scale)
+      throw InputError(skin.source, "joint '" + sj.name + "'",
+                       "its bind matrix differs from the rig's: a layer over the skin needs the rig on the skin's "
+                       "own skeleton (--skeleton)");
+  }
+  // The skin's joints are in the mesh's space, the rig's in its own.
+  std::vector<Joint> joints = skin.joints;
+  if (rig.frame != Mat4::Identity()) {
+    const Mat4 to_rig = rig.frame.inverse();
+    for (Joint& j : joints)
+      j.bind = to_rig * j.bind;
+  }
+  return with_skeleton(rig, std::move(joints), skin.source);
+}
+
+} // namespace
+
+CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh* skin, const LayerOptions& opt) {
+  auto impl = std::make_shared<CurveLayer::Impl>(bind(mesh, skin ? on_skin_skeleton(rig, *skin) : rig, opt.bind));
+  CurveLayer::Impl& L = *impl;
+  const Binding& b = L.binding;
+  const std::vector<Joint>& joints = b.joints();
+  std::map<std::string, int> joint_index;
+  for (size_t j = 0; j < joints.size(); ++j)
+    joint_index[joints[j].name] = static_cast<int>(j);
+  L.input_to_welded = mesh.input_to_welded;
+  L.num_welded = mesh.num_vertices();
+  L.welded_input.assign(mesh.num_vertices(), -1);
+  for (size_t i = 0; i < mesh.input_to_welded.size(); ++i) {
+    L.input_rest.push_back(mesh.positions[mesh.input_to_welded[i]]);
+    if (L.welded_input[mesh.input_to_welded[i]] < 0)
+      L.welded_input[mesh.input_to_welded[i]] = static_cast<int>(i);
+  }
+  const int ni = static_cast<int>(L.input_to_welded.size());
+  if (!opt.mask.empty()) {
+    if (static_cast<int>(opt.mask.size()) != ni)
+      throw InputError("mask", "",
+                       std::to_string(opt.mask.size()) + " values for " + std::to_string(ni) +
+                           " vertices: give one per vertex of the mesh file");
+    for (int i = 0; i < ni; ++i)
+      if (!(opt.mask[i] >= 0 && opt.mask[i] <= 1))
+        throw InputError("mask", "vertex " + std::to_string(i), "expected a number from 0 to 1");
+    L.mask = opt.mask;
+  }
+  L.dual = opt.bind.method != DeformMethod::Harmonic;
+  L.skinning = opt.skinning;
+  if (skin) {
+    L.over_skin = true;
+    L.skin = *skin;
+    if (L.skin.vertex_joint.size() != static_cast<size_t>(ni))
+      throw InputError(skin->source, "skin",
+                       std::to_string(L.skin.vertex_joint.size()) + " skinned vertices for a mesh of " +
+                           std::to_string(ni) + ": the skin is not this mesh's");
+    for (const Joint& sj : L.skin.joints)
+      L.skin_to_joint.push_back(joint_index.at(sj.name)); // the rig is on the skin's skeleton
+  }
+
+  // The chains and where each lies on the input surface.
+  Rig completed = rig;
+  completed.weights = b.node_weights();
+  for (const Node& n : completed.nodes)
+    L.node_ids.push_back(n.id);
+  const Embedding::Impl& emb = b.embedding().impl();
+  const CutMesh& cut = emb.cut;
+  const int nc = cut.num_vertices();
+  const ChainConstraints cc = chain_constraints(emb, completed, joint_index);
+  L.chain_index.assign(nc, -1);
+  L.cut_surface.resize(nc);
+  for (int v = 0; v < nc; ++v)
+    L.cut_surface[v] = cut.input_weights(Vertex(v));
+  for (int v = 0; v < nc; ++v) {
+    if (!cc.constrained[v])
+      continue;
+    CurveLayer::Impl::Chain c{v,      cut.position(Vertex(v)), {}, L.cut_surface[v], cc.nodes[v][0], cc.nodes[v][1],
+                              cc.t[v]};
+    for (const auto& [j, w] : cc.cw[v])
+      c.joints.emplace_back(j, w);
+    L.chain_index[v] = static_cast<int>(L.chains.size());
+    L.chains.push_back(std::move(c));
+  }
+
+  // The harmonic extension over the parts the chains reach; elsewhere no
+  // correction.
+  const Eigen::SparseMatrix<double> lap = cut_mesh_laplacian(
+      cut, opt.bind.laplacian == LaplacianChoice::Uniform ? LaplacianKind::Uniform : LaplacianKind::IntrinsicDelaunay);
+  std::vector<char> reached(nc, 0);
+  std::vector<int> stack;
+  for (const auto& c : L.chains)
+    stack.push_back(c.vertex);
+  for (int v : stack)
+    reached[v] = 1;
+  while (!stack.empty()) {
+    const int v = stack.back();
+    stack.pop_back();
+    for (Eigen::SparseMatrix<double>::InnerIterator it(lap, v); it; ++it) {
+      const int u = static_cast<int>(it.row());
+      if (it.value() != 0 && !reached[u]) {
+        reached[u] = 1;
+        stack.push_back(u);
+      }
+    }
+  }
+  L.free_index.assign(nc, -1);
+  for (int v = 0; v < nc; ++v)
+    if (reached[v] && !cc.constrained[v])
+      L.free_index[v] = L.num_free++;
+  std::vector<Eigen::Triplet<double>> ff;
+  L.fc.resize(L.num_free);
+  for (int v = 0; v < nc; ++v) {
+    const int k = L.free_index[v];
+    if (k < 0)
+      continue;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(lap, v); it; ++it) {
+      const int u = static_cast<int>(it.row());
+      if (L.free_index[u] >= 0)
+        ff.emplace_back(k, L.free_index[u], it.value());
+      else if (L.chain_index[u] >= 0)
+        L.fc[k].emplace_back(L.chain_index[u], it.value());
+    }
+  }
+  if (L.num_free > 0) {
+    Eigen::SparseMatrix<double> Lff(L.num_free, L.num_free);
+    Lff.setFromTriplets(ff.begin(), ff.end());
+    L.solver.compute(Lff);
+    if (L.solver.info() != Eigen::Success)
+      throw EmbedError("layer: the harmonic system could not be factored on " + mesh.source);
+  }
+  return CurveLayer(impl);
+}
+
+void CurveLayer::deform(std::span<const Mat4> M, std::span<Vec3> out, double envelope,
+                        const NodeOffsets* offsets) const {
+  deform_impl(M, out, envelope, offsets, nullptr);
+}
+
+void CurveLayer::deform_cut(std::span<const Mat4> M, std::vector<Vec3>& cut, double envelope,
+                            const NodeOffsets* offsets) const {
+  std::vector<Vec3> out(static_cast<size_t>(num_input_vertices()));
+  deform_impl(M, out, envelope, offsets, &cut);
+}
+
+void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, double envelope, const NodeOffsets* offsets,
+                             std::vector<Vec3>* cut) const {
+  const Impl& L = *impl_;
+  const std::vector<Joint>& joints = L.binding.joints();
+  const size_t ni = L.input_to_welded.size();
+  if (M.size() != joints.size() || out.size() != ni)
+    throw Error("layer: expected " + std::to_string(joints.size()) + " skinning matrices and room for " +
+                std::to_string(ni) + " positions, got " + std::to_string(M.size()) + " and " +
+                std::to_string(out.size()));
+  // The base.
+  if (L.over_skin) {
+    std::vector<Mat4> skin_matrices(L.skin_to_joint.size(), Mat4::Identity());
+    for (size_t k = 0; k < L.skin_to_joint.size(); ++k)
+      if (L.skin_to_joint[k] >= 0)
+        skin_matrices[k] = M[L.skin_to_joint[k]];
+    const std::vector<Vec3> base = skin_positions(L.skin, L.input_rest, skin_matrices, L.skinning);
+    std::copy(base.begin(), base.end(), out.begin());
+  } else {
+    L.binding.deform(M, out);
+  }
+  const bool offset = offsets && !offsets->empty();
+  if (cut) { // the cut mesh on the base surface, corrected below
+    cut->assign(L.cut_surface.size(), Vec3::Zero());
+    for (size_t v = 0; v < L.cut_surface.size(); ++v)
+      for (const auto& [u, w] : L.cut_surface[v])
+        (*cut)[v] += w * out[L.welded_input[u]];
+  }
+  if (envelope == 0 || (!L.over_skin && !offset) || L.chains.empty())
+    return; // the base exactly
+  std::vector<Vec3> node_offset;
+  if (offset) {
+    node_offset.assign(L.node_ids.size(), Vec3::Zero());
+    for (const auto& [id, o] : *offsets) {
+      const auto it = std::find(L.node_ids.begin(), L.node_ids.end(), id);
+      if (it == L.node_ids.end())
+        throw InputError("pose", "/nodes/" + id, "the rig has no node of this id");
+      if (!o.allFinite())
+        throw InputError("pose", "/nodes/" + id, "the offset is not finite");
+      node_offset[it - L.node_ids.begin()] = o;
+    }
+  }
+  // The displacement on the chains: from the base surface to the posed
+  // curve (over a skin), plus the posed offsets.
+  std::vector<DualJoint> dj(M.size());
+  for (size_t j = 0; j < M.size(); ++j)
+    dj[j] = split_joint(M[j]);
+  auto base_at = [&](const std::vector<std::pair<int, double>>& surface) {
+    Vec3 p = Vec3::Zero();
+    for (const auto& [v, w] : surface)
+      p += w * out[L.welded_input[v]];
+    return p;
+  };
+  Eigen::MatrixXd dc(static_cast<Eigen::Index>(L.chains.size()), 3);
+  DualBlend blend;
+  for (size_t i = 0; i < L.chains.size(); ++i) {
+    const Impl::Chain& c = L.chains[i];
+    auto posed = [&](const Vec3& x) {
+      if (L.dual) {
+        blend.clear();
+        for (const auto& [j, w] : c.joints)
+          blend.add(dj[j], w);
+        if (blend.valid())
+          return blend.apply(x);
+      }
+      Vec3 p = Vec3::Zero();
+      for (const auto& [j, w] : c.joints)
+        p += w * (M[j] * x.homogeneous()).head<3>();
+      return p;
+    };
+    const Vec3 curve = posed(c.rest);
+    Vec3 d = L.over_skin ? Vec3(curve - base_at(c.surface)) : Vec3::Zero();
+    if (offset) {
+      const Vec3 o = (1 - c.t) * node_offset[c.node_a] + c.t * node_offset[c.node_b];
+      if (o != Vec3::Zero())
+        d += posed(c.rest + o) - curve;
+    }
+    dc.row(static_cast<Eigen::Index>(i)) = d.transpose();
+  }
+  Eigen::MatrixXd df;
+  if (L.num_free > 0) {
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(L.num_free, 3);
+    for (int k = 0; k < L.num_free; ++k)
+      for (const auto& [ci, l] : L.fc[k])
+        rhs.row(k) -= l * dc.row(ci);
+    df = L.solver.solve(rhs);
+  }
+  for (size_t i = 0; i < ni; ++i) {
+    const int v = L.input_to_welded[i];
+    const double s = envelope * (L.mask.empty() ? 1.0 : L.mask[i]);
+    if (s == 0)
+      continue;
+    Vec3 d = Vec3::Zero();
+    if (L.chain_index[v] >= 0)
+      d = dc.row(L.chain_index[v]).transpose();
+    else if (L.free_index[v] >= 0)
+      d = df.row(L.free_index[v]).transpose();
+    out[i] += s * d;
+  }
+  if (cut)
+    for (size_t v = 0; v < cut->size(); ++v) {
+      const Vec3 d = L.chain_index[v] >= 0  ? Vec3(dc.row(L.chain_index[v]).transpose())
+                     : L.free_index[v] >= 0 ? Vec3(df.row(L.free_index[v]).transpose())
+                                            : Vec3::Zero();
+      (*cut)[v] += envelope * d; // the mask is per input vertex: the cut mesh takes the whole correction
+    }
+  for (size_t i = 0; i < ni; ++i)
+    if (!out[i].allFinite())
+      throw InputError("pose", "vertex " + std::to_string(i),
+                       "the pose moves it out of range (not a finite number); nothing was written");
+}
+
+void CurveLayer::deform_frames(std::span<const Mat4> M, std::span<Vec3> out, double envelope) const {
+  const size_t nj = joints().size(), nv = static_cast<size_t>(num_input_vertices());
+  const size_t frames = nj ? M.size() / nj : 0;
+  if (nj == 0 || M.size() % nj != 0 || out.size() != frames * nv)
+    throw Error("layer: " + std::to_string(M.size()) + " matrices and " + std::to_string(out.size()) +
+                " positions do not make whole frames");
+  tbb::parallel_for(size_t{0}, frames,
+                    [&](size_t f) { deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv), envelope); });
+}
+
+} // namespace curvenet

@@ -1,0 +1,201 @@
+// The layer (layer.hpp): over the mesh's own skin, envelope 0 and mask 0
+// are the skin exactly, and envelope 1 puts the chains on the posed
+// curves; over the net's own deformation, a node's offset moves the
+// regions its profiles bound, and nothing beyond.
+
+#include "curvenet/layer.hpp"
+
+#include "bind/constraints.hpp"
+#include "core/dual_quaternion.hpp"
+#include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
+#include "curvenet/pose.hpp"
+#include "embed/embedding_impl.hpp"
+#include "generate/tube.hpp"
+#include "helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace curvenet;
+
+namespace {
+
+struct Hand {
+  SurfaceMesh mesh = load_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  SkinnedMesh skin = load_skinned_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  Rig rig = read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
+  SkinnedMesh clips = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  std::vector<Vec3> rest() const {
+    std::vector<Vec3> r;
+    for (int w : mesh.input_to_welded)
+      r.push_back(mesh.positions[w]);
+    return r;
+  }
+};
+
+double max_apart(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double d = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+
+} // namespace
+
+TEST(Layer, EnvelopeZeroAndMaskZeroAreTheSkinExactly) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  Hand h;
+  h.rig = with_skeleton(h.rig, h.skin.joints, "skin"); // what bind_layer does over a skin
+  const double diag = h.mesh.bbox_diagonal();
+  const int grip = h.clips.find_clip("Grip");
+  // The skin computed on its own: its joints' matrices from the clip, its weights.
+  const std::vector<Mat4> skin_M = clip_skinning_matrices(h.skin.joints, h.clips, grip, 1 / 24.0);
+  for (const Skinning method : {Skinning::Linear, Skinning::DualQuaternion}) {
+    LayerOptions opt;
+    opt.skinning = method;
+    const CurveLayer layer = bind_layer(h.mesh, h.rig, &h.skin, opt);
+    const std::vector<Mat4> M = clip_skinning_matrices(layer.joints(), h.clips, grip, 1 / 24.0);
+    const std::vector<Vec3> skin = skin_positions(h.skin, h.rest(), skin_M, method);
+    std::vector<Vec3> out(layer.num_input_vertices());
+    layer.deform(M, out, 0.0);
+    EXPECT_LT(max_apart(out, skin), 1e-12 * diag);
+    // The correction is real: with envelope 1 the mesh moves.
+    layer.deform(M, out, 1.0);
+    EXPECT_GT(max_apart(out, skin), 1e-3 * diag);
+    // Masked: the vertices masked out are the skin exactly, the others move.
+    LayerOptions half = opt;
+    half.mask.assign(out.size(), 1.0);
+    for (size_t i = 0; i < out.size(); i += 2)
+      half.mask[i] = 0;
+    const CurveLayer masked = bind_layer(h.mesh, h.rig, &h.skin, half);
+    masked.deform(M, out, 1.0);
+    double masked_apart = 0, open_apart = 0;
+    for (size_t i = 0; i < out.size(); ++i)
+      (i % 2 ? open_apart : masked_apart) = std::max(i % 2 ? open_apart : masked_apart, (out[i] - skin[i]).norm());
+    EXPECT_LT(masked_apart, 1e-12 * diag);
+    EXPECT_GT(open_apart, 1e-3 * diag);
+  }
+}
+
+TEST(Layer, WithEnvelopeOneTheChainsLieOnThePosedCurvesAndRestIsRest) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Hand h;
+  const double diag = h.mesh.bbox_diagonal();
+  const CurveLayer layer = bind_layer(h.mesh, h.rig, &h.skin);
+  const Binding& b = layer.binding();
+  const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), h.clips, h.clips.find_clip("Grip"), 1 / 24.0);
+  // The posed curves, on their own: the cut mesh bound by the net; in the
+  // dq mode a vertex on a chain is its curve's point, posed.
+  const CutMeshBinding net = bind_cut_mesh(h.mesh, with_skeleton(h.rig, h.skin.joints, "skin"));
+  std::vector<Vec3> curves(net.binding.num_input_vertices());
+  net.binding.deform(clip_skinning_matrices(net.binding.joints(), h.clips, h.clips.find_clip("Grip"), 1 / 24.0),
+                     curves);
+  std::vector<Vec3> cut, skin_cut;
+  layer.deform_cut(M, cut);
+  layer.deform_cut(M, skin_cut, 0.0);
+  ASSERT_EQ(cut.size(), curves.size());
+  // And by the binding's own constraints: each chain vertex's weights,
+  // blended as dual quaternions.
+  std::map<std::string, int> joint_index;
+  for (size_t j = 0; j < b.joints().size(); ++j)
+    joint_index[b.joints()[j].name] = static_cast<int>(j);
+  Rig completed = with_skeleton(h.rig, h.skin.joints, "skin");
+  completed.weights = b.node_weights();
+  const detail::ChainConstraints cc = detail::chain_constraints(b.embedding().impl(), completed, joint_index);
+  std::vector<detail::DualJoint> dj;
+  for (const Mat4& m : M)
+    dj.push_back(detail::split_joint(m));
+  double on = 0, on_rebound = 0, skin_off = 0;
+  int checked = 0;
+  for (size_t v = 0; v < cut.size(); ++v) {
+    if (!cc.constrained[v])
+      continue;
+    detail::DualBlend blend;
+    for (const auto& [j, w] : cc.cw[v])
+      blend.add(dj[j], w);
+    const Vec3 curve = blend.apply(b.embedding().impl().cut.position(detail::Vertex(static_cast<int>(v))));
+    on = std::max(on, (cut[v] - curve).norm());
+    on_rebound = std::max(on_rebound, (cut[v] - curves[v]).norm());
+    skin_off = std::max(skin_off, (skin_cut[v] - curve).norm());
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000);
+  EXPECT_LT(on, 1e-12 * diag) << "the layered chains are on the posed curves";
+  // The cut mesh bound again (its own embedding, whose tolerances move points by ~1e-9).
+  EXPECT_LT(on_rebound, 1e-6 * diag);
+  EXPECT_GT(skin_off, 1e-3 * diag) << "the skin alone does not put them there";
+  // At rest, the skin, the curves and so the layer are the rest.
+  const std::vector<Mat4> I(b.joints().size(), Mat4::Identity());
+  std::vector<Vec3> out(layer.num_input_vertices());
+  layer.deform(I, out);
+  EXPECT_LT(max_apart(out, h.rest()), 1e-12 * diag);
+}
+
+TEST(Layer, ASkinOnAnotherSkeletonIsRefusedNamingTheJoint) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  Hand h;
+  h.rig.joints[3].bind(0, 3) += 0.01; // a joint moved in the rig only
+  try {
+    (void)bind_layer(h.mesh, h.rig, &h.skin);
+    ADD_FAILURE() << "a rig on another skeleton was layered over the skin";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("joint '" + h.rig.joints[3].name + "': its bind matrix differs"),
+              std::string::npos)
+        << e.what();
+  }
+  LayerOptions bad;
+  bad.mask = {0.5};
+  EXPECT_THROW(bind_layer(Hand().mesh, Hand().rig, &h.skin, bad), InputError);
+}
+
+TEST(Layer, APulledNodeMovesTheRegionsItsProfilesBoundAndNothingBeyond) {
+  // The tube net's middle ring, node 0 pulled outwards by 2 % of the
+  // diagonal, at rest and bent: over the net's own deformation.
+  TubeSpec spec;
+  spec.around = 32;
+  spec.along = 40;
+  spec.cap_rings = 8;
+  const SurfaceMesh mesh = make_surface_mesh(make_capped_tube(spec), "tube");
+  const Rig rig = make_tube_net();
+  const CurveLayer layer = bind_layer(mesh, rig, nullptr);
+  const double diag = mesh.bbox_diagonal();
+  const Vec3 node = rig.nodes[rig.node_index("ring1_0")].position;
+  NodeOffsets pull{{"ring1_0", 0.02 * diag * Vec3(node.x(), 0, node.z()).normalized()}};
+  for (const double bend : {0.0, 0.6}) {
+    Pose pose;
+    pose["mid"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(bend, Eigen::Vector3d::UnitZ()));
+    const std::vector<Mat4> M = skinning_matrices(layer.joints(), pose);
+    std::vector<Vec3> base(layer.num_input_vertices()), out(base.size());
+    layer.deform(M, base);
+    EXPECT_LT(max_apart(base,
+                        [&] {
+                          std::vector<Vec3> net(base.size());
+                          layer.binding().deform(M, net);
+                          return net;
+                        }()),
+              1e-12 * diag)
+        << "no offsets: the net's own deformation";
+    layer.deform(M, out, 1.0, &pull);
+    double at_node = 0, beyond = 0;
+    for (size_t i = 0; i < out.size(); ++i) {
+      const double moved = (out[i] - base[i]).norm();
+      const Vec3 r = mesh.positions[mesh.input_to_welded[i]];
+      if ((r - node).norm() < 0.05 * diag)
+        at_node = std::max(at_node, moved);
+      // Beyond the next rings along the tube (at heights 0.6 and 3.4).
+      if (r.y() < 0.55 || r.y() > 3.45)
+        beyond = std::max(beyond, moved);
+    }
+    EXPECT_NEAR(at_node, 0.02 * diag, 0.25 * 0.02 * diag) << "bend " << bend;
+    EXPECT_LT(beyond, 2e-4 * diag) << "bend " << bend;
+  }
+  std::vector<Vec3> out(layer.num_input_vertices());
+  const NodeOffsets unknown{{"no_such_node", Vec3::Zero()}};
+  EXPECT_THROW(layer.deform(std::vector<Mat4>(layer.joints().size(), Mat4::Identity()), out, 1.0, &unknown),
+               InputError);
+}
