@@ -11,6 +11,7 @@
 #include "curvenet/farm.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/jobs.hpp"
+#include "curvenet/layer.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
@@ -1028,6 +1029,65 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("fps") = 24.0,
       "Writes frames first..last as a PC2 cache at `path`, `pose(frame)` giving each frame's (J, 4, 4) skinning "
       "matrices: the frame job `animate` runs, in blocks of bounded memory, all or nothing");
+
+  // The layer (layer.hpp): over the mesh's own skin, node offsets.
+  py::class_<CurveLayer>(m, "CurveLayer",
+                         "The net as a layer over the mesh's own skin, or over its own deformation (docs/deform.md)")
+      .def_property_readonly("joint_names",
+                             [](const CurveLayer& l) {
+                               std::vector<std::string> names;
+                               for (const auto& j : l.joints())
+                                 names.push_back(j.name);
+                               return names;
+                             })
+      .def_property_readonly("joints", &CurveLayer::joints)
+      .def_property_readonly("num_input_vertices", &CurveLayer::num_input_vertices)
+      .def_property_readonly("over_skin", &CurveLayer::over_skin)
+      .def(
+          "deform",
+          [](const CurveLayer& l, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
+             double envelope, const std::optional<std::map<std::string, Vec3>>& offsets) {
+            const size_t nj = l.joints().size();
+            if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != nj || skinning.shape(1) != 4 ||
+                skinning.shape(2) != 4)
+              throw py::value_error("skinning: expected a (" + std::to_string(nj) + ", 4, 4) array, one per joint");
+            if (!(envelope >= 0 && envelope <= 1))
+              throw py::value_error("envelope: expected a number from 0 to 1");
+            std::vector<Mat4> M;
+            matrices_into(skinning, M);
+            std::vector<Vec3> out(static_cast<size_t>(l.num_input_vertices()));
+            {
+              py::gil_scoped_release release;
+              l.deform(M, out, envelope, offsets ? &*offsets : nullptr);
+            }
+            return points_array(out);
+          },
+          py::arg("skinning"), py::kw_only(), py::arg("envelope") = 1.0, py::arg("offsets") = py::none(),
+          "Positions (n, 3), one per input vertex: the base moved by skinning matrices (J, 4, 4), plus envelope times "
+          "the masked correction; offsets: node id -> (3,) offset in rest space");
+  m.def(
+      "bind_layer",
+      [](const SurfaceMesh& mesh, const Rig& rig, const std::optional<SkinnedMesh>& skin, const std::string& skinning,
+         const std::optional<std::vector<double>>& mask, const std::string& method) {
+        LayerOptions o;
+        if (!parse_deform_method(method, o.bind.method))
+          throw py::value_error("method: expected 'dq', 'harmonic' or 'gradient', got '" + method + "'");
+        if (skinning != "linear" && skinning != "dq")
+          throw py::value_error("skinning: expected 'linear' or 'dq'");
+        o.skinning = skinning == "dq" ? Skinning::DualQuaternion : Skinning::Linear;
+        if (mask)
+          o.mask = *mask;
+        validate_rig(rig, "rig");
+        py::gil_scoped_release release;
+        return bind_layer(mesh, rig, skin ? &*skin : nullptr, o);
+      },
+      py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("skin") = py::none(), py::arg("skinning") = "linear",
+      py::arg("mask") = py::none(), py::arg("method") = "dq",
+      "Binds the rig as a layer over `skin` (the mesh's own SkinnedMesh: linear or dq skinning with its weights), or "
+      "over the net's own deformation; mask: one value from 0 to 1 per input vertex");
+  m.def(
+      "read_pose_nodes", [](const std::string& path) { return read_pose_file(path).nodes; }, py::arg("path"),
+      "The node offsets of a pose file (version 2): node id -> (3,) offset in rest space");
 
   // The farm (farm.hpp): a Slurm array job of animate's shards, for pipeline tools.
   m.def(

@@ -831,3 +831,42 @@ TEST(Cli, FarmCommandsRefuseBadInputInOneLineAndSbatchAbsentLeavesTheFolderReady
   EXPECT_NE(r.err.find("manifest.json: a damaged farm manifest"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1);
 }
+
+TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("cli_layer");
+  const std::string gltf = test::data("xr_tools_hand/hand_l.gltf"),
+                    obj = test::data("xr_tools_hand/example/hand_l_welded.obj"),
+                    rig = test::data("xr_tools_hand/example/hand_l.cnrig.json"),
+                    pose = test::data("xr_tools_hand/example/fist.pose.json");
+  const std::string out = " -o " + (dir / "out.obj").string();
+  CliRun r = run("pose " + obj + " " + rig + " " + pose + out + " --over-skin", dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("hand_l_welded.obj: has no skin to layer over"), std::string::npos) << r.err;
+  write(dir / "short.mask", "1\n0.5\n");
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "short.mask").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("short.mask: 2 values for a mesh of 1764 vertices"), std::string::npos) << r.err;
+  write(dir / "bad.mask", "1\n1.5\n");
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "bad.mask").string(), dir);
+  EXPECT_NE(r.err.find("bad.mask: line 2: expected a number from 0 to 1"), std::string::npos) << r.err;
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --binding-cache " + (dir / "c").string(), dir);
+  EXPECT_NE(r.err.find("a layer is bound without a binding cache"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out.obj"));
+  // A mask of all ones, and a layered animation of the hand's Grip.
+  std::string ones;
+  for (int i = 0; i < 1764; ++i)
+    ones += "1\n";
+  write(dir / "ones.mask", ones);
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --skinning dq --mask " +
+              (dir / "ones.mask").string() + " --cut-mesh " + (dir / "cut.obj").string(),
+          dir);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "cut.obj"));
+  r = run("animate " + gltf + " " + rig + " " + test::data("xr_tools_hand/hand_l_poses.glb") +
+              " --clip Grip --over-skin --envelope 0.5 -o " + (dir / "grip.pc2").string(),
+          dir);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(fs::file_size(dir / "grip.pc2"), 32u + 1764u * 12u);
+}

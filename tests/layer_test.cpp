@@ -199,3 +199,35 @@ TEST(Layer, APulledNodeMovesTheRegionsItsProfilesBoundAndNothingBeyond) {
   EXPECT_THROW(layer.deform(std::vector<Mat4>(layer.joints().size(), Mat4::Identity()), out, 1.0, &unknown),
                InputError);
 }
+
+TEST(Layer, APoseFileOfVersionTwoGivesNodeOffsetsAndVersionOneReadsAsBefore) {
+  const std::string v1 = R"({"format": "curvenet-pose", "version": 1,
+    "joints": {"mid": {"rotation": [0.8660254037844387, 0, 0, 0.5]}}})";
+  const PoseFile one = parse_pose_file(v1, "v1.pose.json");
+  EXPECT_EQ(one.joints.size(), 1u);
+  EXPECT_TRUE(one.nodes.empty());
+  EXPECT_EQ(parse_pose(v1, "v1").size(), 1u);
+  const std::string v2 = R"({"format": "curvenet-pose", "version": 2,
+    "joints": {"mid": {"rotation": [1, 0, 0, 0]}},
+    "nodes": {"ring1_0": {"offset": [0.1, 0, -0.25]}, "cap_top": {"offset": [0, 0.5, 0], "x_note": "kept"}}})";
+  const PoseFile two = parse_pose_file(v2, "v2.pose.json");
+  ASSERT_EQ(two.nodes.size(), 2u);
+  EXPECT_EQ(two.nodes.at("ring1_0"), Vec3(0.1, 0, -0.25));
+  EXPECT_EQ(two.nodes.at("cap_top"), Vec3(0, 0.5, 0));
+  // Nodes need version 2; a node entry gives a finite offset, and nothing else.
+  auto refused = [](const std::string& text, const std::string& where) {
+    try {
+      (void)parse_pose_file(text, "p.pose.json");
+    } catch (const InputError& e) {
+      return std::string(e.what()).find("p.pose.json: " + where) != std::string::npos;
+    }
+    return false;
+  };
+  EXPECT_TRUE(refused(R"({"format": "curvenet-pose", "version": 1, "nodes": {}})", "/nodes"));
+  EXPECT_TRUE(refused(R"({"format": "curvenet-pose", "version": 3})", "/version"));
+  EXPECT_TRUE(refused(R"({"format": "curvenet-pose", "version": 2, "nodes": {"a": {}}})", "/nodes/a/offset"));
+  EXPECT_TRUE(
+      refused(R"({"format": "curvenet-pose", "version": 2, "nodes": {"a": {"offset": [1, 2]}}})", "/nodes/a/offset"));
+  EXPECT_TRUE(refused(R"({"format": "curvenet-pose", "version": 2, "nodes": {"a": {"offset": [1, 2, 3], "b": 1}}})",
+                      "/nodes/a/b"));
+}

@@ -128,6 +128,10 @@ int run_embed(const EmbedArgs& a) {
 
 namespace {
 
+LayerSpec layer_spec(const DeformArgs& a) {
+  return {a.over_skin, a.skinning == "dq" ? Skinning::DualQuaternion : Skinning::Linear, a.envelope, a.mask};
+}
+
 SceneFiles scene_files(const DeformArgs& a) {
   return {a.mesh, a.rig, a.skeleton, a.binding_cache};
 }
@@ -153,7 +157,7 @@ int run_bind(const BindArgs& a) {
 }
 
 int run_pose(const PoseArgs& a) {
-  const JobSummary j = run(PoseJob{scene_files(a), bind_options(a), a.pose, a.out, a.cut_mesh});
+  const JobSummary j = run(PoseJob{scene_files(a), bind_options(a), a.pose, a.out, a.cut_mesh, layer_spec(a)});
   print_job(std::cout, "pose", j);
   std::cout << "output: " << a.out << " (" << j.vertices << " vertices)\n";
   return 0;
@@ -164,6 +168,7 @@ AnimateJob animate_job(const AnimateArgs& a) {
   job.pc2 = a.obj_sequence.empty() ? a.out : "";
   job.obj_sequence = a.obj_sequence;
   job.cut_mesh_sequence = a.cut_mesh_sequence;
+  job.layer = layer_spec(a);
   return job;
 }
 

@@ -30,6 +30,10 @@ struct DeformArgs {
   std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex", binding_cache;
   std::string method = "dq", rotation = "polar";
   bool curve_frames = false;
+  // pose and animate: the net as a layer (layer.hpp)
+  bool over_skin = false;
+  std::string skinning = "linear", mask;
+  double envelope = 1;
 };
 
 struct BindArgs : DeformArgs {

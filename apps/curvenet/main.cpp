@@ -116,6 +116,20 @@ int main(int argc, char** argv) {
     cmd->add_flag("--curve-frames", a.curve_frames,
                   "Gradient mode: turn each curve side's frame to follow its posed curve (about twice the frame time)");
   };
+  auto layer_options = [&](CLI::App* cmd, curvenet::cli::DeformArgs& a) {
+    cmd->add_flag("--over-skin", a.over_skin,
+                  "Layer the net over the mesh file's own skin: the skin moves the mesh, and the net corrects it so "
+                  "that its curves follow the rig (docs/deform.md)");
+    cmd->add_option("--skinning", a.skinning, "With --over-skin: the skin's blend, linear (as glTF plays it) or dq")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"linear", "dq"}));
+    cmd->add_option("--envelope", a.envelope, "How much of the layer's correction to apply, from 0 (the base) to 1")
+        ->capture_default_str()
+        ->check(finite_in(0, 1));
+    cmd->add_option("--mask", a.mask,
+                    "A text file of one number from 0 to 1 per vertex of the mesh file: how much of the correction "
+                    "each vertex takes");
+  };
   curvenet::cli::BindArgs bind_args;
   auto* bind = app.add_subcommand("bind", "Bind a rig to a mesh and write the rig with every node's weights filled in");
   deform_options(bind, bind_args);
@@ -129,6 +143,7 @@ int main(int argc, char** argv) {
   pose->add_option("-o,--output", pose_args.out, "OBJ file to write")->required();
   pose->add_option("--cut-mesh", pose_args.cut_mesh,
                    "Also write the posed cut mesh as OBJ: the curves' own shape between a coarse mesh's vertices");
+  layer_options(pose, pose_args);
 
   auto animate_options = [&](CLI::App* cmd, curvenet::cli::AnimateArgs& a) {
     deform_options(cmd, a);
@@ -149,6 +164,7 @@ int main(int argc, char** argv) {
   animate_options(animate, anim_args);
   animate->add_option("--cut-mesh-sequence", anim_args.cut_mesh_sequence,
                       "Also write the posed cut mesh of every frame as OBJ into this folder");
+  layer_options(animate, anim_args);
 
   auto* farm = app.add_subcommand("farm", "Run animate on a Slurm cluster in shards, and merge them (docs/farm.md)");
   farm->require_subcommand(1);

@@ -98,6 +98,12 @@ std::string sequence_name(const std::string& prefix, int frame);
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
              std::span<FrameSink* const> sinks);
 
+/// The same through any deformer: `deform_frames` as Binding::deform_frames
+/// (frames x joints matrices in, frames x `vertices` positions out).
+void animate(int vertices, const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
+             const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
+             std::span<FrameSink* const> sinks, const std::string& source);
+
 /// The same for frames whose skinning matrices `pose` gives (one per joint
 /// of the binding); a non-finite position is refused naming `source`.
 void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
@@ -108,6 +114,16 @@ struct JobSummary {
   BindReport bind;
   std::vector<std::string> notes; ///< repairs made on loading the mesh (load_notes)
   int vertices = 0;               ///< the mesh file's vertices
+};
+
+/// The net as a layer (layer.hpp): over the mesh file's own skin, and with a
+/// pose's node offsets. A pose with node offsets is always layered (over
+/// the net's own deformation when not over the skin).
+struct LayerSpec {
+  bool over_skin = false; ///< the mesh file's own skin (glTF, GLB, FBX) is the base
+  Skinning skinning = Skinning::Linear;
+  double envelope = 1;
+  std::string mask; ///< optional: a text file of one number from 0 to 1 per vertex of the mesh file
 };
 
 /// Binds a rig to a mesh and writes the rig with its nodes' weights filled in.
@@ -122,9 +138,10 @@ JobSummary run(const BindJob& job);
 struct PoseJob {
   SceneFiles scene;
   BindOptions options;
-  std::string pose;     ///< a pose file (pose.hpp)
+  std::string pose;     ///< a pose file (pose.hpp); version 2 may give node offsets
   std::string out;      ///< the posed mesh, OBJ
   std::string cut_mesh; ///< optional: the posed cut mesh, OBJ with its curves
+  LayerSpec layer;
 };
 JobSummary run(const PoseJob& job);
 
@@ -139,6 +156,7 @@ struct AnimateJob {
   double fps = 24;
   long long max_frames = 100000;
   std::string pc2, obj_sequence, cut_mesh_sequence;
+  LayerSpec layer;
   /// A farm task's part file (farm.hpp): the frames checksummed, marked
   /// with `part_key` (the farm job's), in single precision (what a PC2
   /// cache keeps) or double (what an OBJ sequence prints).

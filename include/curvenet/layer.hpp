@@ -11,6 +11,7 @@
 /// mask (per vertex). Envelope 0, or mask 0, gives the base exactly.
 
 #include "curvenet/deform.hpp"
+#include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
 
 #include <map>
@@ -20,12 +21,6 @@
 #include <vector>
 
 namespace curvenet {
-
-/// Per node id: an offset in rest space that turns with the node's joints
-/// (the blend of its weights). The curves through the node follow it,
-/// interpolated along each curve, and the mesh follows inside the regions
-/// those curves bound.
-using NodeOffsets = std::map<std::string, Vec3>;
 
 struct LayerOptions {
   /// How the net is bound: its method also poses the curves (dq: the

@@ -24,16 +24,32 @@ struct JointPose {
 /// Joint name -> pose entry. Joints that are not listed stay at rest.
 using Pose = std::map<std::string, JointPose>;
 
-/// Reads a pose file (`"format": "curvenet-pose"`).
+/// Per node id: an offset in rest space that turns with the node's joints
+/// (layer.hpp: the curves through the node, and the mesh inside the regions
+/// they bound, follow it).
+using NodeOffsets = std::map<std::string, Eigen::Vector3d>;
+
+/// A pose file: its joints' entries, and (version 2) its nodes' offsets.
+struct PoseFile {
+  Pose joints;
+  NodeOffsets nodes;
+};
+
+/// Reads a pose file (`"format": "curvenet-pose"`, version 1 or 2; only
+/// version 2 may have `nodes`).
 /// \throw InputError with the JSON path of the fault: unknown keys, a
 ///   rotation whose norm is not within 1e-6 of 1, malformed JSON.
+PoseFile read_pose_file(const std::string& path);
+PoseFile parse_pose_file(const std::string& text, const std::string& source);
+/// The joints' entries of a pose file (read_pose_file().joints).
 Pose read_pose(const std::string& path);
 Pose parse_pose(const std::string& text, const std::string& source);
 
 /// Skinning matrices M_j = G_j B_j^-1 with G_j = G_p (B_p^-1 B_j) L_j (for a
 /// root, G_j = B_j L_j), one per joint.
 /// \throw InputError when the pose names a joint the skeleton lacks.
-std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose& pose, const std::string& source = "pose");
+std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose& pose,
+                                    const std::string& source = "pose");
 
 /// The pose of a glTF clip at time t, as entries against the rest pose that
 /// the file's own inverse bind matrices define, for the file's joints (by

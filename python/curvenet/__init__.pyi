@@ -405,6 +405,29 @@ def animate_poses(
     """Writes frames first..last as a PC2 cache, `pose(frame)` giving each frame's (J, 4, 4) skinning matrices, in
     frame order: the frame job of `animate`, in blocks of bounded memory, all or nothing (the Blender add-on's bake).
     Raises what `pose` raises, or InputError for a non-finite position, writing nothing."""
+class CurveLayer:
+    """The net as a layer over the mesh's own skin, or over its own deformation (docs/deform.md)."""
+
+    joint_names: list[str]
+    joints: list[Joint]
+    num_input_vertices: int
+    over_skin: bool
+    def deform(
+        self, skinning: npt.ArrayLike, *, envelope: float = 1.0, offsets: Optional[Mapping[str, npt.ArrayLike]] = None
+    ) -> FloatArray:
+        """(n, 3): the base (the skin, or the net) moved by skinning matrices (J, 4, 4), plus `envelope` times the
+        masked correction that puts the chains on the posed curves and their nodes' `offsets` (node id -> (3,) in rest
+        space). Envelope 0 is the base exactly."""
+
+def bind_layer(
+    mesh: Mesh, rig: Rig, *, skin: Optional[SkinnedMesh] = None, skinning: str = "linear",
+    mask: Optional[Sequence[float]] = None, method: str = "dq"
+) -> CurveLayer:
+    """Binds the rig as a layer over `skin` (the mesh file's own SkinnedMesh, moved by 'linear' or 'dq' skinning with
+    its weights; the rig goes on the skin's skeleton), or over the net's own deformation. `mask`: one value from 0 to
+    1 per input vertex. Raises InputError naming a joint whose bind differs from the skin's."""
+def read_pose_nodes(path: str) -> dict[str, FloatArray]:
+    """The node offsets of a version 2 pose file: node id -> (3,) in rest space."""
 def farm_submit(
     mesh: str, rig: str, clip_file: str, folder: str, *, output: str = "", obj_sequence: str = "", clip: str = "",
     frames: str = "", fps: float = 24.0, shard_frames: int = 100, skeleton: str = "", method: str = "dq",

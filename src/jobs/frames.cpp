@@ -79,7 +79,15 @@ void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const F
 
 void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
              std::span<FrameSink* const> sinks, const std::string& source) {
-  const int frames = range.count(), nv = binding.num_input_vertices();
+  animate(
+      binding.num_input_vertices(),
+      [&](std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, pose, range, sinks, source);
+}
+
+void animate(int vertices, const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
+             const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
+             std::span<FrameSink* const> sinks, const std::string& source) {
+  const int frames = range.count(), nv = vertices;
   // About 64 MB of positions a block, from 1 to 256 frames.
   const int block = static_cast<int>(std::clamp<long long>((64ll << 20) / (24ll * std::max(nv, 1)), 1, 256));
   std::vector<Mat4> M;
@@ -92,7 +100,7 @@ void animate(const Binding& binding, const std::function<std::vector<Mat4>(int f
       M.insert(M.end(), m.begin(), m.end());
     }
     out.resize(static_cast<size_t>(b1 - b0) * nv);
-    binding.deform_frames(M, out);
+    deform_frames(M, out);
     for (int f = b0; f < b1; ++f) {
       const std::span<const Vec3> positions(out.data() + static_cast<size_t>(f - b0) * nv, static_cast<size_t>(nv));
       for (int i = 0; i < nv; ++i)

@@ -2,15 +2,19 @@
 // and written all or nothing.
 
 #include "jobs/run.hpp"
+#include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/jobs.hpp"
+#include "curvenet/layer.hpp"
 #include "curvenet/pose.hpp"
+#include "io/file_bytes.hpp"
 #include "io/frames_part.hpp"
 
 #include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <sstream>
 
 namespace curvenet {
 namespace {
@@ -42,6 +46,64 @@ int find_clip(const SkinnedMesh& clips, const std::string& file, const std::stri
   return clip;
 }
 
+/// A mask file: one number from 0 to 1 per vertex of the mesh file, one a
+/// line (blank lines and `#` comments skipped).
+std::vector<double> read_mask(const std::string& path, int vertices) {
+  std::istringstream in(detail::file_bytes(path));
+  std::vector<double> mask;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const auto a = line.find_first_not_of(" \t\r"), b = line.find_last_not_of(" \t\r");
+    if (a == std::string::npos || line[a] == '#')
+      continue;
+    double x = 0;
+    if (!detail::parse_finite(std::string_view(line).substr(a, b - a + 1), x) || x < 0 || x > 1)
+      throw InputError(path, "line " + std::to_string(n), "expected a number from 0 to 1");
+    mask.push_back(x);
+  }
+  if (static_cast<int>(mask.size()) != vertices)
+    throw InputError(path, "",
+                     std::to_string(mask.size()) + " values for a mesh of " + std::to_string(vertices) +
+                         " vertices: give one per vertex of the mesh file, in its order");
+  return mask;
+}
+
+bool layered(const LayerSpec& l, bool offsets) {
+  return l.over_skin || offsets || !l.mask.empty() || l.envelope != 1;
+}
+
+/// The scene's net as a layer; an embedding failure names the rig file.
+CurveLayer layer_of(const Scene& s, const LayerSpec& spec, const BindOptions& options) {
+  if (!s.files.binding_cache.empty())
+    throw InputError("--binding-cache", s.files.binding_cache, "a layer is bound without a binding cache");
+  if (!(spec.envelope >= 0 && spec.envelope <= 1))
+    throw InputError("--envelope", std::to_string(spec.envelope), "expected a number from 0 to 1");
+  std::optional<SkinnedMesh> skin;
+  if (spec.over_skin) {
+    if (!is_skinned_file(s.files.mesh))
+      throw InputError(s.files.mesh, "", "has no skin to layer over: --over-skin needs a skinned glTF, GLB or FBX");
+    skin = load_skinned_mesh(s.files.mesh);
+  }
+  LayerOptions opt;
+  opt.bind = options;
+  opt.skinning = spec.skinning;
+  if (!spec.mask.empty())
+    opt.mask = read_mask(spec.mask, static_cast<int>(s.mesh.input_to_welded.size()));
+  try {
+    return bind_layer(s.mesh, s.rig, skin ? &*skin : nullptr, opt);
+  } catch (const EmbedError& e) {
+    throw EmbedError(s.files.rig + ": " + e.what());
+  }
+}
+
+JobSummary summary_of(const Scene& s, const CurveLayer& layer) {
+  JobSummary j;
+  j.bind = layer.binding().report();
+  j.notes = s.notes;
+  j.vertices = layer.num_input_vertices();
+  return j;
+}
+
 } // namespace
 
 JobSummary run(const BindJob& job) {
@@ -56,23 +118,88 @@ JobSummary run(const BindJob& job) {
 }
 
 JobSummary run(const PoseJob& job) {
-  const Pose pose = read_pose(job.pose);
+  const PoseFile pose = read_pose_file(job.pose);
   OutputFiles files; // the mesh, the cut mesh and the binding cache, all or nothing
-  const BoundScene s = bind_scene(job.scene, job.options, files);
+  Scene scene = read_scene(job.scene);
   const InputTopology topology = read_input_topology(job.scene.mesh); // the parse load_mesh made
-  const auto M = skinning_matrices(s.binding.joints(), pose, job.pose);
+  auto check = [&](const std::vector<Vec3>& out) {
+    for (size_t v = 0; v < out.size(); ++v)
+      if (!out[v].allFinite())
+        throw InputError(job.pose, "vertex " + std::to_string(v),
+                         "the pose moves it out of range (not a finite number); nothing was written");
+  };
+  if (layered(job.layer, !pose.nodes.empty())) {
+    const CurveLayer layer = layer_of(scene, job.layer, job.options);
+    const auto M = skinning_matrices(layer.joints(), pose.joints, job.pose);
+    std::vector<Vec3> out(layer.num_input_vertices());
+    layer.deform(M, out, job.layer.envelope, &pose.nodes);
+    check(out);
+    files.add(job.out, posed_obj(topology, out));
+    if (!job.cut_mesh.empty()) {
+      std::vector<Vec3> cut;
+      layer.deform_cut(M, cut, job.layer.envelope, &pose.nodes);
+      check(cut);
+      files.add(job.cut_mesh, layer.binding().embedding().cut_mesh_obj(cut));
+    }
+    files.commit();
+    return summary_of(scene, layer);
+  }
+  const BoundScene s = bind_scene(std::move(scene), job.options, files);
+  const auto M = skinning_matrices(s.binding.joints(), pose.joints, job.pose);
   std::vector<Vec3> out(s.binding.num_input_vertices());
   s.binding.deform(M, out);
-  for (size_t v = 0; v < out.size(); ++v)
-    if (!out[v].allFinite())
-      throw InputError(job.pose, "vertex " + std::to_string(v),
-                       "the pose moves it out of range (not a finite number); nothing was written");
+  check(out);
   files.add(job.out, posed_obj(topology, out)); // deform() gives the file's own vertex order
   if (!job.cut_mesh.empty())
     files.add(job.cut_mesh, cut_binding(s, job.options).posed_obj(M));
   files.commit();
   return summary_of(s);
 }
+
+namespace {
+
+/// animate through a layer: the same sinks, the frames through CurveLayer.
+AnimateSummary animate_layered(const AnimateJob& job, const Scene& scene, const SkinnedMesh& clips, int clip,
+                               const FrameRange& range, OutputFiles& files) {
+  if (!job.frames_part.empty())
+    throw InputError("farm", "", "a farm job does not layer yet");
+  const CurveLayer layer = layer_of(scene, job.layer, job.options);
+  const int nv = layer.num_input_vertices();
+  std::optional<InputTopology> topology;
+  std::vector<std::unique_ptr<FrameSink>> sinks;
+  if (!job.pc2.empty())
+    sinks.push_back(std::make_unique<Pc2Sink>(files, job.pc2, nv, range, job.clip_file));
+  if (!job.obj_sequence.empty()) {
+    topology = read_input_topology(job.scene.mesh);
+    sinks.push_back(std::make_unique<ObjSequenceSink>(files, job.obj_sequence, *topology));
+  }
+  std::vector<FrameSink*> all;
+  for (const auto& k : sinks)
+    all.push_back(k.get());
+  auto pose = [&](int frame) { return clip_skinning_matrices(layer.joints(), clips, clip, range.time(frame)); };
+  const double envelope = job.layer.envelope;
+  if (!all.empty())
+    animate(
+        nv, [&](std::span<const Mat4> M, std::span<Vec3> out) { layer.deform_frames(M, out, envelope); }, pose, range,
+        all, clips.source);
+  if (!job.cut_mesh_sequence.empty()) {
+    std::vector<Vec3> cut;
+    for (int f = range.first; f <= range.last; ++f) {
+      layer.deform_cut(pose(f), cut, envelope);
+      files.add((std::filesystem::path(job.cut_mesh_sequence) / sequence_name("cut_frame", f)).string(),
+                layer.binding().embedding().cut_mesh_obj(cut));
+    }
+  }
+  files.commit();
+  AnimateSummary out;
+  static_cast<JobSummary&>(out) = summary_of(scene, layer);
+  out.clip = clip;
+  out.clip_name = clips.clip_names[clip];
+  out.range = range;
+  return out;
+}
+
+} // namespace
 
 AnimateSummary run(const AnimateJob& job) {
   return detail::run_animate(
@@ -90,6 +217,8 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   Scene scene = read_scene(job.scene);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
   OutputFiles files;
+  if (layered(job.layer, false))
+    return animate_layered(job, scene, clips, clip, range, files);
   const BoundScene s = binder(std::move(scene), files);
   std::optional<InputTopology> topology;
   std::vector<std::unique_ptr<FrameSink>> sinks;
@@ -102,8 +231,7 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   }
   if (!job.frames_part.empty()) {
     auto p = std::make_unique<detail::FramesPartSink>(files, job.frames_part, s.binding.num_input_vertices(), range,
-                                                      job.part_key, job.part_single_precision ? 4 : 8,
-                                                      job.clip_file);
+                                                      job.part_key, job.part_single_precision ? 4 : 8, job.clip_file);
     part = p.get();
     sinks.push_back(std::move(p));
   }

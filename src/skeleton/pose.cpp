@@ -21,25 +21,22 @@ Mat4 JointPose::matrix() const {
   return a.matrix();
 }
 
-Pose parse_pose(const std::string& text, const std::string& source) {
+PoseFile parse_pose_file(const std::string& text, const std::string& source) {
   const nlohmann::ordered_json root = detail::parse_json(text, source);
   auto fail = [&](const std::string& path, const std::string& msg) { throw InputError(source, path, msg); };
   if (!root.is_object())
     fail("/", "expected an object");
-  for (auto it = root.begin(); it != root.end(); ++it)
-    if (it.key() != "format" && it.key() != "version" && it.key() != "joints" && it.key().rfind("x_", 0) != 0)
-      fail("/" + it.key(), "unknown key '" + it.key() + "'");
   if (!root.contains("format") || root["format"] != "curvenet-pose")
     fail("/format", "must be \"curvenet-pose\"");
   if (!root.contains("version"))
-    fail("/version", "only version 1 is supported");
-  detail::json_integer(root["version"], source, "/version", 1, 1);
-  Pose pose;
-  if (!root.contains("joints"))
-    return pose;
-  const auto& joints = root["joints"];
-  if (!joints.is_object())
-    fail("/joints", "expected an object");
+    fail("/version", "give the version: 1, or 2 with node offsets");
+  const int version = static_cast<int>(detail::json_integer(root["version"], source, "/version", 1, 2));
+  for (auto it = root.begin(); it != root.end(); ++it)
+    if (it.key() != "format" && it.key() != "version" && it.key() != "joints" && it.key().rfind("x_", 0) != 0 &&
+        !(it.key() == "nodes" && version >= 2))
+      fail("/" + it.key(), "unknown key '" + it.key() + "'" + (it.key() == "nodes" ? " (nodes need version 2)" : ""));
+  PoseFile file;
+  Pose& pose = file.joints;
   auto numbers = [&](const nlohmann::ordered_json& j, size_t n, const std::string& path) {
     if (!j.is_array() || j.size() != n)
       fail(path, "expected an array of " + std::to_string(n) + " numbers");
@@ -51,6 +48,28 @@ Pose parse_pose(const std::string& text, const std::string& source) {
     }
     return v;
   };
+  if (root.contains("nodes")) {
+    const auto& nodes = root["nodes"];
+    if (!nodes.is_object())
+      fail("/nodes", "expected an object");
+    for (auto it = nodes.begin(); it != nodes.end(); ++it) {
+      const std::string path = "/nodes/" + it.key();
+      if (!it->is_object())
+        fail(path, "expected an object");
+      for (auto k = it->begin(); k != it->end(); ++k)
+        if (k.key() != "offset" && k.key().rfind("x_", 0) != 0)
+          fail(path + "/" + k.key(), "unknown key '" + k.key() + "'");
+      if (!it->contains("offset"))
+        fail(path + "/offset", "a node entry gives its offset");
+      const auto o = numbers((*it)["offset"], 3, path + "/offset");
+      file.nodes[it.key()] = Eigen::Vector3d(o[0], o[1], o[2]);
+    }
+  }
+  if (!root.contains("joints"))
+    return file;
+  const auto& joints = root["joints"];
+  if (!joints.is_object())
+    fail("/joints", "expected an object");
   for (auto it = joints.begin(); it != joints.end(); ++it) {
     const std::string path = "/joints/" + it.key();
     if (!it->is_object())
@@ -76,10 +95,18 @@ Pose parse_pose(const std::string& text, const std::string& source) {
     }
     pose[it.key()] = jp;
   }
-  return pose;
+  return file;
+}
+
+Pose parse_pose(const std::string& text, const std::string& source) {
+  return parse_pose_file(text, source).joints;
 }
 
 Pose read_pose(const std::string& path) {
+  return read_pose_file(path).joints;
+}
+
+PoseFile read_pose_file(const std::string& path) {
   if (std::filesystem::is_directory(path))
     throw InputError(path, "", "is a folder, not a pose file");
   std::ifstream in(path, std::ios::binary);
@@ -87,7 +114,7 @@ Pose read_pose(const std::string& path) {
     throw InputError(path, "", "cannot open the pose file");
   std::ostringstream s;
   s << in.rdbuf();
-  return parse_pose(s.str(), path);
+  return parse_pose_file(s.str(), path);
 }
 
 std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose& pose, const std::string& source) {

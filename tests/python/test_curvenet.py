@@ -565,3 +565,34 @@ def test_animate_poses_streams_what_deform_frames_gives(tmp_path):
     with pytest.raises(ZeroDivisionError):
         curvenet.animate_poses(b, lambda f: 1 / 0, 3, 5, str(tmp_path / "bad.pc2"))
     assert not (tmp_path / "bad.pc2").exists()
+
+
+@needs_data
+def test_a_layer_over_the_skin_gives_what_the_cli_gives_and_a_pulled_node_moves_its_region(tmp_path):
+    mesh_file, rig_file = hand(), example("hand_l.cnrig.json")
+    pull = os.path.join(os.path.dirname(__file__), "..", "data", "hand", "fist_pull.pose.json")
+    mesh, rig = curvenet.load_mesh(mesh_file), curvenet.read_rig(rig_file)
+    skin = curvenet.load_skinned_mesh(mesh_file)
+    layer = curvenet.bind_layer(mesh, rig, skin=skin)
+    assert layer.over_skin
+    M = curvenet.skinning_matrices(layer.joints, pull)
+    offsets = curvenet.read_pose_nodes(pull)
+    assert set(offsets) == {"index_pip_1", "index_pip_2"}
+    for envelope in (0.0, 1.0):
+        out = tmp_path / ("layer_%g.obj" % envelope)
+        cli("pose", mesh_file, rig_file, pull, "-o", str(out), "--over-skin", "--envelope", str(envelope))
+        mine = layer.deform(M, envelope=envelope, offsets=offsets)
+        assert np.array_equal(read_obj_vertices(out), mine)  # 17 digits: the same doubles
+    base = layer.deform(M, envelope=0.0)
+    plain = layer.deform(M)
+    pulled = layer.deform(M, offsets=offsets)
+    moved = np.linalg.norm(pulled - plain, axis=1)
+    diag = mesh.bbox_diagonal()
+    assert 0.01 * diag < moved.max() < 0.03 * diag  # about the 4 mm (2 %) pull
+    assert np.linalg.norm(plain - base, axis=1).max() > 1e-3 * diag  # the layer corrects the skin
+    with pytest.raises(ValueError, match="envelope"):
+        layer.deform(M, envelope=1.5)
+    # Over the net's own deformation: no offsets, no change.
+    over_net = curvenet.bind_layer(mesh, rig)
+    b = curvenet.bind(mesh, rig)
+    assert np.array_equal(over_net.deform(M), b.deform(M))
