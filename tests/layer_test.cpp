@@ -9,6 +9,7 @@
 #include "core/dual_quaternion.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/jobs.hpp"
 #include "curvenet/pose.hpp"
 #include "embed/embedding_impl.hpp"
 #include "generate/tube.hpp"
@@ -230,4 +231,41 @@ TEST(Layer, APoseFileOfVersionTwoGivesNodeOffsetsAndVersionOneReadsAsBefore) {
       refused(R"({"format": "curvenet-pose", "version": 2, "nodes": {"a": {"offset": [1, 2]}}})", "/nodes/a/offset"));
   EXPECT_TRUE(refused(R"({"format": "curvenet-pose", "version": 2, "nodes": {"a": {"offset": [1, 2, 3], "b": 1}}})",
                       "/nodes/a/b"));
+}
+
+TEST(Layer, NodeKeysInterpolateOverTheFramesAndAnAnimationFollowsThem) {
+  const NodeKeys keys = parse_node_keys(R"({"format": "curvenet-node-keys", "version": 1, "nodes": {
+      "a": [{"frame": 0, "offset": [0, 0, 0]}, {"frame": 10, "offset": [0, 1, 0]}],
+      "b": [{"frame": 5, "offset": [2, 0, 0]}]}})",
+                                        "k.json");
+  EXPECT_EQ(keys.at(-3).at("a"), Vec3(0, 0, 0));
+  EXPECT_EQ(keys.at(2.5).at("a"), Vec3(0, 0.25, 0));
+  EXPECT_EQ(keys.at(40).at("a"), Vec3(0, 1, 0));
+  EXPECT_EQ(keys.at(0).at("b"), Vec3(2, 0, 0)); // one key: held
+  EXPECT_THROW(parse_node_keys(R"({"format": "curvenet-node-keys", "version": 1, "nodes": {
+      "a": [{"frame": 3, "offset": [0, 0, 0]}, {"frame": 3, "offset": [0, 1, 0]}]}})",
+                               "k.json"),
+               InputError);
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // The hand's Grip over frames 0:8 through the net, a node pulled from
+  // nothing at frame 0 to 4 mm at frame 8: frame 0 is the plain animation
+  // exactly, frame 8 moves.
+  const auto dir = test::temp_dir("node_keys");
+  const std::string key_file = (dir / "pull.keys.json").string();
+  std::ofstream(key_file) << R"({"format": "curvenet-node-keys", "version": 1, "nodes": {
+      "index_pip_1": [{"frame": 0, "offset": [0, 0, 0]}, {"frame": 8, "offset": [0, 0.004, 0]}]}})";
+  AnimateJob job;
+  job.scene = {test::data("xr_tools_hand/hand_l.gltf"), test::data("xr_tools_hand/example/hand_l.cnrig.json"), "", ""};
+  job.clip_file = test::data("xr_tools_hand/hand_l_poses.glb");
+  job.clip = "Grip";
+  job.frames = "0:8";
+  job.obj_sequence = (dir / "plain").string();
+  (void)run(job);
+  job.node_keys = key_file;
+  job.obj_sequence = (dir / "pulled").string();
+  (void)run(job);
+  const std::string f0 = sequence_name("frame", 0), f8 = sequence_name("frame", 8);
+  EXPECT_EQ(test::file_bytes(dir / "plain" / f0), test::file_bytes(dir / "pulled" / f0));
+  EXPECT_NE(test::file_bytes(dir / "plain" / f8), test::file_bytes(dir / "pulled" / f8));
 }

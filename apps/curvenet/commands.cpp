@@ -169,6 +169,7 @@ AnimateJob animate_job(const AnimateArgs& a) {
   job.obj_sequence = a.obj_sequence;
   job.cut_mesh_sequence = a.cut_mesh_sequence;
   job.layer = layer_spec(a);
+  job.node_keys = a.node_keys;
   return job;
 }
 

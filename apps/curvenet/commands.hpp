@@ -47,7 +47,7 @@ struct PoseArgs : DeformArgs {
 int run_pose(const PoseArgs& args);
 
 struct AnimateArgs : DeformArgs {
-  std::string clip_file, clip, frames, out, obj_sequence, cut_mesh_sequence;
+  std::string clip_file, clip, frames, out, obj_sequence, cut_mesh_sequence, node_keys;
   double fps = 24;
   long long max_frames = 100000;
 };

@@ -165,6 +165,9 @@ int main(int argc, char** argv) {
   animate->add_option("--cut-mesh-sequence", anim_args.cut_mesh_sequence,
                       "Also write the posed cut mesh of every frame as OBJ into this folder");
   layer_options(animate, anim_args);
+  animate->add_option("--node-keys", anim_args.node_keys,
+                      "Node offsets keyed over the frames (docs/rig-format.md): the curves follow them, and the mesh "
+                      "inside the regions they bound");
 
   auto* farm = app.add_subcommand("farm", "Run animate on a Slurm cluster in shards, and merge them (docs/farm.md)");
   farm->require_subcommand(1);

@@ -14,6 +14,7 @@
 #include "curvenet/deform.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/mesh_output.hpp"
+#include "curvenet/pose.hpp"
 #include "curvenet/scene.hpp"
 #include "curvenet/skin.hpp"
 
@@ -98,9 +99,10 @@ std::string sequence_name(const std::string& prefix, int frame);
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
              std::span<FrameSink* const> sinks);
 
-/// The same through any deformer: `deform_frames` as Binding::deform_frames
-/// (frames x joints matrices in, frames x `vertices` positions out).
-void animate(int vertices, const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
+/// The same through any deformer: `deform_frames(first, M, out)` as
+/// Binding::deform_frames for the block of frames from `first` (frames x
+/// joints matrices in, frames x `vertices` positions out).
+void animate(int vertices, const std::function<void(int, std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
              const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
              std::span<FrameSink* const> sinks, const std::string& source);
 
@@ -108,6 +110,17 @@ void animate(int vertices, const std::function<void(std::span<const Mat4>, std::
 /// of the binding); a non-finite position is refused naming `source`.
 void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
              std::span<FrameSink* const> sinks, const std::string& source);
+
+/// Node offsets keyed over frames (docs/rig-format.md): per node, keys of
+/// (frame, offset), interpolated linearly and held past the first and last.
+struct NodeKeys {
+  std::map<std::string, std::vector<std::pair<double, Vec3>>> nodes;
+  /// Every node's offset at `frame`.
+  [[nodiscard]] NodeOffsets at(double frame) const;
+};
+/// \throw InputError with the JSON path of the fault.
+NodeKeys read_node_keys(const std::string& path);
+NodeKeys parse_node_keys(const std::string& text, const std::string& source);
 
 /// What a job's summary says of the binding it made.
 struct JobSummary {
@@ -157,6 +170,7 @@ struct AnimateJob {
   long long max_frames = 100000;
   std::string pc2, obj_sequence, cut_mesh_sequence;
   LayerSpec layer;
+  std::string node_keys; ///< optional: node offsets keyed over the frames (read_node_keys); layered
   /// A farm task's part file (farm.hpp): the frames checksummed, marked
   /// with `part_key` (the farm job's), in single precision (what a PC2
   /// cache keeps) or double (what an OBJ sequence prints).

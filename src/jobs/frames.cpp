@@ -81,10 +81,11 @@ void animate(const Binding& binding, const std::function<std::vector<Mat4>(int f
              std::span<FrameSink* const> sinks, const std::string& source) {
   animate(
       binding.num_input_vertices(),
-      [&](std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, pose, range, sinks, source);
+      [&](int, std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, pose, range, sinks,
+      source);
 }
 
-void animate(int vertices, const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
+void animate(int vertices, const std::function<void(int, std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
              const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
              std::span<FrameSink* const> sinks, const std::string& source) {
   const int frames = range.count(), nv = vertices;
@@ -100,7 +101,7 @@ void animate(int vertices, const std::function<void(std::span<const Mat4>, std::
       M.insert(M.end(), m.begin(), m.end());
     }
     out.resize(static_cast<size_t>(b1 - b0) * nv);
-    deform_frames(M, out);
+    deform_frames(range.first + b0, M, out);
     for (int f = b0; f < b1; ++f) {
       const std::span<const Vec3> positions(out.data() + static_cast<size_t>(f - b0) * nv, static_cast<size_t>(nv));
       for (int i = 0; i < nv; ++i)

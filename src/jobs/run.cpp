@@ -10,6 +10,8 @@
 #include "io/file_bytes.hpp"
 #include "io/frames_part.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <memory>
@@ -178,14 +180,25 @@ AnimateSummary animate_layered(const AnimateJob& job, const Scene& scene, const 
     all.push_back(k.get());
   auto pose = [&](int frame) { return clip_skinning_matrices(layer.joints(), clips, clip, range.time(frame)); };
   const double envelope = job.layer.envelope;
+  std::optional<NodeKeys> keys;
+  if (!job.node_keys.empty())
+    keys = read_node_keys(job.node_keys);
+  const size_t nj = layer.joints().size();
+  auto frames = [&](int first, std::span<const Mat4> M, std::span<Vec3> out) {
+    if (!keys)
+      return layer.deform_frames(M, out, envelope);
+    tbb::parallel_for(size_t{0}, M.size() / nj, [&](size_t f) {
+      const NodeOffsets offsets = keys->at(first + static_cast<int>(f));
+      layer.deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv), envelope, &offsets);
+    });
+  };
   if (!all.empty())
-    animate(
-        nv, [&](std::span<const Mat4> M, std::span<Vec3> out) { layer.deform_frames(M, out, envelope); }, pose, range,
-        all, clips.source);
+    animate(nv, frames, pose, range, all, clips.source);
   if (!job.cut_mesh_sequence.empty()) {
     std::vector<Vec3> cut;
     for (int f = range.first; f <= range.last; ++f) {
-      layer.deform_cut(pose(f), cut, envelope);
+      const NodeOffsets offsets = keys ? keys->at(f) : NodeOffsets{};
+      layer.deform_cut(pose(f), cut, envelope, &offsets);
       files.add((std::filesystem::path(job.cut_mesh_sequence) / sequence_name("cut_frame", f)).string(),
                 layer.binding().embedding().cut_mesh_obj(cut));
     }
@@ -217,7 +230,7 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   Scene scene = read_scene(job.scene);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
   OutputFiles files;
-  if (layered(job.layer, false))
+  if (layered(job.layer, !job.node_keys.empty()))
     return animate_layered(job, scene, clips, clip, range, files);
   const BoundScene s = binder(std::move(scene), files);
   std::optional<InputTopology> topology;
