@@ -269,3 +269,36 @@ TEST(Layer, NodeKeysInterpolateOverTheFramesAndAnAnimationFollowsThem) {
   EXPECT_EQ(test::file_bytes(dir / "plain" / f0), test::file_bytes(dir / "pulled" / f0));
   EXPECT_NE(test::file_bytes(dir / "plain" / f8), test::file_bytes(dir / "pulled" / f8));
 }
+
+TEST(Layer, ABakeFittedToTheLayerComesCloserToItThanTheSkinItCorrects) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("layer_bake");
+  BakeJob job;
+  job.scene = {test::data("xr_tools_hand/hand_l.gltf"), test::data("xr_tools_hand/example/hand_l.cnrig.json"), "", ""};
+  job.fit = test::data("xr_tools_hand/hand_l_poses.glb");
+  job.glb = (dir / "layered.glb").string();
+  job.layer.over_skin = true;
+  (void)run(job);
+  // Over every pose of the clip file: the baked skin against the layer it
+  // was fitted to, and the original skin against the same.
+  const Hand h;
+  const CurveLayer layer = bind_layer(h.mesh, h.rig, &h.skin);
+  const SkinnedMesh baked = load_skinned_mesh(job.glb);
+  double baked_err = 0, skin_err = 0;
+  for (int c = 0; c < h.clips.num_clips(); ++c) {
+    const double t = h.clips.clip_range(c).first;
+    std::vector<Vec3> target(layer.num_input_vertices());
+    layer.deform(clip_skinning_matrices(layer.joints(), h.clips, c, t), target);
+    const std::vector<Vec3> b = skin_positions(baked, h.rest(), clip_skinning_matrices(baked.joints, h.clips, c, t));
+    const std::vector<Vec3> s = skin_positions(h.skin, h.rest(), clip_skinning_matrices(h.skin.joints, h.clips, c, t));
+    for (size_t i = 0; i < target.size(); ++i) {
+      baked_err += (b[i] - target[i]).norm();
+      skin_err += (s[i] - target[i]).norm();
+    }
+  }
+  EXPECT_LT(baked_err, 0.5 * skin_err) << "baked " << baked_err << ", skin " << skin_err;
+  // A layered bake needs clips to fit over.
+  job.fit.clear();
+  EXPECT_THROW(run(job), InputError);
+}

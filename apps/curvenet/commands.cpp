@@ -188,6 +188,7 @@ int run_bake(const BakeArgs& a) {
   job.max_influences = a.max_influences;
   job.fps = a.fps;
   job.up = a.up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
+  job.layer = layer_spec(a);
   const BakeSummary j = run(job);
   print_job(std::cout, "bake", j);
   std::cout << "weights: "

@@ -217,6 +217,7 @@ int main(int argc, char** argv) {
   bake->add_option("--fit", bake_args.fit,
                    "Fit the weights to the full deformation over every frame of this glTF/GLB's clips "
                    "(least squares per vertex, non-negative, on the harmonic influences)");
+  layer_options(bake, bake_args);
   (void)bake_out;
   (void)bake_csv;
 

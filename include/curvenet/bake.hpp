@@ -11,6 +11,7 @@
 #include "curvenet/rig.hpp"
 #include "curvenet/skin.hpp"
 
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -23,9 +24,7 @@ struct SkinWeights {
   std::vector<std::string> joints; ///< joint names; `joint` indexes them
   std::vector<int> joint;          ///< vertices x influences, -1 for an unused slot
   std::vector<double> weight;      ///< vertices x influences, largest first; each vertex's sum is 1
-  [[nodiscard]] int num_vertices() const {
-    return influences > 0 ? static_cast<int>(joint.size()) / influences : 0;
-  }
+  [[nodiscard]] int num_vertices() const { return influences > 0 ? static_cast<int>(joint.size()) / influences : 0; }
 };
 
 /// The largest `max_influences` harmonic weights s_j of each input vertex,
@@ -42,11 +41,20 @@ SkinWeights bake_weights(const Binding& binding, int max_influences = 4);
 ///   has the wrong number of matrices.
 SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences = 4);
 
+/// The same fit to another deformation of the binding's vertices (a layer
+/// over the skin, layer.hpp): `deform_frames` as Binding::deform_frames,
+/// and `candidates(v, influences)` given each vertex's harmonic influences
+/// to change into the joints to fit over, with the weights the pull goes
+/// towards.
+SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences,
+                        const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
+                        const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates);
+
 /// Skinning with these weights: `rest` (one position per input vertex) moved
 /// by `skinning` (one matrix per joint of the weights), linearly or by dual
 /// quaternions.
-std::vector<Vec3> skin_positions(const SkinWeights& weights, std::span<const Vec3> rest,
-                                 std::span<const Mat4> skinning, Skinning method = Skinning::Linear);
+std::vector<Vec3> skin_positions(const SkinWeights& weights, std::span<const Vec3> rest, std::span<const Mat4> skinning,
+                                 Skinning method = Skinning::Linear);
 
 /// The weights as CSV: a header, then one row per input vertex
 /// (`vertex,joint_0,weight_0,...`), joints by name, empty where unused.

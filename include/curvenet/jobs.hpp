@@ -199,6 +199,9 @@ struct BakeJob {
   int max_influences = 4;
   double fps = 24;
   GltfBakeOptions::Up up = GltfBakeOptions::Up::Y;
+  /// With `fit`: fit the weights to the layered result (over the mesh's own
+  /// skin), not to the net alone.
+  LayerSpec layer;
 };
 struct BakeSummary : JobSummary {
   int joints = 0, influences = 0;

@@ -45,6 +45,9 @@ public:
   /// The net's binding (its embedding, its report).
   [[nodiscard]] const Binding& binding() const;
   [[nodiscard]] bool over_skin() const;
+  /// The base's weights of an input vertex, as (joint, weight) pairs: the
+  /// skin's (over a skin), or the net's harmonic weights.
+  void base_weights(int input_vertex, std::vector<std::pair<int, double>>& out) const;
 
   /// The base moved by `skinning` (one matrix per joint, as Binding::deform
   /// takes them), plus `envelope` times the masked correction. Output in

@@ -1,9 +1,9 @@
 // Baked skin weights: the top-k harmonic weights, weights fitted to the full
 // deformation over sample poses, linear blend skinning with them, and CSV.
 
+#include "core/dual_quaternion.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/errors.hpp"
-#include "core/dual_quaternion.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -113,6 +113,14 @@ SkinWeights bake_weights(const Binding& binding, int max_influences) {
 }
 
 SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences) {
+  return fit_weights(
+      binding, poses, max_influences,
+      [&](std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, nullptr);
+}
+
+SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences,
+                        const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
+                        const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates) {
   check_influences(max_influences);
   const size_t nj = binding.joints().size();
   const int n = binding.num_input_vertices();
@@ -123,12 +131,12 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
   SkinWeights w = empty_weights(binding, max_influences);
   // The rest pose and every sample pose through the binding itself.
   std::vector<Vec3> rest(n);
-  binding.deform(std::vector<Mat4>(nj, Mat4::Identity()), rest);
+  deform_frames(std::vector<Mat4>(nj, Mat4::Identity()), rest);
   std::vector<Mat4> all;
   for (const auto& p : poses)
     all.insert(all.end(), p.begin(), p.end());
   std::vector<Vec3> target(poses.size() * n);
-  binding.deform_frames(all, target);
+  deform_frames(all, target);
   // A gentle pull (relative to the motion's size) towards the harmonic
   // weights keeps joints the poses do not move at their harmonic share.
   double scale = 0;
@@ -138,6 +146,8 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
   tbb::parallel_for(0, n, [&](int v) {
     std::vector<std::pair<int, double>> inf;
     binding.harmonic_weights(v, inf);
+    if (candidates)
+      candidates(v, inf);
     const int m = static_cast<int>(inf.size());
     if (m <= 1 || poses.empty()) {
       store(inf, max_influences, w, v);
@@ -191,9 +201,9 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
 std::vector<Vec3> skin_positions(const SkinWeights& w, std::span<const Vec3> rest, std::span<const Mat4> skinning,
                                  Skinning method) {
   if (static_cast<int>(rest.size()) != w.num_vertices() || skinning.size() != w.joints.size())
-    throw Error("skin_positions: " + std::to_string(rest.size()) + " positions and " +
-                std::to_string(skinning.size()) + " matrices for weights of " + std::to_string(w.num_vertices()) +
-                " vertices and " + std::to_string(w.joints.size()) + " joints");
+    throw Error("skin_positions: " + std::to_string(rest.size()) + " positions and " + std::to_string(skinning.size()) +
+                " matrices for weights of " + std::to_string(w.num_vertices()) + " vertices and " +
+                std::to_string(w.joints.size()) + " joints");
   std::vector<Vec3> out(rest.size());
   std::vector<detail::DualJoint> dual;
   if (method == Skinning::DualQuaternion)

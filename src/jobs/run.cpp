@@ -306,10 +306,40 @@ BakeSummary run(const BakeJob& job) {
     (void)clip_skinning_matrices(scene.rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
   }
   OutputFiles files; // all or nothing
-  const BoundScene s = bind_scene(std::move(scene), job.options, files);
-  const Binding& b = s.binding;
-  const SkinWeights w = fit ? fit_weights(b, clip_poses(b.joints(), *fit, job.fps), job.max_influences)
-                            : bake_weights(b, job.max_influences);
+  std::optional<CurveLayer> layer;
+  std::optional<BoundScene> bound;
+  if (layered(job.layer, false)) {
+    if (!fit)
+      throw InputError("--over-skin", "", "a layered bake fits its weights: give the clips to fit over with --fit");
+    layer.emplace(layer_of(scene, job.layer, job.options));
+  } else {
+    bound.emplace(bind_scene(std::move(scene), job.options, files));
+  }
+  const Binding& b = layer ? layer->binding() : bound->binding;
+  SkinWeights w;
+  if (layer) {
+    const double envelope = job.layer.envelope;
+    w = fit_weights(
+        b, clip_poses(b.joints(), *fit, job.fps), job.max_influences,
+        [&](std::span<const Mat4> M, std::span<Vec3> out) { layer->deform_frames(M, out, envelope); },
+        [&](int v, std::vector<std::pair<int, double>>& inf) {
+          // The skin's joints join the net's, and the pull goes towards the skin's weights.
+          std::vector<std::pair<int, double>> base;
+          layer->base_weights(v, base);
+          for (auto& [j, x] : inf)
+            x = 0;
+          for (const auto& [j, x] : base) {
+            const auto it = std::find_if(inf.begin(), inf.end(), [j = j](const auto& q) { return q.first == j; });
+            if (it == inf.end())
+              inf.emplace_back(j, x);
+            else
+              it->second = x;
+          }
+        });
+  } else {
+    w = fit ? fit_weights(b, clip_poses(b.joints(), *fit, job.fps), job.max_influences)
+            : bake_weights(b, job.max_influences);
+  }
   GltfBakeOptions opt;
   opt.up = job.up;
   opt.fps = job.fps;
@@ -320,7 +350,8 @@ BakeSummary run(const BakeJob& job) {
     files.add(job.weights_csv, weights_csv(w));
   files.commit();
   BakeSummary out;
-  static_cast<JobSummary&>(out) = summary_of(s);
+  static_cast<JobSummary&>(out) =
+      layer ? summary_of(scene, *layer) : summary_of(*bound); // scene moved only without a layer
   long long used = 0;
   for (int v = 0; v < w.num_vertices(); ++v) {
     int n = 0;

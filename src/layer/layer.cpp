@@ -66,6 +66,19 @@ bool CurveLayer::over_skin() const {
   return impl_->over_skin;
 }
 
+void CurveLayer::base_weights(int v, std::vector<std::pair<int, double>>& out) const {
+  const Impl& L = *impl_;
+  if (!L.over_skin)
+    return L.binding.harmonic_weights(v, out);
+  out.clear();
+  for (int k = 0; k < 4; ++k) {
+    const int j = L.skin.vertex_joint.at(static_cast<size_t>(v))[k];
+    const double w = L.skin.vertex_weight[v][k];
+    if (j >= 0 && w > 0 && L.skin_to_joint[j] >= 0)
+      out.emplace_back(L.skin_to_joint[j], w);
+  }
+}
+
 namespace {
 
 /// Over a skin, the rig on the skin's own skeleton: the same joints by
