@@ -910,6 +910,39 @@ PYBIND11_MODULE(_curvenet, m) {
                     [](JointPose& x, const Eigen::Vector3d& v) { x.scale = v; })
       .def("matrix", &JointPose::matrix);
   py::class_<SkinnedMesh>(m, "SkinnedMesh", "A file's own skeleton, skin weights and clips")
+      .def_static(
+          "from_weights",
+          [](const std::vector<Joint>& joints, const py::object& joint, const py::object& weight,
+             const std::string& source) {
+            const Indices j = Indices::ensure(joint);
+            const Points w = Points::ensure(weight);
+            if (!j || !w || j.ndim() != 2 || w.ndim() != 2 || j.shape(0) != w.shape(0) || j.shape(1) != 4 ||
+                w.shape(1) != 4)
+              throw py::value_error("joint and weight: expected two (n, 4) arrays");
+            SkinnedMesh s;
+            s.joints = joints;
+            s.source = source;
+            for (const Joint& jt : joints)
+              s.inverse_bind.push_back(jt.bind.inverse());
+            for (py::ssize_t v = 0; v < j.shape(0); ++v) {
+              std::array<int, 4> jj{};
+              std::array<double, 4> ww{};
+              for (int k = 0; k < 4; ++k) {
+                jj[k] = j.at(v, k);
+                ww[k] = w.at(v, k);
+                if (jj[k] < -1 || jj[k] >= static_cast<int>(joints.size()))
+                  throw InputError(source, "vertex " + std::to_string(v), "names no joint");
+                if (!std::isfinite(ww[k]) || ww[k] < 0)
+                  throw InputError(source, "vertex " + std::to_string(v), "has a weight that is not finite or >= 0");
+              }
+              s.vertex_joint.push_back(jj);
+              s.vertex_weight.push_back(ww);
+            }
+            return s;
+          },
+          py::arg("joints"), py::arg("joint"), py::arg("weight"), py::arg("source") = "weights",
+          "A skin from weights: (n, 4) joint indices (-1 unused) and weights per vertex, over `joints` (a Blender "
+          "mesh's vertex groups, say)")
       .def_readonly("joints", &SkinnedMesh::joints)
       .def_readonly("clip_names", &SkinnedMesh::clip_names)
       .def_readonly("source", &SkinnedMesh::source)
@@ -1043,6 +1076,12 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property_readonly("joints", &CurveLayer::joints)
       .def_property_readonly("num_input_vertices", &CurveLayer::num_input_vertices)
       .def_property_readonly("over_skin", &CurveLayer::over_skin)
+      .def_property_readonly(
+          "binding",
+          [](const CurveLayer& l) {
+            return PyBinding{l.binding(), {}, {}};
+          },
+          "The net's own binding")
       .def(
           "deform",
           [](const CurveLayer& l, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
@@ -1064,7 +1103,29 @@ PYBIND11_MODULE(_curvenet, m) {
           },
           py::arg("skinning"), py::kw_only(), py::arg("envelope") = 1.0, py::arg("offsets") = py::none(),
           "Positions (n, 3), one per input vertex: the base moved by skinning matrices (J, 4, 4), plus envelope times "
-          "the masked correction; offsets: node id -> (3,) offset in rest space");
+          "the masked correction; offsets: node id -> (3,) offset in rest space")
+      .def(
+          "rest_correction",
+          [](const CurveLayer& l, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
+             double envelope, const std::optional<std::map<std::string, Vec3>>& offsets) {
+            const size_t nj = l.joints().size();
+            if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != nj || skinning.shape(1) != 4 ||
+                skinning.shape(2) != 4)
+              throw py::value_error("skinning: expected a (" + std::to_string(nj) + ", 4, 4) array, one per joint");
+            if (!(envelope >= 0 && envelope <= 1))
+              throw py::value_error("envelope: expected a number from 0 to 1");
+            std::vector<Mat4> M;
+            matrices_into(skinning, M);
+            std::vector<Vec3> out(static_cast<size_t>(l.num_input_vertices()));
+            {
+              py::gil_scoped_release release;
+              l.rest_correction(M, out, envelope, offsets ? &*offsets : nullptr);
+            }
+            return points_array(out);
+          },
+          py::arg("skinning"), py::kw_only(), py::arg("envelope") = 1.0, py::arg("offsets") = py::none(),
+          "Over a skin: (n, 3) displacements in rest space that the skin moves to the layered result (a corrective "
+          "shape key under Blender's Armature modifier)");
   m.def(
       "bind_layer",
       [](const SurfaceMesh& mesh, const Rig& rig, const std::optional<SkinnedMesh>& skin, const std::string& skinning,

@@ -44,6 +44,8 @@ class ObjectState:
         self.paths = {}  # profile id -> (k, 3) traced path, object space
         self.last_nodes = []  # the node each profile of the current stroke started from
         self.binding = None
+        self.layer = None  # curvenet.CurveLayer when the net is layered over the Armature modifier
+        self.rest = None  # (n, 3) rest positions, for the layer's corrective shape key
         self.bone_names = []  # per binding joint, the armature bone that drives it
         self.matrices = None  # (J, 4, 4) scratch, filled per frame
         self.positions = None  # (n, 3) float32 scratch
@@ -463,33 +465,82 @@ def starter(obj, arm, **options):
 
 
 METHOD_KEY = "curvenet_method"
+LAYER_KEY = "curvenet_layer"
 
 
-def bind(obj, arm, method=None):
+def skin_from_groups(obj, joints):
+    """The object's vertex groups as a skin over `joints` (matched to groups by
+    bone name): each vertex's four largest weights, normalised, as the
+    Armature modifier normalises them."""
+    index = {j.name: i for i, j in enumerate(joints)}
+    group_joint = {g.index: index.get(g.name, -1) for g in obj.vertex_groups}
+    n = len(obj.data.vertices)
+    J = np.full((n, 4), -1, dtype=np.int64)
+    W = np.zeros((n, 4))
+    for v in obj.data.vertices:
+        ws = sorted(
+            ((g.weight, group_joint.get(g.group, -1)) for g in v.groups if g.weight > 0),
+            key=lambda x: -x[0],
+        )
+        ws = [x for x in ws if x[1] >= 0][:4]
+        total = sum(w for w, _ in ws)
+        for k, (w, j) in enumerate(ws):
+            J[v.index, k] = j
+            W[v.index, k] = w / total
+    return curvenet.SkinnedMesh.from_weights(joints, J, W, obj.name)
+
+
+def armature_modifier(obj, arm):
+    for mod in obj.modifiers:
+        if mod.type == "ARMATURE" and mod.object == arm:
+            return mod
+    return None
+
+
+def bind(obj, arm, method=None, layer=None):
     """Binds the object's rig to the armature (its bones replace the rig's
     skeleton, matched by name), and starts live deformation. method:
-    'dq', 'harmonic' or 'gradient' (docs/deform.md); by default the object's last."""
+    'dq', 'harmonic' or 'gradient' (docs/deform.md); by default the object's last.
+    layer: keep the Armature modifier and layer the net over it, through a
+    corrective shape key in rest space (docs/blender.md); by default the object's last."""
+    joints = armature_joints(obj, arm)
     rig = get_rig(obj)
-    rig = curvenet.with_skeleton(rig, armature_joints(obj, arm), arm.name)
+    rig = curvenet.with_skeleton(rig, joints, arm.name)
     set_rig(obj, rig)
     st = state(obj)
     method = method or obj.get(METHOD_KEY, "dq")
-    st.binding = curvenet.bind(engine_mesh(obj), rig, method=method)
+    layer = bool(obj.get(LAYER_KEY, False)) if layer is None else layer
+    mod = armature_modifier(obj, arm)
+    if layer and mod is None:
+        raise curvenet.InputError(obj.name, "modifiers", "a layer sits on an Armature modifier: add one for " + arm.name)
+    if layer:
+        skinning = "dq" if mod.use_deform_preserve_volume else "linear"
+        st.layer = curvenet.bind_layer(
+            engine_mesh(obj), rig, skin=skin_from_groups(obj, joints), skinning=skinning, method=method
+        )
+        st.binding = st.layer.binding
+        st.rest = rest_arrays(obj)[0].astype(np.float32)
+    else:
+        st.layer = None
+        st.binding = curvenet.bind(engine_mesh(obj), rig, method=method)
     obj[METHOD_KEY] = method
+    obj[LAYER_KEY] = layer
     names = {b.name for b in arm.data.bones}
     st.bone_names = [n if n in names else None for n in st.binding.joint_names]
     st.matrices = np.empty((len(st.bone_names), 4, 4), dtype=np.float64)
     st.positions = np.empty((st.binding.num_input_vertices, 3), dtype=np.float32)
     st.last_pose = None
     obj[ARMATURE_KEY] = arm.name
-    _prepare_live(obj)
+    _prepare_live(obj, keep_armature=layer)
     update_live(obj, force=True)
     return st.binding
 
 
-def _prepare_live(obj):
+def _prepare_live(obj, keep_armature=False):
     """A shape key over the basis receives the deformed positions; Armature
-    modifiers on the object are switched off so the mesh is not moved twice."""
+    modifiers on the object are switched off so the mesh is not moved twice.
+    A layer keeps them: its shape key holds the rest position plus the
+    correction, which the Armature modifier then moves."""
     me = obj.data
     if me.shape_keys is None:
         obj.shape_key_add(name="Basis", from_mix=False)
@@ -500,6 +551,8 @@ def _prepare_live(obj):
     key.slider_max = 1.0
     off = set(filter(None, obj.get(MODIFIERS_KEY, "").split("\n")))
     for mod in obj.modifiers:
+        if keep_armature:
+            break
         if mod.type == "ARMATURE" and (mod.show_viewport or mod.show_render):
             off.add(mod.name)
             mod.show_viewport = False
@@ -511,6 +564,7 @@ def unbind(obj):
     """Stops live deformation: removes the shape key, restores the Armature modifiers."""
     st = state(obj)
     st.binding = None
+    st.layer = None
     if ARMATURE_KEY in obj:
         del obj[ARMATURE_KEY]
     me = obj.data
@@ -578,7 +632,10 @@ def update_live(obj, depsgraph=None, force=False):
     if not force and not np.not_equal(st.last_pose, st.matrices, out=st.changed).any():
         return False
     st.last_pose[...] = st.matrices
-    st.binding.deform(st.matrices, out=st.positions)
+    if st.layer is not None:  # the rest position and the correction, for the Armature modifier to move
+        np.add(st.rest, st.layer.rest_correction(st.matrices), out=st.positions, casting="unsafe")
+    else:
+        st.binding.deform(st.matrices, out=st.positions)
     key = obj.data.shape_keys.key_blocks.get(SHAPE_KEY) if obj.data.shape_keys else None
     if key is None:
         return False

@@ -214,12 +214,13 @@ class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
             self.report({"ERROR"}, "Select an armature (or set one in the panel)")
             return {"CANCELLED"}
         method = context.scene.curvenet.method if self.method == "SCENE" else self.method
-        ok, b = _attempt(self, context, "Bind", lambda: core.bind(obj, arm, method))
+        layer = context.scene.curvenet.layer
+        ok, b = _attempt(self, context, "Bind", lambda: core.bind(obj, arm, method, layer=layer))
         if not ok:
             return {"CANCELLED"}
         context.scene.curvenet.armature = arm
-        return _done(self, context, "Bind (%s): %d vertices, %.2f influences per vertex" % (
-            b.method, b.report["vertices"], b.report["mean_influences"]))
+        return _done(self, context, "Bind (%s%s): %d vertices, %.2f influences per vertex" % (
+            b.method, ", over the Armature" if layer else "", b.report["vertices"], b.report["mean_influences"]))
 
 
 class CURVENET_OT_unbind(_MeshOperator, bpy.types.Operator):

@@ -1,7 +1,7 @@
 """The sidebar panel (3D view, N panel, tab "Curvenet"): the thesis's workflow, top to bottom."""
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, PointerProperty, StringProperty
 
 from . import core
 
@@ -26,6 +26,11 @@ class CurvenetSceneProps(bpy.types.PropertyGroup):
                ("harmonic", "Harmonic", "Blend the joints' matrices per vertex, linearly, with the net's weights"),
                ("gradient", "Gradient", "Per-face deformation gradients, rotation-aware, and a Poisson solve")),
         default="dq")
+    layer: BoolProperty(
+        name="Layer over Armature",
+        description="Keep the mesh's Armature modifier (its skin, Preserve Volume or not) and layer the net over it "
+                    "as a corrective shape key",
+        default=False)
     status: StringProperty(name="Status")
 
 
@@ -72,6 +77,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box.label(text="3. Bind", icon="ARMATURE_DATA")
         box.prop(props, "armature")
         box.prop(props, "method")
+        box.prop(props, "layer")
         if rig is not None and rig.has_skeleton and props.armature is None:
             box.operator("curvenet.make_armature")
         row = box.row(align=True)

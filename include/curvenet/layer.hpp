@@ -62,6 +62,14 @@ public:
   /// input vertex, does not apply.
   void deform_cut(std::span<const Mat4> skinning, std::vector<Vec3>& cut, double envelope = 1,
                   const NodeOffsets* offsets = nullptr) const;
+  /// Over a skin: the displacement `out` (one per input vertex, in rest
+  /// space) such that the skin moves `rest + out` to what deform() gives.
+  /// So a tool whose own skinning comes after it (Blender's Armature
+  /// modifier after a shape key) plays the layer: the skin's blend is affine
+  /// in the rest position at each vertex, and its linear part is inverted.
+  /// \throw Error when the layer is not over a skin.
+  void rest_correction(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope = 1,
+                       const NodeOffsets* offsets = nullptr) const;
   /// Many frames at once, in parallel: frames x joints matrices, frames x
   /// vertices positions; each frame exactly what deform() gives.
   void deform_frames(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope = 1) const;

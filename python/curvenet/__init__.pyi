@@ -357,6 +357,12 @@ class JointPose:
 
 class SkinnedMesh:
     """A file's own skeleton, skin weights and clips (glTF/GLB; FBX without clips)."""
+    @staticmethod
+    def from_weights(
+        joints: Sequence[Joint], joint: npt.ArrayLike, weight: npt.ArrayLike, source: str = "weights"
+    ) -> "SkinnedMesh":
+        """A skin from (n, 4) joint indices (-1 unused) and weights per vertex over `joints` (a Blender mesh's vertex
+        groups, say). Raises InputError for an index past the joints or a negative weight."""
     joints: list[Joint]
     clip_names: list[str]
     source: str
@@ -412,12 +418,19 @@ class CurveLayer:
     joints: list[Joint]
     num_input_vertices: int
     over_skin: bool
+    binding: Binding
+    """The net's own binding (its report, weights, embedding)."""
     def deform(
         self, skinning: npt.ArrayLike, *, envelope: float = 1.0, offsets: Optional[Mapping[str, npt.ArrayLike]] = None
     ) -> FloatArray:
         """(n, 3): the base (the skin, or the net) moved by skinning matrices (J, 4, 4), plus `envelope` times the
         masked correction that puts the chains on the posed curves and their nodes' `offsets` (node id -> (3,) in rest
         space). Envelope 0 is the base exactly."""
+    def rest_correction(
+        self, skinning: npt.ArrayLike, *, envelope: float = 1.0, offsets: Optional[Mapping[str, npt.ArrayLike]] = None
+    ) -> FloatArray:
+        """Over a skin: (n, 3) displacements in rest space that the skin moves to `deform`'s result, for a corrective
+        shape key under Blender's Armature modifier."""
 
 def bind_layer(
     mesh: Mesh, rig: Rig, *, skin: Optional[SkinnedMesh] = None, skinning: str = "linear",

@@ -12,7 +12,10 @@
 
 #include <tbb/parallel_for.h>
 
+#include <Eigen/LU>
 #include <Eigen/SparseCholesky>
+
+#include <array>
 
 #include <cmath>
 
@@ -350,6 +353,40 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
     if (!out[i].allFinite())
       throw InputError("pose", "vertex " + std::to_string(i),
                        "the pose moves it out of range (not a finite number); nothing was written");
+}
+
+void CurveLayer::rest_correction(std::span<const Mat4> M, std::span<Vec3> out, double envelope,
+                                 const NodeOffsets* offsets) const {
+  const Impl& L = *impl_;
+  if (!L.over_skin)
+    throw Error("rest_correction: the layer is not over a skin");
+  const size_t ni = L.input_to_welded.size();
+  std::vector<Vec3> layered(ni);
+  deform(M, layered, envelope, offsets);
+  if (out.size() != ni)
+    throw Error("rest_correction: room for " + std::to_string(out.size()) + " positions, not " + std::to_string(ni));
+  std::vector<Mat4> skin_matrices(L.skin_to_joint.size(), Mat4::Identity());
+  for (size_t k = 0; k < L.skin_to_joint.size(); ++k)
+    if (L.skin_to_joint[k] >= 0)
+      skin_matrices[k] = M[L.skin_to_joint[k]];
+  // The skin at each vertex is affine in the rest position: its linear part
+  // from the images of the rest position moved along each axis.
+  const std::vector<Vec3> base = skin_positions(L.skin, L.input_rest, skin_matrices, L.skinning);
+  std::array<std::vector<Vec3>, 3> moved;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<Vec3> shifted = L.input_rest;
+    for (Vec3& p : shifted)
+      p[k] += 1;
+    moved[k] = skin_positions(L.skin, shifted, skin_matrices, L.skinning);
+  }
+  for (size_t i = 0; i < ni; ++i) {
+    Eigen::Matrix3d A;
+    for (int k = 0; k < 3; ++k)
+      A.col(k) = moved[k][i] - base[i];
+    const Vec3 d = layered[i] - base[i];
+    const Eigen::FullPivLU<Eigen::Matrix3d> lu(A);
+    out[i] = lu.isInvertible() ? Vec3(lu.solve(d)) : d;
+  }
 }
 
 void CurveLayer::deform_frames(std::span<const Mat4> M, std::span<Vec3> out, double envelope) const {

@@ -1,0 +1,88 @@
+"""The net layered over Blender's own Armature modifier, headless, on the
+shared hand: the Armature modifier stays on, and a corrective shape key in
+rest space (the rest position plus CurveLayer.rest_correction) makes the
+evaluated mesh what curvenet's layer computes, for linear blend skinning
+and for Preserve Volume (dual quaternions); with the key at 0 it is the
+Armature modifier's own skin; saving and reloading keeps the layer.
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+
+import addon_support as t  # noqa: E402
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from mathutils import Quaternion  # noqa: E402
+
+t.empty_scene()
+t.enable_addon()
+import curvenet  # noqa: E402
+from curvenet_blender import core  # noqa: E402
+
+HAND = os.path.join(t.DATA, "xr_tools_hand")
+meshes, arms = t.import_gltf(os.path.join(HAND, "hand_l.gltf"))
+obj, arm = meshes[0], arms[0]
+mod = core.armature_modifier(obj, arm)
+t.check(mod is not None, "the import comes with its Armature modifier")
+core.starter(obj, arm)
+diag = core.state(obj).diagonal
+
+
+def pose(angle):
+    for name in ("Index_Proximal_L", "Index_Intermediate_L", "Middle_Proximal_L", "Thumb_Proximal_L"):
+        pb = arm.pose.bones[name]
+        pb.rotation_mode = "QUATERNION"
+        pb.rotation_quaternion = Quaternion((1, 0, 0), angle)
+    bpy.context.view_layer.update()
+
+
+def layered_error(obj, arm):
+    st = core.state(obj)
+    core.update_live(obj, force=True)
+    want = st.layer.deform(core.skinning_matrices(obj, arm))
+    return np.abs(t.evaluated_positions(obj) - want).max() / diag
+
+
+for preserve in (False, True):
+    mod.use_deform_preserve_volume = preserve
+    if preserve:
+        core.bind(obj, arm, layer=True)
+    else:  # through the panel's checkbox and the Bind button
+        bpy.context.scene.curvenet.layer = True
+        t.select(obj, arm)
+        t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "Bind: " + bpy.context.scene.curvenet.status)
+        t.check("over the Armature" in bpy.context.scene.curvenet.status, bpy.context.scene.curvenet.status)
+    st = core.state(obj)
+    t.check(st.layer is not None and st.layer.over_skin, "bound as a layer over the skin")
+    t.check(mod.show_viewport and mod.show_render, "the Armature modifier stays on")
+    pose(0.9)
+    err = layered_error(obj, arm)
+    t.check(err < 1e-5, "preserve volume %s: the evaluated mesh is the layer (max %.2e of the diagonal)" % (preserve, err))
+    # The correction is real, and with the key at 0 the mesh is the Armature modifier's own.
+    key = obj.data.shape_keys.key_blocks[core.SHAPE_KEY]
+    layered = t.evaluated_positions(obj)
+    key.value = 0.0
+    skin = t.evaluated_positions(obj)
+    key.value = 1.0
+    moved = np.abs(layered - skin).max() / diag
+    t.check(moved > 1e-3, "the layer corrects the skin (by up to %.2f%% of the diagonal)" % (100 * moved))
+    want_skin = st.layer.deform(core.skinning_matrices(obj, arm), envelope=0.0)
+    skin_err = np.abs(skin - want_skin).max() / diag
+    t.check(skin_err < 1e-5, "the key at 0 is curvenet's skin of the vertex groups (max %.2e)" % skin_err)
+    pose(0.0)
+
+# Saved and reloaded, the layer binds again as a layer.
+path = os.path.join(t.OUT, "layer.blend")
+names = obj.name, arm.name
+core.forget(obj)
+bpy.ops.wm.save_as_mainfile(filepath=path)
+bpy.ops.wm.open_mainfile(filepath=path)
+obj, arm = bpy.data.objects[names[0]], bpy.data.objects[names[1]]
+t.check(core.ensure_binding(obj) is not None, "the reloaded object binds again")
+t.check(core.state(obj).layer is not None, "as a layer")
+pose(0.7)
+err = layered_error(obj, arm)
+t.check(err < 1e-5, "after reloading, the evaluated mesh is the layer (max %.2e)" % err)
+print("CURVENET_TEST all passed")
