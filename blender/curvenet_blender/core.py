@@ -46,6 +46,7 @@ class ObjectState:
         self.binding = None
         self.layer = None  # curvenet.CurveLayer when the net is layered over the Armature modifier
         self.rest = None  # (n, 3) rest positions, for the layer's corrective shape key
+        self.net_layer = None  # curvenet.CurveLayer over the net itself, for pulled nodes without a skin
         self.bone_names = []  # per binding joint, the armature bone that drives it
         self.matrices = None  # (J, 4, 4) scratch, filled per frame
         self.positions = None  # (n, 3) float32 scratch
@@ -523,6 +524,7 @@ def bind(obj, arm, method=None, layer=None):
     else:
         st.layer = None
         st.binding = curvenet.bind(engine_mesh(obj), rig, method=method)
+    st.net_layer = None
     obj[METHOD_KEY] = method
     obj[LAYER_KEY] = layer
     names = {b.name for b in arm.data.bones}
@@ -565,6 +567,7 @@ def unbind(obj):
     st = state(obj)
     st.binding = None
     st.layer = None
+    st.net_layer = None
     if ARMATURE_KEY in obj:
         del obj[ARMATURE_KEY]
     me = obj.data
@@ -618,6 +621,78 @@ def skinning_matrices(obj, arm, out=None, depsgraph=None):
     return out
 
 
+# --- pulling nodes: empties that give nodes offsets ------------------------
+
+HANDLE_KEY = "curvenet_node"  # on an empty: the node it pulls
+HANDLE_MESH_KEY = "curvenet_node_of"  # on an empty: the mesh object whose node it is
+
+
+def node_handles(obj):
+    return [o for o in bpy.data.objects if o.type == "EMPTY" and o.get(HANDLE_MESH_KEY) == obj.name and HANDLE_KEY in o]
+
+
+def _heaviest_bone(obj, node):
+    all_weights = ensure_binding(obj).node_weights
+    weights = dict(all_weights[node]) if node in all_weights else {}
+    if not weights:
+        raise curvenet.InputError(obj.name, node, "the node has no weights: bind first")
+    return max(weights.items(), key=lambda kv: kv[1])[0]
+
+
+def add_node_handle(obj, node):
+    """An empty that pulls `node`: it rides on the node's heaviest bone, and
+    moving it (or keying it on the timeline) gives the node an offset, which
+    the curves through the node and the regions they bound follow."""
+    arm = bound_armature(obj)
+    if arm is None or ensure_binding(obj) is None:
+        raise curvenet.InputError(obj.name, "binding", "bind the mesh to an armature first")
+    rig = get_rig(obj)
+    rest = rig.node(node).position
+    bone = _heaviest_bone(obj, node)
+    st = state(obj)
+    M = skinning_matrices(obj, arm)
+    posed = (M[st.bone_names.index(bone)] @ np.append(rest, 1.0))[:3]
+    e = bpy.data.objects.new("%s.node.%s" % (obj.name, node), None)
+    e.empty_display_type = "SPHERE"
+    e.empty_display_size = 0.01 * st.diagonal
+    _link_like(e, obj)
+    e[HANDLE_KEY] = node
+    e[HANDLE_MESH_KEY] = obj.name
+    e.parent = arm
+    e.parent_type = "BONE"
+    e.parent_bone = bone
+    bpy.context.view_layer.update()
+    e.matrix_world = obj.matrix_world @ Matrix.Translation(Vector(posed))
+    return e
+
+
+def node_offsets(obj, depsgraph=None):
+    """Each handle's node offset in rest space: the handle's place brought
+    back to rest through its bone's skinning matrix, minus the node's rest
+    position (state(obj).matrices must be the current pose's)."""
+    handles = node_handles(obj)
+    if not handles:
+        return {}
+    st = state(obj)
+    rig = get_rig(obj)
+    to_obj = obj.matrix_world.inverted()
+    out = {}
+    for e in handles:
+        node = e[HANDLE_KEY]
+        if rig.node_index(node) < 0:
+            continue
+        source = e.evaluated_get(depsgraph) if depsgraph is not None else e
+        p = to_obj @ source.matrix_world.translation
+        j = st.bone_names.index(e.parent_bone) if e.parent_bone in st.bone_names else -1
+        if j < 0:
+            continue
+        rest = np.linalg.solve(st.matrices[j], np.append(np.array(p), 1.0))[:3]
+        offset = rest - rig.node(node).position
+        if np.linalg.norm(offset) > 1e-9 * st.diagonal:
+            out[node] = offset
+    return out
+
+
 def update_live(obj, depsgraph=None, force=False):
     """Deforms the mesh for the armature's current pose into the shape key.
     Returns True when positions were written. Allocates no arrays."""
@@ -629,11 +704,17 @@ def update_live(obj, depsgraph=None, force=False):
     if st.last_pose is None:
         st.last_pose = np.full_like(st.matrices, np.nan)
         st.changed = np.empty(st.matrices.shape, dtype=bool)
-    if not force and not np.not_equal(st.last_pose, st.matrices, out=st.changed).any():
+    pulled = bool(node_handles(obj))  # a moved handle changes no bone: update whenever there are handles
+    if not force and not pulled and not np.not_equal(st.last_pose, st.matrices, out=st.changed).any():
         return False
     st.last_pose[...] = st.matrices
+    offsets = node_offsets(obj, depsgraph)
     if st.layer is not None:  # the rest position and the correction, for the Armature modifier to move
-        np.add(st.rest, st.layer.rest_correction(st.matrices), out=st.positions, casting="unsafe")
+        np.add(st.rest, st.layer.rest_correction(st.matrices, offsets=offsets), out=st.positions, casting="unsafe")
+    elif offsets:  # pulled nodes: through a layer over the net itself
+        if st.net_layer is None:
+            st.net_layer = curvenet.bind_layer(engine_mesh(obj), get_rig(obj), method=obj.get(METHOD_KEY, "dq"))
+        st.positions[...] = st.net_layer.deform(st.matrices, offsets=offsets)
     else:
         st.binding.deform(st.matrices, out=st.positions)
     key = obj.data.shape_keys.key_blocks.get(SHAPE_KEY) if obj.data.shape_keys else None
@@ -726,7 +807,8 @@ def node_weights(obj, node):
     """The node's weights as the binding uses them (given or automatic)."""
     st = state(obj)
     if st.binding is not None:
-        return dict(st.binding.node_weights.get(node, {}))
+        weights = st.binding.node_weights  # a bound map: no get()
+        return dict(weights[node]) if node in weights else {}
     rig = get_rig(obj)
     if not rig.has_skeleton:
         return {}

@@ -34,9 +34,13 @@ def on_frame_change(scene, depsgraph=None):
 
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
-    # Only a pose or transform change of an armature can move a bound mesh.
+    # Only a pose or transform change of an armature, or a node handle moved, can move a bound mesh.
     if depsgraph is not None:
-        if not any(isinstance(u.id, bpy.types.Object) and u.id.type == "ARMATURE" for u in depsgraph.updates):
+        if not any(
+            isinstance(u.id, bpy.types.Object)
+            and (u.id.type == "ARMATURE" or (u.id.type == "EMPTY" and core.HANDLE_KEY in u.id))
+            for u in depsgraph.updates
+        ):
             return
     _update_all(depsgraph)
 

@@ -14,7 +14,7 @@ sys.path.insert(0, os.path.dirname(__file__))
 import addon_support as t  # noqa: E402
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
-from mathutils import Quaternion  # noqa: E402
+from mathutils import Quaternion, Vector  # noqa: E402
 
 t.empty_scene()
 t.enable_addon()
@@ -73,6 +73,38 @@ for preserve in (False, True):
     t.check(skin_err < 1e-5, "the key at 0 is curvenet's skin of the vertex groups (max %.2e)" % skin_err)
     pose(0.0)
 
+# A node pulled by a handle keyed on the timeline: at rest at frames 1 and
+# 20, pulled by 2 % of the diagonal at frame 10.
+scene = bpy.context.scene
+scene.frame_set(1)
+pose(0.6)
+st = core.state(obj)
+rig = core.get_rig(obj)
+node = next(n.id for n in rig.nodes if core._heaviest_bone(obj, n.id) == "Index_Intermediate_L")
+handle = core.add_node_handle(obj, node)
+t.check(handle.parent_bone == "Index_Intermediate_L", "the handle rides on the node's bone")
+t.check(abs(sum(core.node_weights(obj, node).values()) - 1) < 1e-9, "the node's weights, from the binding, sum to 1")
+for f in (1, 20):
+    handle.keyframe_insert("location", frame=f)
+rest_location = handle.location.copy()
+handle.location = rest_location + Vector((0.02 * diag, 0, 0))
+handle.keyframe_insert("location", frame=10)
+
+
+def pulled_by(frame):
+    scene.frame_set(frame)
+    core.update_live(obj, force=True)
+    plain = st.layer.deform(core.skinning_matrices(obj, arm))
+    return np.abs(t.evaluated_positions(obj) - plain).max() / diag
+
+
+for f in (1, 20):
+    t.check(pulled_by(f) < 1e-5, "frame %d, keyed at rest: the mesh is the layer unpulled" % f)
+at10 = pulled_by(10)
+t.check(at10 > 5e-3, "frame 10: the pulled node moves the mesh (by %.2f%% of the diagonal)" % (100 * at10))
+t.check(len(core.node_offsets(obj)) == 1, "one node pulled at frame 10")
+scene.frame_set(1)
+
 # Saved and reloaded, the layer binds again as a layer.
 path = os.path.join(t.OUT, "layer.blend")
 names = obj.name, arm.name
@@ -82,7 +114,14 @@ bpy.ops.wm.open_mainfile(filepath=path)
 obj, arm = bpy.data.objects[names[0]], bpy.data.objects[names[1]]
 t.check(core.ensure_binding(obj) is not None, "the reloaded object binds again")
 t.check(core.state(obj).layer is not None, "as a layer")
-pose(0.7)
+pose(0.6)
 err = layered_error(obj, arm)
 t.check(err < 1e-5, "after reloading, the evaluated mesh is the layer (max %.2e)" % err)
+scene = bpy.context.scene
+scene.frame_set(10)
+core.update_live(obj, force=True)
+st = core.state(obj)
+plain = st.layer.deform(core.skinning_matrices(obj, arm))
+kept = np.abs(t.evaluated_positions(obj) - plain).max() / diag
+t.check(kept > 5e-3, "after reloading, the handle's key still pulls the node at frame 10 (%.2f%%)" % (100 * kept))
 print("CURVENET_TEST all passed")
