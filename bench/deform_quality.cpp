@@ -10,6 +10,7 @@
 // `curvenet bake`'s weights of the same rig on the generated cylinder. Each
 // case is posed by one or more frames; each metric is its worst frame.
 
+#include "curvenet/layer.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/errors.hpp"
@@ -371,6 +372,38 @@ void run(Case c, const std::string& ply_dir) {
     methods.push_back({label, [&c, b](size_t f) {
                          std::vector<Vec3> out(b->num_input_vertices());
                          b->deform(frame_matrices(c, b->joints(), f), out);
+                         return out;
+                       }});
+  }
+  // The net as a layer over the same skin (layer.hpp), with LBS and DQS.
+  SkinnedMesh skin_file;
+  skin_file.joints = c.skin_joints;
+  skin_file.source = c.name;
+  for (int v = 0; v < c.skin.num_vertices(); ++v) {
+    std::array<int, 4> j{-1, -1, -1, -1};
+    std::array<double, 4> w{0, 0, 0, 0};
+    for (int k = 0; k < std::min(c.skin.influences, 4); ++k) {
+      j[k] = c.skin.joint[static_cast<size_t>(v) * c.skin.influences + k];
+      w[k] = c.skin.weight[static_cast<size_t>(v) * c.skin.influences + k];
+    }
+    skin_file.vertex_joint.push_back(j);
+    skin_file.vertex_weight.push_back(w);
+  }
+  std::vector<std::unique_ptr<CurveLayer>> layers;
+  for (const Skinning s : {Skinning::Linear, Skinning::DualQuaternion}) {
+    LayerOptions o;
+    o.skinning = s;
+    const std::string label = s == Skinning::Linear ? "layer over LBS" : "layer over DQS";
+    try {
+      layers.push_back(std::make_unique<CurveLayer>(bind_layer(c.mesh, c.rig, &skin_file, o)));
+    } catch (const Error& e) {
+      std::printf("| %s | %s | refused: %s |\n", c.name.c_str(), label.c_str(), e.what());
+      continue;
+    }
+    const CurveLayer* l = layers.back().get();
+    methods.push_back({label, [&c, l](size_t f) {
+                         std::vector<Vec3> out(l->num_input_vertices());
+                         l->deform(frame_matrices(c, l->joints(), f), out);
                          return out;
                        }});
   }
