@@ -10,11 +10,11 @@
 // `curvenet bake`'s weights of the same rig on the generated cylinder. Each
 // case is posed by one or more frames; each metric is its worst frame.
 
-#include "curvenet/layer.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/layer.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/quality.hpp"
 #include "curvenet/skin.hpp"

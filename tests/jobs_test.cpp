@@ -6,6 +6,7 @@
 #include "curvenet/pose.hpp"
 #include "curvenet/starter.hpp"
 #include "helpers.hpp"
+#include "io/file_bytes.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -115,4 +116,23 @@ TEST(Jobs, APc2StreamedOnOneThreadOrManyIsTheSameBytesAndIsAllOrNothing) {
     EXPECT_THROW(animate(s.binding, s.clips, 0, range, sinks), Error);
   }
   EXPECT_FALSE(fs::exists(dir / "failed.pc2"));
+}
+
+TEST(Jobs, APoseJobReadsTheMeshFileOnceForItsSurfaceAndItsTopology) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("jobs_reads");
+  for (const std::string mesh : {"xr_tools_hand/hand_l.gltf", "xr_tools_hand/example/hand_l_welded.obj"}) {
+    PoseJob job;
+    job.scene = {test::data(mesh), test::data("xr_tools_hand/example/hand_l.cnrig.json"), "", ""};
+    job.pose = test::data("xr_tools_hand/example/fist.pose.json");
+    job.out = (dir / "fist.obj").string();
+    job.cut_mesh = (dir / "fist_cut.obj").string();
+    const long before = detail::file_reads(job.scene.mesh);
+    (void)run(job); // the surface, the input topology, the cut mesh: one read at most (none if cached)
+    EXPECT_LE(detail::file_reads(job.scene.mesh) - before, 1) << mesh;
+    const long again = detail::file_reads(job.scene.mesh);
+    (void)run(job); // a settled file, unchanged: not read again
+    EXPECT_EQ(detail::file_reads(job.scene.mesh), again) << mesh;
+  }
 }

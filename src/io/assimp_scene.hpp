@@ -15,8 +15,8 @@ namespace curvenet::detail {
 
 struct AssimpScene {
   RawMesh mesh;
-  std::vector<Joint> joints; ///< bones, parents first, bind in the mesh's (world) space
-  std::vector<std::array<int, 4>> vertex_joint;    ///< per vertex, -1 when unused
+  std::vector<Joint> joints;                        ///< bones, parents first, bind in the mesh's (world) space
+  std::vector<std::array<int, 4>> vertex_joint;     ///< per vertex, -1 when unused
   std::vector<std::array<double, 4>> vertex_weight; ///< normalised
 };
 

@@ -508,6 +508,7 @@ struct SceneCache {
     std::string path;
     size_t size = 0, hash = 0; ///< of the bytes: a file rewritten within the clock's tick keeps its mtime
     std::shared_ptr<const GltfScene> scene;
+    std::optional<FileStamp> stamp; ///< settled when read: then an unchanged stamp needs no second read
   };
   std::mutex mutex;
   std::vector<Entry> entries; // the most recent last, at most kKept
@@ -524,6 +525,12 @@ GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes);
 
 } // namespace
 
+void forget_gltf_parses() {
+  SceneCache& c = scene_cache();
+  std::lock_guard lock(c.mutex);
+  c.entries.clear();
+}
+
 long gltf_parses() {
   SceneCache& c = scene_cache();
   std::lock_guard lock(c.mutex);
@@ -531,22 +538,31 @@ long gltf_parses() {
 }
 
 GltfScene read_gltf_scene(const std::string& path) {
-  const std::string bytes = file_bytes(path);
   std::error_code ec;
   const std::string key = std::filesystem::absolute(path, ec).lexically_normal().string();
-  const size_t hash = std::hash<std::string_view>{}(bytes);
+  const std::optional<FileStamp> stamp = settled_stamp(path);
   SceneCache& c = scene_cache();
   {
     std::lock_guard lock(c.mutex);
     for (const auto& e : c.entries)
-      if (e.path == key && e.size == bytes.size() && e.hash == hash)
+      if (e.path == key && stamp && e.stamp == stamp)
+        return *e.scene; // a settled file, unchanged: not read again
+  }
+  const std::string bytes = file_bytes(path);
+  const size_t hash = std::hash<std::string_view>{}(bytes);
+  {
+    std::lock_guard lock(c.mutex);
+    for (auto& e : c.entries)
+      if (e.path == key && e.size == bytes.size() && e.hash == hash) {
+        e.stamp = stamp;
         return *e.scene;
+      }
   }
   auto scene = std::make_shared<const GltfScene>(parse_gltf_scene(path, bytes));
   std::lock_guard lock(c.mutex);
   ++c.parses;
   std::erase_if(c.entries, [&](const SceneCache::Entry& e) { return e.path == key; });
-  c.entries.push_back({key, bytes.size(), hash, scene});
+  c.entries.push_back({key, bytes.size(), hash, scene, stamp});
   if (c.entries.size() > SceneCache::kKept)
     c.entries.erase(c.entries.begin());
   return *scene;

@@ -21,12 +21,12 @@ namespace curvenet::detail {
 struct GltfScene {
   std::string path;
   std::shared_ptr<const tinygltf::Model> model;
-  RawMesh mesh;                  ///< every triangle primitive, in traversal order
-  std::vector<Eigen::Vector2d> uv; ///< per mesh vertex (TEXCOORD_0), empty when no primitive has one
+  RawMesh mesh;                        ///< every triangle primitive, in traversal order
+  std::vector<Eigen::Vector2d> uv;     ///< per mesh vertex (TEXCOORD_0), empty when no primitive has one
   std::vector<Eigen::Vector3d> normal; ///< per mesh vertex (NORMAL), empty when no primitive has one
   std::vector<int> face_material;      ///< per triangle, its primitive's material (-1 for none)
-  std::vector<int> node_parent;  ///< per node, -1 for roots
-  int skin = -1;                 ///< the skin of the first skinned mesh node, or -1
+  std::vector<int> node_parent;        ///< per node, -1 for roots
+  int skin = -1;                       ///< the skin of the first skinned mesh node, or -1
   /// Per mesh vertex: up to 4 (skin joint slot, weight); slot -1 when unused.
   std::vector<std::array<int, 4>> vertex_joint;
   std::vector<std::array<double, 4>> vertex_weight;
@@ -40,6 +40,8 @@ GltfScene read_gltf_scene(const std::string& path);
 
 /// How many glTF files this process has parsed (for tests of the above).
 long gltf_parses();
+/// Forgets the parses kept (for benchmarks that time a parse).
+void forget_gltf_parses();
 
 /// World matrices of every node, at time `t` (seconds) of animation `clip`,
 /// or at rest when clip < 0. Channels interpolate as their samplers say

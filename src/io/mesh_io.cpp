@@ -15,6 +15,7 @@
 #include <tiny_obj_loader.h>
 
 #include <mutex>
+#include <optional>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -37,7 +38,8 @@ namespace {
 struct ObjCache {
   std::mutex mutex;
   std::string path;
-  size_t size = 0, hash = 0; ///< of the bytes: a file rewritten within the clock's tick keeps its mtime
+  size_t size = 0, hash = 0;      ///< of the bytes: a file rewritten within the clock's tick keeps its mtime
+  std::optional<FileStamp> stamp; ///< settled when read: then an unchanged stamp needs no second read
   std::shared_ptr<const tinyobj::ObjReader> reader;
   long parses = 0;
 };
@@ -47,6 +49,13 @@ ObjCache& obj_cache() {
 }
 } // namespace
 
+void forget_obj_parse() {
+  ObjCache& c = obj_cache();
+  std::lock_guard lock(c.mutex);
+  c.reader.reset();
+  c.stamp.reset();
+}
+
 long obj_parses() {
   ObjCache& c = obj_cache();
   std::lock_guard lock(c.mutex);
@@ -54,17 +63,25 @@ long obj_parses() {
 }
 
 std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path) {
-  const std::string bytes = file_bytes(path);
   std::error_code ec;
   const std::string key = std::filesystem::absolute(path, ec).lexically_normal().string();
-  const size_t hash = std::hash<std::string_view>{}(bytes);
+  const std::optional<FileStamp> stamp = settled_stamp(path);
   ObjCache& c = obj_cache();
   {
     std::lock_guard lock(c.mutex);
-    if (c.reader && c.path == key && c.size == bytes.size() && c.hash == hash)
-      return c.reader;
+    if (c.reader && c.path == key && stamp && c.stamp == stamp)
+      return c.reader; // a settled file, unchanged: not read again
   }
-  check_obj(path);
+  const std::string bytes = file_bytes(path);
+  const size_t hash = std::hash<std::string_view>{}(bytes);
+  {
+    std::lock_guard lock(c.mutex);
+    if (c.reader && c.path == key && c.size == bytes.size() && c.hash == hash) {
+      c.stamp = stamp;
+      return c.reader;
+    }
+  }
+  check_obj(path, bytes);
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;
   config.vertex_color = false;
@@ -81,6 +98,7 @@ std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path) {
   c.path = key;
   c.size = bytes.size();
   c.hash = hash;
+  c.stamp = stamp;
   c.reader = reader;
   return reader;
 }
@@ -167,8 +185,7 @@ RawMesh read_raw_mesh(const std::string& path) {
     throw InputError(path, "", "is a folder, not a mesh file");
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(path, "", "no such file");
-  std::ifstream probe(path, std::ios::binary);
-  if (!probe)
+  if (::access(path.c_str(), R_OK) != 0) // checked without opening: a cached parse needs no read
     throw InputError(path, "", "cannot open the file for reading");
   const std::string ext = lower_extension(path);
   if (ext == ".obj")

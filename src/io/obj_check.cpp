@@ -5,7 +5,7 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
+#include <sstream>
 #include <string_view>
 #include <vector>
 
@@ -34,10 +34,8 @@ std::vector<std::string_view> tokens(std::string_view line) {
 
 } // namespace
 
-ObjCounts check_obj(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path, "", "cannot open the file for reading");
+ObjCounts check_obj(const std::string& path, const std::string& bytes) {
+  std::istringstream in(bytes);
   ObjCounts n;
   // A positive index may refer to an element further down the file; it is
   // checked at the end, against the line of the largest one.

@@ -23,8 +23,8 @@ struct ObjCounts {
 /// fault: a coordinate that is not a finite number, too few coordinates, an
 /// index of 0 or out of range (negative indices count back from the element
 /// before the face, as the format says), or a face with fewer than three
-/// corners.
-ObjCounts check_obj(const std::string& path);
+/// corners. `bytes` are the file's (`path` names it in messages).
+ObjCounts check_obj(const std::string& path, const std::string& bytes);
 
 /// An OBJ file checked (check_obj) and parsed by tinyobjloader, once: the
 /// last file parsed is kept with a hash of its bytes, so that a command
@@ -35,5 +35,7 @@ std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path);
 
 /// How many OBJ files this process has parsed (for tests of the above).
 long obj_parses();
+/// Forgets the parse kept (for benchmarks that time a parse).
+void forget_obj_parse();
 
 } // namespace curvenet::detail

@@ -1,0 +1,67 @@
+#include "io/file_bytes.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include <sys/stat.h>
+
+namespace curvenet::detail {
+
+namespace {
+struct Reads {
+  std::mutex mutex;
+  std::map<std::string, long> count;
+};
+Reads& reads() {
+  static Reads r;
+  return r;
+}
+std::string key_of(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::absolute(path, ec).lexically_normal().string();
+}
+} // namespace
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError(path, "", "cannot open the file for reading");
+  {
+    Reads& r = reads();
+    std::lock_guard lock(r.mutex);
+    ++r.count[key_of(path)];
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+long file_reads(const std::string& path) {
+  Reads& r = reads();
+  std::lock_guard lock(r.mutex);
+  const auto it = r.count.find(key_of(path));
+  return it == r.count.end() ? 0 : it->second;
+}
+
+std::optional<FileStamp> settled_stamp(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
+    return std::nullopt;
+  FileStamp s;
+  s.device = st.st_dev;
+  s.inode = st.st_ino;
+  s.size = static_cast<unsigned long long>(st.st_size);
+  s.mtime_ns = static_cast<long long>(st.st_mtim.tv_sec) * 1'000'000'000LL + st.st_mtim.tv_nsec;
+  s.ctime_ns = static_cast<long long>(st.st_ctim.tv_sec) * 1'000'000'000LL + st.st_ctim.tv_nsec;
+  const long long now =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  if (now - std::max(s.mtime_ns, s.ctime_ns) < 2'000'000'000LL)
+    return std::nullopt;
+  return s;
+}
+
+} // namespace curvenet::detail
