@@ -331,6 +331,28 @@ void check_finite_output(const std::vector<Vec3>::const_iterator begin, size_t n
                        "the pose moves it out of range (not a finite number)");
 }
 
+/// A layer's positions for (J, 4, 4) skinning matrices, through `call`
+/// (CurveLayer::deform or rest_correction), the GIL released.
+py::array_t<double>
+layer_positions(const CurveLayer& l, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
+                double envelope, const std::optional<std::map<std::string, Vec3>>& offsets,
+                void (CurveLayer::*call)(std::span<const Mat4>, std::span<Vec3>, double, const NodeOffsets*) const) {
+  const size_t nj = l.joints().size();
+  if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != nj || skinning.shape(1) != 4 ||
+      skinning.shape(2) != 4)
+    throw py::value_error("skinning: expected a (" + std::to_string(nj) + ", 4, 4) array, one per joint");
+  if (!(envelope >= 0 && envelope <= 1))
+    throw py::value_error("envelope: expected a number from 0 to 1");
+  std::vector<Mat4> M;
+  matrices_into(skinning, M);
+  std::vector<Vec3> out(static_cast<size_t>(l.num_input_vertices()));
+  {
+    py::gil_scoped_release release;
+    (l.*call)(M, out, envelope, offsets ? &*offsets : nullptr);
+  }
+  return points_array(out);
+}
+
 py::dict bind_report(const BindReport& r) {
   py::dict d;
   d["vertices"] = r.vertices;
@@ -1086,20 +1108,7 @@ PYBIND11_MODULE(_curvenet, m) {
           "deform",
           [](const CurveLayer& l, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
              double envelope, const std::optional<std::map<std::string, Vec3>>& offsets) {
-            const size_t nj = l.joints().size();
-            if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != nj || skinning.shape(1) != 4 ||
-                skinning.shape(2) != 4)
-              throw py::value_error("skinning: expected a (" + std::to_string(nj) + ", 4, 4) array, one per joint");
-            if (!(envelope >= 0 && envelope <= 1))
-              throw py::value_error("envelope: expected a number from 0 to 1");
-            std::vector<Mat4> M;
-            matrices_into(skinning, M);
-            std::vector<Vec3> out(static_cast<size_t>(l.num_input_vertices()));
-            {
-              py::gil_scoped_release release;
-              l.deform(M, out, envelope, offsets ? &*offsets : nullptr);
-            }
-            return points_array(out);
+            return layer_positions(l, skinning, envelope, offsets, &CurveLayer::deform);
           },
           py::arg("skinning"), py::kw_only(), py::arg("envelope") = 1.0, py::arg("offsets") = py::none(),
           "Positions (n, 3), one per input vertex: the base moved by skinning matrices (J, 4, 4), plus envelope times "
@@ -1108,20 +1117,7 @@ PYBIND11_MODULE(_curvenet, m) {
           "rest_correction",
           [](const CurveLayer& l, const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning,
              double envelope, const std::optional<std::map<std::string, Vec3>>& offsets) {
-            const size_t nj = l.joints().size();
-            if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != nj || skinning.shape(1) != 4 ||
-                skinning.shape(2) != 4)
-              throw py::value_error("skinning: expected a (" + std::to_string(nj) + ", 4, 4) array, one per joint");
-            if (!(envelope >= 0 && envelope <= 1))
-              throw py::value_error("envelope: expected a number from 0 to 1");
-            std::vector<Mat4> M;
-            matrices_into(skinning, M);
-            std::vector<Vec3> out(static_cast<size_t>(l.num_input_vertices()));
-            {
-              py::gil_scoped_release release;
-              l.rest_correction(M, out, envelope, offsets ? &*offsets : nullptr);
-            }
-            return points_array(out);
+            return layer_positions(l, skinning, envelope, offsets, &CurveLayer::rest_correction);
           },
           py::arg("skinning"), py::kw_only(), py::arg("envelope") = 1.0, py::arg("offsets") = py::none(),
           "Over a skin: (n, 3) displacements in rest space that the skin moves to the layered result (a corrective "

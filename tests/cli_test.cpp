@@ -853,6 +853,10 @@ TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
   EXPECT_NE(r.err.find("bad.mask: line 2: expected a number from 0 to 1"), std::string::npos) << r.err;
   r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --binding-cache " + (dir / "c").string(), dir);
   EXPECT_NE(r.err.find("a layer is bound without a binding cache"), std::string::npos) << r.err;
+  write(dir / "nope.pose.json",
+        R"({"format": "curvenet-pose", "version": 2, "nodes": {"nope": {"offset": [0, 0, 0]}}})");
+  r = run("pose " + gltf + " " + rig + " " + (dir / "nope.pose.json").string() + out, dir);
+  EXPECT_NE(r.err.find("nope.pose.json: /nodes/nope: the rig has no node of this id"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out.obj"));
   // A mask of all ones, and a layered animation of the hand's Grip.
   std::string ones;

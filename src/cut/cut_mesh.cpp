@@ -336,21 +336,29 @@ Eigen::Vector2d CutMesh::to_face_plane(Face f, Vertex v) const {
   return to_face_plane(f, position(v));
 }
 
-Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
-  // Through the nearest of the face's triangles.
-  const Layout& l = layout(f);
+std::pair<std::array<int, 3>, std::array<double, 3>> CutMesh::nearest_triangle(const Layout& l,
+                                                                               const Eigen::Vector3d& p) const {
   double best = std::numeric_limits<double>::infinity();
-  Eigen::Vector2d out = Eigen::Vector2d::Zero();
+  std::pair<std::array<int, 3>, std::array<double, 3>> out{{0, 0, 0}, {1, 0, 0}};
   for (const auto& c : l.tris) {
     const TriClosest cl = closest_on_triangle(p, position(Vertex(l.corners[c[0]])), position(Vertex(l.corners[c[1]])),
                                               position(Vertex(l.corners[c[2]])));
     const double d = (cl.point - p).squaredNorm();
     if (d < best) {
       best = d;
-      out = cl.bary[0] * l.uv[c[0]] + cl.bary[1] * l.uv[c[1]] + cl.bary[2] * l.uv[c[2]];
+      out = {c, cl.bary};
     }
   }
   return out;
+}
+
+Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
+  // Through the nearest of the face's triangles.
+  const Layout& l = layout(f);
+  if (l.tris.empty())
+    return Eigen::Vector2d::Zero();
+  const auto [c, bary] = nearest_triangle(l, p);
+  return bary[0] * l.uv[c[0]] + bary[1] * l.uv[c[1]] + bary[2] * l.uv[c[2]];
 }
 
 std::vector<std::pair<int, double>> CutMesh::input_weights(Vertex v) const {
@@ -364,19 +372,10 @@ std::vector<std::pair<int, double>> CutMesh::input_weights(Vertex v) const {
     throw Error("cut mesh: vertex " + std::to_string(v.idx) + " lies inside input face " + std::to_string(o.index) +
                 ", which was never laid out");
   const Layout& l = it->second;
-  const Eigen::Vector3d& p = position(v);
-  double best = std::numeric_limits<double>::infinity();
-  std::vector<std::pair<int, double>> out;
-  for (const auto& c : l.tris) {
-    const TriClosest cl = closest_on_triangle(p, position(Vertex(l.corners[c[0]])), position(Vertex(l.corners[c[1]])),
-                                              position(Vertex(l.corners[c[2]])));
-    const double d = (cl.point - p).squaredNorm();
-    if (d < best) {
-      best = d;
-      out = {{l.corners[c[0]], cl.bary[0]}, {l.corners[c[1]], cl.bary[1]}, {l.corners[c[2]], cl.bary[2]}};
-    }
-  }
-  return out;
+  if (l.tris.empty())
+    return {};
+  const auto [c, bary] = nearest_triangle(l, position(v));
+  return {{l.corners[c[0]], bary[0]}, {l.corners[c[1]], bary[1]}, {l.corners[c[2]], bary[2]}};
 }
 
 std::vector<Halfedge> CutMesh::subdivide_face(Face f, std::span<const Chord> chords) {

@@ -151,6 +151,9 @@ private:
     std::vector<std::array<int, 3>> tris; // indices into corners
   };
   const Layout& layout(Face f) const;
+  /// The layout's triangle nearest to p, and p's closest point on it (barycentric).
+  std::pair<std::array<int, 3>, std::array<double, 3>> nearest_triangle(const Layout& l,
+                                                                        const Eigen::Vector3d& p) const;
   mutable std::unordered_map<int, Layout> layouts_; // input face -> layout
 };
 

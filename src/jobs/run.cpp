@@ -130,6 +130,9 @@ JobSummary run(const PoseJob& job) {
         throw InputError(job.pose, "vertex " + std::to_string(v),
                          "the pose moves it out of range (not a finite number); nothing was written");
   };
+  for (const auto& [id, o] : pose.nodes)
+    if (scene.rig.node_index(id) < 0)
+      throw InputError(job.pose, "/nodes/" + id, "the rig has no node of this id");
   if (layered(job.layer, !pose.nodes.empty())) {
     const CurveLayer layer = layer_of(scene, job.layer, job.options);
     const auto M = skinning_matrices(layer.joints(), pose.joints, job.pose);
@@ -181,8 +184,12 @@ AnimateSummary animate_layered(const AnimateJob& job, const Scene& scene, const 
   auto pose = [&](int frame) { return clip_skinning_matrices(layer.joints(), clips, clip, range.time(frame)); };
   const double envelope = job.layer.envelope;
   std::optional<NodeKeys> keys;
-  if (!job.node_keys.empty())
+  if (!job.node_keys.empty()) {
     keys = read_node_keys(job.node_keys);
+    for (const auto& [id, k] : keys->nodes)
+      if (scene.rig.node_index(id) < 0)
+        throw InputError(job.node_keys, "/nodes/" + id, "the rig has no node of this id");
+  }
   const size_t nj = layer.joints().size();
   auto frames = [&](int first, std::span<const Mat4> M, std::span<Vec3> out) {
     if (!keys)
