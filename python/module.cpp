@@ -6,6 +6,7 @@
 #include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
+#include "curvenet/edit.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/farm.hpp"
@@ -626,6 +627,36 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def("parse_rig", &parse_rig, py::arg("text"), py::arg("source") = "<string>");
   m.def("rig_to_json", &rig_to_json, py::arg("rig"));
   m.def("validate_rig", &validate_rig, py::arg("rig"), py::arg("source") = "rig");
+
+  // The net editor (edit.hpp): each returns the edited copy, validated.
+  m.def("remove_nodes", &remove_nodes, py::arg("rig"), py::arg("nodes"), py::arg("source") = "rig",
+        "The rig without these nodes, their profiles and their weights");
+  m.def("remove_profiles", &remove_profiles, py::arg("rig"), py::arg("profiles"), py::arg("source") = "rig",
+        "The rig without these profiles (and the nodes they leave on no profile)");
+  m.def("move_node", &move_node, py::arg("rig"), py::arg("node"), py::arg("position"), py::arg("source") = "rig",
+        "The rig with the node moved; its curves' ends follow, the displacement fading along them");
+  m.def(
+      "split_profile",
+      [](const Rig& rig, const std::string& profile, double t, const std::string& source) {
+        SplitResult r = split_profile(rig, profile, t, source);
+        return py::make_tuple(std::move(r.rig), r.node, r.profile);
+      },
+      py::arg("rig"), py::arg("profile"), py::arg("t"), py::arg("source") = "rig",
+      "(rig, new node, new profile): a node inserted on the profile at normalised arc length t");
+  m.def("nearest_parameter", &nearest_parameter, py::arg("rig"), py::arg("profile"), py::arg("point"),
+        py::arg("source") = "rig", "The normalised arc length of the profile's point nearest to `point`");
+  m.def("merge_nodes", &merge_nodes, py::arg("rig"), py::arg("kept"), py::arg("merged"), py::arg("source") = "rig",
+        "The rig with node `merged` merged into `kept`");
+  m.def(
+      "reroute_profile",
+      [](const Rig& rig, const std::string& profile, const py::object& via, const std::string& source) {
+        return reroute_profile(rig, profile, via.is_none() ? std::vector<Vec3>{} : points_from(via, "via"), source);
+      },
+      py::arg("rig"), py::arg("profile"), py::arg("via"), py::arg("source") = "rig",
+      "The rig with the profile's curve running from its first node through `via` (k, 3) to its last");
+  m.def("set_joint_weight", &set_joint_weight, py::arg("rig"), py::arg("nodes"), py::arg("joint"), py::arg("weight"),
+        py::arg("source") = "rig",
+        "The rig with the joint's weight set on the nodes, their other joints scaled to sum to 1");
 
   // Embedding.
   py::class_<Embedding>(m, "Embedding", "One rig embedded in one mesh")

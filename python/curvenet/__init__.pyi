@@ -463,6 +463,38 @@ def validate_rig(rig: Rig, source: str = "rig") -> None:
 
     Raises InputError naming `source` and the JSON path of the fault, e.g. `/profiles/2/from`."""
 
+# --- the net editor (docs/python.md): each returns the edited copy, validated;
+# an unknown id raises InputError naming `source` and the id.
+
+def remove_nodes(rig: Rig, nodes: Sequence[str], source: str = "rig") -> Rig:
+    """The rig without these nodes, every profile through them, and their weights."""
+
+def remove_profiles(rig: Rig, profiles: Sequence[str], source: str = "rig") -> Rig:
+    """The rig without these profiles; a node they leave on no profile goes too."""
+
+def move_node(rig: Rig, node: str, position: npt.ArrayLike, source: str = "rig") -> Rig:
+    """The rig with the node moved: its curves' ends follow, the displacement fading along each curve."""
+
+def split_profile(rig: Rig, profile: str, t: float, source: str = "rig") -> tuple[Rig, str, str]:
+    """(rig, new node, new profile): a node inserted at normalised arc length t in (0, 1).
+
+    The profile keeps its id and ends at the new node; the new profile continues to the old end.
+    Weighted ends give the new node their weights interpolated at t, so the deformation stays."""
+
+def nearest_parameter(rig: Rig, profile: str, point: npt.ArrayLike, source: str = "rig") -> float:
+    """The normalised arc length of the profile's point nearest to `point` (for a split at a click)."""
+
+def merge_nodes(rig: Rig, kept: str, merged: str, source: str = "rig") -> Rig:
+    """The rig with `merged` merged into `kept`: profiles between them go, the others end at `kept`."""
+
+def reroute_profile(rig: Rig, profile: str, via: npt.ArrayLike, source: str = "rig") -> Rig:
+    """The rig with the profile's curve running from its first node through `via` (k, 3) to its last."""
+
+def set_joint_weight(rig: Rig, nodes: Sequence[str], joint: str, weight: float, source: str = "rig") -> Rig:
+    """The rig with `joint`'s weight set to `weight` on each node, the node's other joints scaled to sum to 1.
+
+    A node without weights starts from its automatic ones."""
+
 class SkinWeights:
     """A linear-blend skin: `influences` (joint, weight) slots per input vertex, largest first."""
 

@@ -31,6 +31,10 @@ public:
   [[nodiscard]] double length() const { return arc_.empty() ? 0.0 : arc_.back(); }
   /// How many points the dense polyline has.
   [[nodiscard]] size_t size() const { return points_.size(); }
+  /// The dense polyline, its ends on the nodes.
+  [[nodiscard]] const std::vector<Vec3>& points() const { return points_; }
+  /// Its cumulative arc length, point by point.
+  [[nodiscard]] const std::vector<double>& arc() const { return arc_; }
   /// The point at normalised arc length t in [0, 1].
   [[nodiscard]] Vec3 at(double t) const;
   /// Normalised arc lengths of the points the rigger placed (a polyline's

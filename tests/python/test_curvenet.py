@@ -596,3 +596,37 @@ def test_a_layer_over_the_skin_gives_what_the_cli_gives_and_a_pulled_node_moves_
     over_net = curvenet.bind_layer(mesh, rig)
     b = curvenet.bind(mesh, rig)
     assert np.array_equal(over_net.deform(M), b.deform(M))
+
+
+# --- the net editor ---------------------------------------------------------
+
+
+@needs_data
+def test_the_net_editor_edits_a_copy_that_still_embeds():
+    mesh = curvenet.load_mesh(hand())
+    rig = curvenet.read_rig(example("hand_l.cnrig.json"))
+    regions = curvenet.embed(mesh, rig).report["regions"]
+    p = rig.profiles[0]
+    split, node, new_profile = curvenet.split_profile(rig, p.id, 0.5)
+    assert len(rig.nodes) + 1 == len(split.nodes)  # the input is a copy, unchanged
+    assert split.profile(p.id).to == node and split.profile(new_profile).from_ == node
+    rep = curvenet.embed(mesh, split).report
+    assert rep["ok"] and rep["regions"] == regions  # one node and one profile more: the same regions
+    t = curvenet.nearest_parameter(rig, p.id, split.node(node).position)
+    assert abs(t - 0.5) < 1e-9
+    merged = curvenet.merge_nodes(split, p.from_, node)
+    assert len(merged.nodes) == len(rig.nodes) and merged.node_index(node) < 0
+    moved = curvenet.move_node(rig, p.from_, np.asarray(rig.node(p.from_).position) + 1e-4)
+    assert np.allclose(moved.profile(p.id).curve.points[0], np.asarray(rig.node(p.from_).position) + 1e-4)
+    fewer = curvenet.remove_profiles(rig, [p.id])
+    assert len(fewer.profiles) == len(rig.profiles) - 1
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.remove_nodes(rig, ["no such node"], "fox")
+    assert e.value.file == "fox" and e.value.element == "no such node"
+    with pytest.raises(curvenet.InputError):
+        curvenet.split_profile(rig, p.id, 1.0)
+    weighted = curvenet.set_joint_weight(rig, [p.from_], rig.joints[0].name, 0.25)
+    w = dict(weighted.weights[p.from_])
+    assert abs(w[rig.joints[0].name] - 0.25) < 1e-12 and abs(sum(w.values()) - 1) < 1e-12
+    rerouted = curvenet.reroute_profile(rig, p.id, np.asarray(p.curve.points)[1:-1])
+    assert len(rerouted.profile(p.id).curve.points) == len(p.curve.points)
