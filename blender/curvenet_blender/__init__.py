@@ -24,11 +24,11 @@ except ImportError:
 
 import bpy
 
-from . import core, draw, live, operators, ui  # noqa: F401
+from . import core, draw, edit, edit_tool, live, operators, ui  # noqa: F401
 
 
 def register():
-    for cls in ui.CLASSES + operators.CLASSES:
+    for cls in ui.CLASSES + operators.CLASSES + edit_tool.CLASSES:
         bpy.utils.register_class(cls)
     ui.register()
     live.register()
@@ -39,6 +39,6 @@ def unregister():
     draw.unregister()
     live.unregister()
     ui.unregister()
-    for cls in reversed(ui.CLASSES + operators.CLASSES):
+    for cls in reversed(ui.CLASSES + operators.CLASSES + edit_tool.CLASSES):
         if getattr(cls, "is_registered", False):
             bpy.utils.unregister_class(cls)

@@ -6,14 +6,22 @@ Where things live:
 - The rig is the object's custom property ``curvenet_rig`` (rig-file JSON,
   the mesh's object space), so it is saved in the .blend and exports as a
   ``.cnrig.json`` unchanged.
-- The armature a mesh is bound to is the object's ``curvenet_armature``.
+- The armature a mesh is bound to is the object's ``curvenet_armature``, a
+  pointer to the armature object (so a rename keeps it), and the deformation
+  that plays is ``curvenet_deformation`` (one of DEFORMATIONS).
+- The last Connect's result is ``curvenet_connect``, with the rig it was
+  made for: undo and redo bring back the rig and its result together.
 - Bindings, engine meshes and traced paths are runtime caches (``STATE``),
-  rebuilt on demand and after a file is loaded.
+  each kept with what it was made from (the rig's text, a profile's curve),
+  so an undo, a redo or a file load rebuilds them on demand.
 - Deformed positions go to a shape key ``curvenet`` on top of the basis:
   the user's rest mesh is never edited.
 """
 
+import hashlib
+import json
 import math
+import os
 
 import bpy
 import numpy as np
@@ -28,9 +36,17 @@ SHAPE_KEY = "curvenet"
 MODIFIERS_KEY = "curvenet_disabled_modifiers"  # the Armature modifiers switched off while bound
 PREVIEW_SUFFIX = ".curvenet_regions"
 CHAINS_SUFFIX = ".curvenet_chains"
+CONNECT_KEY = "curvenet_connect"  # the last Connect's result, with the rig it was made for
+STARTER_KEY = "curvenet_starter"  # the last starter net's joints without a ring, and why
+DEFORMATION_KEY = "curvenet_deformation"
 # A click this close to an existing node (a fraction of the mesh's bounding-box
-# diagonal) reuses that node.
+# diagonal) reuses that node; never more than a third of the limb's local
+# thickness (snap_radius).
 SNAP_FRACTION = 0.02
+
+
+class Refused(curvenet.Error):
+    """An add-on step that cannot be done, with the sentence that says why."""
 
 
 class ObjectState:
@@ -41,9 +57,9 @@ class ObjectState:
         self.mesh = None  # curvenet.Mesh of the rest positions, Blender's vertex order
         self.bvh = None
         self.diagonal = 1.0
-        self.paths = {}  # profile id -> (k, 3) traced path, object space
-        self.last_nodes = []  # the node each profile of the current stroke started from
+        self.paths = {}  # profile id -> (signature of its curve and ends, (k, 3) traced path, object space)
         self.binding = None
+        self.binding_for = None  # what the binding was made from (binding_source)
         self.layer = None  # curvenet.CurveLayer when the net is layered over the Armature modifier
         self.rest = None  # (n, 3) rest positions, for the layer's corrective shape key
         self.net_layer = None  # curvenet.CurveLayer over the net itself, for pulled nodes without a skin
@@ -52,9 +68,7 @@ class ObjectState:
         self.positions = None  # (n, 3) float32 scratch
         self.last_pose = None  # the matrices of the last update, to skip unchanged poses
         self.changed = None  # scratch for comparing them
-        self.report = None  # the last Connect's report
-        self.error = ""  # the last failure, one line
-        self.failed_profile = ""
+        self.error = ""  # the last failure of live deformation, one line
 
 
 STATE = {}
@@ -124,15 +138,29 @@ def get_rig(obj):
 
 
 def set_rig(obj, rig):
+    """Validates the rig by the engine's rules and sets it on the object."""
     curvenet.validate_rig(rig, obj.name)
     obj[RIG_KEY] = rig.to_json()
 
 
+def rig_key(obj):
+    """A digest of the object's rig text: what caches and results are kept with."""
+    return hashlib.sha1(obj.get(RIG_KEY, "").encode()).hexdigest()[:20]
+
+
 def clear_rig(obj):
-    if RIG_KEY in obj:
-        del obj[RIG_KEY]
+    for key in (RIG_KEY, CONNECT_KEY, STARTER_KEY):
+        if key in obj:
+            del obj[key]
     state(obj).paths.clear()
-    state(obj).last_nodes.clear()
+
+
+def require_net(obj):
+    """The object's rig, refused when it has no profile."""
+    rig = get_rig(obj)
+    if len(rig.profiles) == 0:
+        raise Refused("%s has no net yet: draw profiles or make a starter net first." % obj.name)
+    return rig
 
 
 def _fresh_id(prefix, taken):
@@ -155,33 +183,71 @@ def ray_to_object(obj, origin, direction):
 
 def surface_hit(obj, origin, direction):
     """Where a world-space ray first meets the rest surface, in object space, or None."""
+    hit = surface_ray(obj, origin, direction)
+    return None if hit is None else hit[0]
+
+
+def surface_ray(obj, origin, direction):
+    """(point, normal) where a world-space ray first meets the rest surface, object space, or None."""
     o, d = ray_to_object(obj, origin, direction)
-    hit, _normal, _face, _dist = surface_bvh(obj).ray_cast(o, d)
-    return None if hit is None else np.array(hit[:], dtype=np.float64)
+    hit, normal, _face, _dist = surface_bvh(obj).ray_cast(o, d)
+    if hit is None:
+        return None
+    return np.array(hit[:], dtype=np.float64), np.array(normal[:], dtype=np.float64)
+
+
+def snap_radius(obj, point, normal, fraction=SNAP_FRACTION):
+    """How near a click must come to a node to reuse it: `fraction` of the
+    diagonal, but at most a third of the limb's thickness at the click (the
+    distance through the mesh along the inward normal), so that the nodes of
+    a ring round a thin leg stay apart."""
+    st = state(obj)
+    radius = fraction * st.diagonal
+    inward = -np.asarray(normal, dtype=np.float64)
+    start = np.asarray(point, dtype=np.float64) + 1e-5 * st.diagonal * inward
+    far, _n, _f, through = surface_bvh(obj).ray_cast(Vector(start), Vector(inward))
+    if far is not None and through is not None:
+        radius = min(radius, through / 3.0)
+    return radius
+
+
+def nearest_node_within(rig, p, radius):
+    best, best_d = None, radius
+    for n in rig.nodes:
+        d = float(np.linalg.norm(np.asarray(n.position) - p))
+        if d <= best_d:
+            best, best_d = n.id, d
+    return best
+
+
+def place(obj, origin, direction, snap=SNAP_FRACTION):
+    """Where a click would put a node, without changing the rig: (point, the
+    node it snaps to or None, the snap radius), or None when the ray misses."""
+    hit = surface_ray(obj, origin, direction)
+    if hit is None:
+        return None
+    p, normal = hit
+    radius = snap_radius(obj, p, normal, snap)
+    return p, nearest_node_within(get_rig(obj), p, radius), radius
 
 
 def add_node_at(obj, origin, direction, snap=SNAP_FRACTION):
     """Casts a world-space ray into the surface and places a node where it hits.
 
-    A hit within `snap` of the diagonal of an existing node reuses that node.
+    A hit within the snap radius of an existing node reuses that node.
     Returns the node's id, or None when the ray misses the mesh.
     """
-    p = surface_hit(obj, origin, direction)
-    if p is None:
+    placed = place(obj, origin, direction, snap)
+    if placed is None:
         return None
+    p, node, _radius = placed
+    if node is not None:
+        return node
     rig = get_rig(obj)
-    tolerance = snap * state(obj).diagonal
-    best, best_d = None, tolerance
-    for n in rig.nodes:
-        d = float(np.linalg.norm(np.asarray(n.position) - p))
-        if d <= best_d:
-            best, best_d = n.id, d
-    if best is not None:
-        return best
-    node_id = _fresh_id("n", {n.id for n in rig.nodes})
-    rig.add_node(node_id, p)
+    node = _fresh_id("n", {n.id for n in rig.nodes})
+    rig.add_node(node, p)
     set_rig(obj, rig)
-    return node_id
+    return node
 
 
 def surface_points_between(obj, a, b, count=8):
@@ -198,35 +264,50 @@ def surface_points_between(obj, a, b, count=8):
     return np.array(pts)
 
 
-def add_profile(obj, a, b, via=None):
-    """Makes a profile from node `a` to node `b` and traces it on the surface.
+def on_surface(obj, points):
+    """The points pulled onto the rest surface (their nearest surface points)."""
+    bvh = surface_bvh(obj)
+    out = []
+    for q in np.asarray(points, dtype=np.float64):
+        near = bvh.find_nearest(Vector(q))[0]
+        out.append(q if near is None else np.array(near[:]))
+    return np.array(out).reshape(-1, 3)
 
-    `via`: surface points the curve passes through between the nodes (the
-    stroke the user drew), object space. Without it, the chord pulled onto
-    the surface. Returns the profile id. Raises curvenet.EmbedError (and adds
-    nothing) when the engine cannot trace it.
-    """
+
+def add_stroke(obj, a, b, via=None):
+    """A profile from `a` to `b`, each a node id or an object-space point (a
+    node is made there): the rig gains the profile and its new nodes at once,
+    or nothing when the engine cannot trace it (curvenet.EmbedError).
+
+    `via`: surface points the curve passes through between the ends (the
+    stroke the user drew). Without it, the chord pulled onto the surface.
+    Returns (profile id, first node, last node)."""
     rig = get_rig(obj)
-    na, nb = rig.node(a), rig.node(b)
+    ids = []
+    for end in (a, b):
+        if isinstance(end, str):
+            rig.node(end)  # KeyError when it does not exist
+            ids.append(end)
+        else:
+            node = _fresh_id("n", {n.id for n in rig.nodes})
+            rig.add_node(node, np.asarray(end, dtype=np.float64))
+            ids.append(node)
+    pa, pb = (np.asarray(rig.node(i).position) for i in ids)
     if via is None or len(via) == 0:
-        pts = surface_points_between(obj, na.position, nb.position)
+        pts = surface_points_between(obj, pa, pb)
     else:
-        pts = np.vstack([np.asarray(na.position)[None], np.asarray(via, dtype=np.float64), np.asarray(nb.position)[None]])
+        pts = np.vstack([pa[None], np.asarray(via, dtype=np.float64), pb[None]])
     profile_id = _fresh_id("p", {p.id for p in rig.profiles})
-    rig.add_profile(profile_id, a, b, pts)
-    # Trace it alone: the path the cut will follow on this surface.
-    alone = curvenet.Rig()
-    alone.coverage = "local"
-    alone.add_node(a, na.position)
-    if b != a:
-        alone.add_node(b, nb.position)
-    alone.add_profile(profile_id, a, b, pts)
-    path = curvenet.trace_profiles(engine_mesh(obj), alone)[0]
+    rig.add_profile(profile_id, ids[0], ids[1], pts)
+    _trace(obj, rig, [profile_id])  # raises before the rig changes
     set_rig(obj, rig)
-    st = state(obj)
-    st.paths[profile_id] = path
-    st.last_nodes.append(a)
-    return profile_id
+    return profile_id, ids[0], ids[1]
+
+
+def add_profile(obj, a, b, via=None):
+    """Makes a profile from node `a` to node `b` and traces it on the surface
+    (add_stroke with two nodes). Returns the profile id."""
+    return add_stroke(obj, a, b, via)[0]
 
 
 def remove_last_profile(obj):
@@ -236,32 +317,50 @@ def remove_last_profile(obj):
     rig = get_rig(obj)
     if len(rig.profiles) == 0:
         return None
-    last = rig.profiles[len(rig.profiles) - 1]
-    pid, start, end = last.id, last.from_, last.to
-    del rig.profiles[len(rig.profiles) - 1]
-    used = {p.from_ for p in rig.profiles} | {p.to for p in rig.profiles}
-    if end != start and end not in used:
-        idx = rig.node_index(end)
-        del rig.nodes[idx]
-        if end in rig.weights:
-            del rig.weights[end]
-    set_rig(obj, rig)
-    st = state(obj)
-    st.paths.pop(pid, None)
-    if st.last_nodes:
-        st.last_nodes.pop()
+    pid = rig.profiles[len(rig.profiles) - 1].id
+    set_rig(obj, curvenet.remove_profiles(rig, [pid], obj.name))
     return pid
 
 
-def traced_paths(obj):
-    """Every profile's traced path (object space), tracing those not yet traced."""
+def _signature(rig, p):
+    a, b = rig.node(p.from_), rig.node(p.to)
+    parts = (p.from_, p.to, p.curve.kind, np.asarray(a.position).tobytes(), np.asarray(b.position).tobytes(),
+             np.asarray(p.curve.points).tobytes())
+    return hashlib.sha1(repr(parts).encode()).hexdigest()
+
+
+def _trace(obj, rig, ids):
+    """Traces the profiles `ids` of `rig` alone on the surface and keeps the
+    paths with their curves' signatures."""
+    wanted = set(ids)
+    alone = curvenet.Rig()
+    alone.coverage = "local"
+    ends = set()
+    for p in rig.profiles:
+        if p.id in wanted:
+            ends |= {p.from_, p.to}
+    for n in rig.nodes:
+        if n.id in ends:
+            alone.add_node(n.id, n.position)
+    picked = [p for p in rig.profiles if p.id in wanted]
+    for p in picked:
+        q = alone.add_profile(p.id, p.from_, p.to)
+        q.curve = p.curve
+    paths = curvenet.trace_profiles(engine_mesh(obj), alone)
     st = state(obj)
-    rig = get_rig(obj)
-    ids = [p.id for p in rig.profiles]
-    if any(i not in st.paths for i in ids):
-        paths = curvenet.trace_profiles(engine_mesh(obj), rig)
-        st.paths = dict(zip(ids, paths))
-    return {i: st.paths[i] for i in ids}
+    for p, path in zip(picked, paths):
+        st.paths[p.id] = (_signature(rig, p), path)
+
+
+def traced_paths(obj, rig=None):
+    """Every profile's traced path (object space), tracing those whose curve
+    or ends changed since they were traced (an edit, an undo, a load)."""
+    st = state(obj)
+    rig = rig or get_rig(obj)
+    stale = [p.id for p in rig.profiles if st.paths.get(p.id, (None,))[0] != _signature(rig, p)]
+    if stale:
+        _trace(obj, rig, stale)
+    return {p.id: st.paths[p.id][1] for p in rig.profiles}
 
 
 # --- connect: embed and preview ---------------------------------------------
@@ -271,21 +370,19 @@ def connect(obj):
     """Embeds the object's rig in its mesh and shows the regions on a preview object.
 
     Returns (ok, report, message): the report is the CLI's, the message one
-    line, "SUCCESS" or "FAILED" with the thesis's counts, or the engine's reason.
-    """
-    st = state(obj)
-    st.error, st.failed_profile = "", ""
-    rig = get_rig(obj)
+    line, "SUCCESS" or "FAILED" with the thesis's counts, or the engine's
+    reason. The result is kept on the object with the rig it was made for
+    (connect_result)."""
+    rig = require_net(obj)
     try:
         emb = curvenet.embed(engine_mesh(obj), rig)
     except curvenet.Error as e:
-        st.report = None
-        st.error = str(e)
-        st.failed_profile = _named_profile(str(e), rig)
+        _keep_connect(obj, False, None, "FAILED: " + str(e), _named_profile(str(e), rig))
         return False, None, "FAILED: " + str(e)
     rep = emb.report
-    st.report = rep
-    st.paths = dict(emb.chains)
+    st = state(obj)
+    for pid, chain in emb.chains.items():
+        st.paths[pid] = (_signature(rig, rig.profile(pid)), chain)
     make_preview(obj, emb)
     message = "%s: %d nodes, %d profiles, %d regions (expected %s), %d unmapped faces" % (
         "SUCCESS" if rep["ok"] else "FAILED",
@@ -296,22 +393,41 @@ def connect(obj):
         rep["unmapped_faces"],
     )
     if not rep["ok"]:
-        st.error = "; ".join(rep["problems"])
-        message += ": " + st.error
+        message += ": " + "; ".join(rep["problems"])
+    _keep_connect(obj, rep["ok"], rep, message, "")
     return rep["ok"], rep, message
 
 
+def _keep_connect(obj, ok, report, message, failed_profile):
+    obj[CONNECT_KEY] = json.dumps(
+        {"rig": rig_key(obj), "ok": ok, "report": report, "message": message, "failed_profile": failed_profile}
+    )
+
+
+def connect_result(obj):
+    """The last Connect's result for the object's current rig: a dict with
+    ok, report (None when the engine refused), message and failed_profile; or
+    None when the rig has changed since (an edit, an undo) or was never connected."""
+    text = obj.get(CONNECT_KEY) if obj is not None else None
+    if not text:
+        return None
+    result = json.loads(text)
+    return result if result.get("rig") == rig_key(obj) else None
+
+
 def _named_profile(message, rig):
-    """The first profile an engine message names, to select it."""
-    for p in rig.profiles:
-        if "'%s'" % p.id in message:
-            return p.id
-    return ""
+    """The profile an engine message names that was drawn last (rig order), to select it."""
+    named = [p.id for p in rig.profiles if "'%s'" % p.id in message]
+    return named[-1] if named else ""
 
 
 def make_preview(obj, emb):
     """A separate object with the cut mesh and one colour per region (and the
-    CutChains as a curve object), parented to the mesh. The mesh itself is never edited."""
+    CutChains as a curve object), parented to the mesh. The mesh itself is
+    never edited. The regions show in Solid shading as it is: each colour is
+    a material's viewport colour (and a colour attribute, for Attribute
+    shading and renders); the preview draws in front of the mesh it lies on,
+    so the two never fight for depth."""
     V, offsets, corners = emb.cut_mesh()
     faces = [corners[offsets[f] : offsets[f + 1]].tolist() for f in range(len(offsets) - 1)]
     name = obj.name + PREVIEW_SUFFIX
@@ -326,10 +442,40 @@ def make_preview(obj, emb):
     attr.data.foreach_set("color", rgba.ravel())
     regions = me.attributes.new("region", "INT", "FACE")
     regions.data.foreach_set("value", emb.face_regions.astype(np.int32))
+    distinct, face_material = np.unique(emb.face_colours, axis=0, return_inverse=True)
+    for rgb in distinct:
+        me.materials.append(_region_material(rgb))
+    me.polygons.foreach_set("material_index", face_material.astype(np.int32).ravel())
     me.update()
     preview = _attach(bpy.data.objects.new(name, me), obj)
+    preview.show_in_front = True
     make_chains(obj, emb.chains)
+    _show_previews(obj, deformation(obj) in ("rest", "skin"))
     return preview
+
+
+def _region_material(rgb):
+    """A material whose viewport colour is a region colour (0-255 RGB), shared by every preview."""
+    name = "curvenet region %02x%02x%02x" % tuple(int(c) for c in rgb)
+    mat = bpy.data.materials.get(name)
+    if mat is None:
+        mat = bpy.data.materials.new(name)
+        colour = tuple(float(c) / 255.0 for c in rgb) + (1.0,)
+        mat.diffuse_color = colour
+        mat.use_nodes = True
+        bsdf = mat.node_tree.nodes.get("Principled BSDF")
+        if bsdf is not None:
+            bsdf.inputs["Base Color"].default_value = colour
+    return mat
+
+
+def _show_previews(obj, shown):
+    """The region preview and the chains lie at rest: they hide while the mesh is deformed."""
+    for suffix in (PREVIEW_SUFFIX, CHAINS_SUFFIX):
+        o = bpy.data.objects.get(obj.name + suffix)
+        if o is not None:
+            o.hide_viewport = not shown
+            o.hide_render = not shown
 
 
 def make_chains(obj, chains):
@@ -338,13 +484,16 @@ def make_chains(obj, chains):
     cu = bpy.data.curves.new(name, "CURVE")
     cu.dimensions = "3D"
     cu.bevel_depth = 0.0015 * state(obj).diagonal
+    cu.materials.append(_region_material((20, 20, 20)))
     for pts in chains.values():
         spline = cu.splines.new("POLY")
         spline.points.add(len(pts) - 1)
         co = np.ones((len(pts), 4))
         co[:, :3] = pts
         spline.points.foreach_set("co", co.ravel())
-    return _attach(bpy.data.objects.new(name, cu), obj)
+    chains_obj = _attach(bpy.data.objects.new(name, cu), obj)
+    chains_obj.show_in_front = True
+    return chains_obj
 
 
 def _remove_object(name):
@@ -407,7 +556,10 @@ def make_armature(obj, name=None):
     leaf continues its parent's direction at half its length)."""
     rig = get_rig(obj)
     if not rig.has_skeleton or len(rig.joints) == 0:
-        raise curvenet.InputError(obj.name, "/skeleton", "the rig has no skeleton to make an armature from")
+        raise Refused("The rig on %s has no skeleton to make an armature from: import a rig with one." % obj.name)
+    existing = matching_armature(obj)
+    if existing is not None:
+        return existing  # the one made before, or the character's own: never a duplicate
     F = np.asarray(rig.frame)
     heads = {j.name: (F @ np.asarray(j.bind))[:3, 3] for j in rig.joints}
     children = {}
@@ -454,12 +606,34 @@ def deforming_bones(obj, arm):
 
 
 def starter(obj, arm, **options):
-    """A starter net from the armature's bones (rest pose), set as the object's rig."""
+    """A starter net from the armature's bones (rest pose), set as the object's
+    rig; the joints left without a ring, and why, are kept with it (starter_notes)."""
     options.setdefault("deforming", deforming_bones(obj, arm))
     result = curvenet.starter(engine_mesh(obj), armature_joints(obj, arm), **options)
     set_rig(obj, result.rig)
-    state(obj).paths.clear()
+    obj[STARTER_KEY] = json.dumps({"rig": rig_key(obj), "ringless": [list(x) for x in result.ringless]})
     return result
+
+
+def starter_notes(obj):
+    """[(joint, reason)] for the joints the last starter net left without a ring,
+    while the rig is still that net (an edit keeps them: they are about the skeleton)."""
+    text = obj.get(STARTER_KEY) if obj is not None else None
+    if not text:
+        return []
+    return [tuple(x) for x in json.loads(text)["ringless"]]
+
+
+def matching_armature(obj):
+    """An armature in the file whose bones include every joint of the rig's skeleton, or None."""
+    rig = get_rig(obj)
+    names = {j.name for j in rig.joints}
+    if not names:
+        return None
+    for o in bpy.data.objects:
+        if o.type == "ARMATURE" and names <= {b.name for b in o.data.bones}:
+            return o
+    return None
 
 
 # --- binding and live deformation -------------------------------------------
@@ -498,22 +672,21 @@ def armature_modifier(obj, arm):
     return None
 
 
-def bind(obj, arm, method=None, layer=None):
+def _binding_source(obj, arm, method, layer):
+    return (rig_key(obj), arm.name_full, method, bool(layer))
+
+
+def _make_binding(obj, arm, method, layer):
     """Binds the object's rig to the armature (its bones replace the rig's
-    skeleton, matched by name), and starts live deformation. method:
-    'dq', 'harmonic' or 'gradient' (docs/deform.md); by default the object's last.
-    layer: keep the Armature modifier and layer the net over it, through a
-    corrective shape key in rest space (docs/blender.md); by default the object's last."""
+    skeleton, matched by name) into the runtime state; no modifier changes."""
     joints = armature_joints(obj, arm)
-    rig = get_rig(obj)
-    rig = curvenet.with_skeleton(rig, joints, arm.name)
-    set_rig(obj, rig)
+    rig = curvenet.with_skeleton(require_net(obj), joints, arm.name)
+    if rig.to_json() != obj.get(RIG_KEY):
+        set_rig(obj, rig)
     st = state(obj)
-    method = method or obj.get(METHOD_KEY, "dq")
-    layer = bool(obj.get(LAYER_KEY, False)) if layer is None else layer
     mod = armature_modifier(obj, arm)
     if layer and mod is None:
-        raise curvenet.InputError(obj.name, "modifiers", "a layer sits on an Armature modifier: add one for " + arm.name)
+        raise Refused("A layer sits on an Armature modifier: give %s one on %s first." % (obj.name, arm.name))
     if layer:
         skinning = "dq" if mod.use_deform_preserve_volume else "linear"
         st.layer = curvenet.bind_layer(
@@ -524,25 +697,130 @@ def bind(obj, arm, method=None, layer=None):
     else:
         st.layer = None
         st.binding = curvenet.bind(engine_mesh(obj), rig, method=method)
+    st.binding_for = _binding_source(obj, arm, method, layer)
     st.net_layer = None
-    obj[METHOD_KEY] = method
-    obj[LAYER_KEY] = layer
     names = {b.name for b in arm.data.bones}
     st.bone_names = [n if n in names else None for n in st.binding.joint_names]
     st.matrices = np.empty((len(st.bone_names), 4, 4), dtype=np.float64)
     st.positions = np.empty((st.binding.num_input_vertices, 3), dtype=np.float32)
     st.last_pose = None
-    obj[ARMATURE_KEY] = arm.name
-    _prepare_live(obj, keep_armature=layer)
-    update_live(obj, force=True)
     return st.binding
 
 
-def _prepare_live(obj, keep_armature=False):
-    """A shape key over the basis receives the deformed positions; Armature
-    modifiers on the object are switched off so the mesh is not moved twice.
-    A layer keeps them: its shape key holds the rest position plus the
-    correction, which the Armature modifier then moves."""
+def bind(obj, arm, method=None, layer=None):
+    """Binds the object's rig to the armature and makes the net the one
+    deformation that plays: 'live' (the net alone) or 'layer' (over the
+    Armature modifier, through a corrective shape key in rest space;
+    docs/blender.md). method: 'dq', 'harmonic' or 'gradient'
+    (docs/deform.md). Both default to the object's last."""
+    method = method or obj.get(METHOD_KEY, "dq")
+    layer = bool(obj.get(LAYER_KEY, False)) if layer is None else bool(layer)
+    binding = _make_binding(obj, arm, method, layer)
+    obj[METHOD_KEY] = method
+    obj[LAYER_KEY] = layer
+    obj[ARMATURE_KEY] = arm
+    set_deformation(obj, "layer" if layer else "live", arm)
+    update_live(obj, force=True)
+    return binding
+
+
+# --- one deformation at a time ----------------------------------------------
+
+# What can deform a mesh, and what each is made of:
+# - rest: nothing;
+# - skin: the mesh's own Armature modifier (Curvenet is not involved);
+# - live: the net, through the shape key `curvenet`; every Armature modifier off;
+# - layer: the net over the Armature modifier on the bound armature: the shape
+#   key holds the correction, the modifier moves it; other Armature modifiers off;
+# - cache: the Mesh Cache modifier `curvenet` playing a baked PC2; Armature modifiers off;
+# - groups: the baked vertex groups, through an Armature modifier on the armature.
+DEFORMATIONS = ("rest", "skin", "live", "layer", "cache", "groups")
+CACHE_MODIFIER = "curvenet"
+DESCRIPTIONS = {
+    "rest": "nothing deforms the mesh",
+    "skin": "the mesh's own Armature modifier",
+    "live": "Curvenet, live",
+    "layer": "Curvenet layered over the Armature modifier",
+    "cache": "the baked point cache (Mesh Cache modifier)",
+    "groups": "the baked vertex groups (Armature modifier)",
+}
+
+
+def deformation(obj):
+    """Which deformation plays on the mesh (one of DEFORMATIONS)."""
+    kind = obj.get(DEFORMATION_KEY)
+    if kind in DEFORMATIONS:
+        return kind
+    return "skin" if any(m.type == "ARMATURE" and m.show_viewport for m in obj.modifiers) else "rest"
+
+
+def active_deformers(obj):
+    """What actually moves the mesh now: the enabled Armature and Mesh Cache
+    modifiers, and the shape key `curvenet` when it acts. The tests check it
+    against deformation()."""
+    out = [("modifier", m.type, m.name) for m in obj.modifiers
+           if m.type in ("ARMATURE", "MESH_CACHE") and m.show_viewport]
+    keys = obj.data.shape_keys
+    key = keys.key_blocks.get(SHAPE_KEY) if keys is not None else None
+    if key is not None and key.value > 0 and not key.mute:
+        out.append(("shape key", SHAPE_KEY, SHAPE_KEY))
+    return out
+
+
+def describe_deformation(obj):
+    kind = deformation(obj)
+    arm = bound_armature(obj)
+    text = DESCRIPTIONS[kind]
+    if kind in ("live", "layer", "groups") and arm is not None:
+        text += " on " + arm.name
+    return text
+
+
+def set_deformation(obj, kind, arm=None):
+    """Makes `kind` the one deformation that plays: removes the shape key and
+    the cache modifier it does not use, and switches Armature modifiers off
+    (remembering the mesh's own) or back on. Returns the kind."""
+    if kind not in DEFORMATIONS:
+        raise ValueError("deformation: expected one of " + ", ".join(DEFORMATIONS))
+    if kind in ("live", "layer"):
+        _ensure_shape_key(obj)
+    else:
+        _remove_shape_key(obj)
+    if kind != "cache":
+        mod = obj.modifiers.get(CACHE_MODIFIER)
+        if mod is not None and mod.type == "MESH_CACHE":
+            obj.modifiers.remove(mod)
+    own = set(filter(None, obj.get(MODIFIERS_KEY, "").split("\n")))  # the mesh's own, switched off by us
+    for mod in obj.modifiers:
+        if mod.type != "ARMATURE":
+            continue
+        keep = kind in ("layer", "groups") and arm is not None and mod.object == arm
+        if kind in ("rest", "skin"):
+            if mod.name in own:
+                mod.show_viewport = mod.show_render = True
+            continue
+        if keep:
+            mod.show_viewport = mod.show_render = True
+        elif mod.show_viewport or mod.show_render:
+            own.add(mod.name)
+            mod.show_viewport = mod.show_render = False
+    if kind in ("rest", "skin"):
+        own = set()
+        if kind == "skin" and not any(m.type == "ARMATURE" and m.show_viewport for m in obj.modifiers):
+            kind = "rest"
+        elif kind == "rest" and any(m.type == "ARMATURE" and m.show_viewport for m in obj.modifiers):
+            kind = "skin"
+    if own:
+        obj[MODIFIERS_KEY] = "\n".join(sorted(own))
+    elif MODIFIERS_KEY in obj:
+        del obj[MODIFIERS_KEY]
+    obj[DEFORMATION_KEY] = kind
+    _show_previews(obj, kind in ("rest", "skin"))
+    obj.data.update()
+    return kind
+
+
+def _ensure_shape_key(obj):
     me = obj.data
     if me.shape_keys is None:
         obj.shape_key_add(name="Basis", from_mix=False)
@@ -551,53 +829,45 @@ def _prepare_live(obj, keep_armature=False):
         key = obj.shape_key_add(name=SHAPE_KEY, from_mix=False)
     key.value = 1.0
     key.slider_max = 1.0
-    off = set(filter(None, obj.get(MODIFIERS_KEY, "").split("\n")))
-    for mod in obj.modifiers:
-        if keep_armature:
-            break
-        if mod.type == "ARMATURE" and (mod.show_viewport or mod.show_render):
-            off.add(mod.name)
-            mod.show_viewport = False
-            mod.show_render = False
-    obj[MODIFIERS_KEY] = "\n".join(sorted(off))
+    key.mute = False
 
 
-def unbind(obj):
-    """Stops live deformation: removes the shape key, restores the Armature modifiers."""
-    st = state(obj)
-    st.binding = None
-    st.layer = None
-    st.net_layer = None
-    if ARMATURE_KEY in obj:
-        del obj[ARMATURE_KEY]
+def _remove_shape_key(obj):
     me = obj.data
     if me.shape_keys is not None:
         key = me.shape_keys.key_blocks.get(SHAPE_KEY)
         if key is not None:
             obj.shape_key_remove(key)
-    for name in filter(None, obj.get(MODIFIERS_KEY, "").split("\n")):
-        mod = obj.modifiers.get(name)
-        if mod is not None:
-            mod.show_viewport = True
-            mod.show_render = True
-    if MODIFIERS_KEY in obj:
-        del obj[MODIFIERS_KEY]
+
+
+def unbind(obj):
+    """Stops every Curvenet deformation (live, layer, cache): the mesh's own
+    Armature modifiers come back, or it rests. Returns the deformation left."""
+    st = state(obj)
+    st.binding = st.layer = st.net_layer = None
+    st.binding_for = None
+    return set_deformation(obj, "skin")
 
 
 def bound_armature(obj):
-    name = obj.get(ARMATURE_KEY)
-    arm = bpy.data.objects.get(name) if name else None
-    return arm if arm is not None and arm.type == "ARMATURE" else None
+    """The armature the mesh was bound to (a pointer: renaming keeps it; a
+    name in files from before)."""
+    value = obj.get(ARMATURE_KEY)
+    arm = bpy.data.objects.get(value) if isinstance(value, str) else value
+    return arm if isinstance(arm, bpy.types.Object) and arm.type == "ARMATURE" else None
 
 
 def ensure_binding(obj):
-    """The object's binding, bound again (after a file load) if need be."""
+    """The object's binding, made again when it is missing or was made from
+    another rig, armature or method (an undo, a redo, a file load)."""
+    arm = bound_armature(obj)
+    if arm is None or not has_rig(obj):
+        return None
     st = state(obj)
-    if st.binding is None:
-        arm = bound_armature(obj)
-        if arm is None or not has_rig(obj):
-            return None
-        bind(obj, arm)
+    method = obj.get(METHOD_KEY, "dq")
+    layer = bool(obj.get(LAYER_KEY, False))
+    if st.binding is None or st.binding_for != _binding_source(obj, arm, method, layer):
+        _make_binding(obj, arm, method, layer)
     return st.binding
 
 
@@ -635,7 +905,7 @@ def _heaviest_bone(obj, node):
     all_weights = ensure_binding(obj).node_weights
     weights = dict(all_weights[node]) if node in all_weights else {}
     if not weights:
-        raise curvenet.InputError(obj.name, node, "the node has no weights: bind first")
+        raise Refused("Node %s of %s has no weights: bind it first." % (node, obj.name))
     return max(weights.items(), key=lambda kv: kv[1])[0]
 
 
@@ -645,7 +915,7 @@ def add_node_handle(obj, node):
     the curves through the node and the regions they bound follow."""
     arm = bound_armature(obj)
     if arm is None or ensure_binding(obj) is None:
-        raise curvenet.InputError(obj.name, "binding", "bind the mesh to an armature first")
+        raise Refused("Bind %s to an armature first." % obj.name)
     rig = get_rig(obj)
     rest = rig.node(node).position
     bone = _heaviest_bone(obj, node)
@@ -725,21 +995,39 @@ def update_live(obj, depsgraph=None, force=False):
     return True
 
 
+def is_posed(obj):
+    """Whether the mesh is shown away from its rest shape (a deformation playing, the pose not the rest pose)."""
+    kind = deformation(obj)
+    if kind in ("rest", "skin") and not any(m.type == "ARMATURE" and m.show_viewport for m in obj.modifiers):
+        return False
+    arm = bound_armature(obj) or next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object), None)
+    if arm is None:
+        return kind == "cache"
+    scale = max(1.0, max((b.length for b in arm.data.bones), default=1.0))
+    for pb in arm.pose.bones:  # a bone away from its rest place moves what it skins
+        if not np.allclose(np.array(pb.matrix), np.array(pb.bone.matrix_local), atol=1e-6 * scale):
+            return True
+    return kind == "cache"
+
+
 def live_objects():
-    return [o for o in bpy.data.objects if o.type == "MESH" and ARMATURE_KEY in o and has_rig(o)]
+    """The meshes the net deforms now (live or layered)."""
+    return [o for o in bpy.data.objects
+            if o.type == "MESH" and o.get(DEFORMATION_KEY) in ("live", "layer") and has_rig(o)]
 
 
 def bake_vertex_groups(obj, arm, max_influences=4):
-    """Bakes the binding to an ordinary skin: the top-k harmonic weights of
-    each vertex as vertex groups named after the bones, and an Armature
-    modifier on the armature. Live deformation stops; the mesh then plays
-    with stock Blender, without the add-on. Returns the curvenet.SkinWeights."""
+    """Bakes the binding to an ordinary skin: the top-k weights of each
+    vertex as vertex groups named after the bones, and an Armature modifier
+    on the armature, which becomes the one deformation ('groups'): the mesh
+    then plays with stock Blender, without the add-on. Returns the
+    curvenet.SkinWeights."""
+    if bound_armature(obj) != arm:
+        obj[ARMATURE_KEY] = arm
     binding = ensure_binding(obj)
-    if binding is None or bound_armature(obj) != arm:
-        bind(obj, arm)
-        binding = state(obj).binding
+    if binding is None:
+        raise Refused("Bind %s to an armature first." % obj.name)
     w = curvenet.bake_weights(binding, max_influences)
-    unbind(obj)
     # Groups named after bones deform with them: those of another skin go.
     bones = {b.name for b in arm.data.bones}
     for vg in list(obj.vertex_groups):
@@ -757,14 +1045,17 @@ def bake_vertex_groups(obj, arm, max_influences=4):
             if vg is None:
                 vg = groups[name] = obj.vertex_groups.new(name=name)
             vg.add([v], float(Wt[v, i]), "REPLACE")
-    mod = next((m for m in obj.modifiers if m.type == "ARMATURE"), None)
+    mod = armature_modifier(obj, arm) or next((m for m in obj.modifiers if m.type == "ARMATURE"), None)
     if mod is None:
         mod = obj.modifiers.new("Armature", "ARMATURE")
     mod.object = arm
     mod.use_vertex_groups = True
     mod.use_bone_envelopes = False
     mod.use_deform_preserve_volume = False
-    mod.show_viewport = mod.show_render = True
+    st = state(obj)
+    st.binding = st.layer = st.net_layer = None
+    st.binding_for = None
+    set_deformation(obj, "groups", arm)
     return w
 
 
@@ -773,40 +1064,26 @@ def bake_vertex_groups(obj, arm, max_influences=4):
 
 def set_node_weight(obj, nodes, bone, weight):
     """Sets the weight of `bone` on each node, scaling the node's other joints
-    so that the weights still sum to 1 (the thesis's sparse editor). Nodes
-    without weights start from their automatic ones. Binds again when bound."""
+    so that the weights still sum to 1 (the thesis's sparse editor;
+    curvenet.set_joint_weight). Nodes without weights start from their
+    automatic ones. The live deformation follows."""
     if not 0.0 <= weight <= 1.0 or math.isnan(weight):
-        raise ValueError("weight: expected a number in [0, 1]")
+        raise Refused("A weight is a number from 0 to 1, not %s." % weight)
     rig = get_rig(obj)
     if not rig.has_skeleton:
-        raise curvenet.InputError(obj.name, "/skeleton", "the rig has no skeleton yet: bind it or make a starter net")
-    if bone not in {j.name for j in rig.joints}:
-        raise curvenet.InputError(obj.name, bone, "the rig's skeleton has no joint of this name")
-    complete = curvenet.complete_weights(rig)
-    for node in nodes:
-        if rig.node_index(node) < 0:
-            raise KeyError("no node '%s'" % node)
-        w = dict(complete.weights[node]) if node in complete.weights else {}
-        others = {j: v for j, v in w.items() if j != bone and v > 0}
-        total = sum(others.values())
-        new = {bone: weight} if weight > 0 else {}
-        if total > 0:
-            for j, v in others.items():
-                new[j] = v / total * (1.0 - weight)
-        elif weight < 1.0:
-            new = {bone: 1.0}  # nothing else to give the rest to
-        rig.weights[node] = new
+        raise Refused("The net on %s has no skeleton yet: bind it or make a starter net first." % obj.name)
+    rig = curvenet.set_joint_weight(rig, list(nodes), bone, weight, obj.name)
     set_rig(obj, rig)
-    arm = bound_armature(obj)
-    if arm is not None and state(obj).binding is not None:
-        bind(obj, arm)
+    if deformation(obj) in ("live", "layer"):
+        ensure_binding(obj)
+        update_live(obj, force=True)
     return rig
 
 
 def node_weights(obj, node):
     """The node's weights as the binding uses them (given or automatic)."""
     st = state(obj)
-    if st.binding is not None:
+    if st.binding is not None and st.binding_for and st.binding_for[0] == rig_key(obj):
         weights = st.binding.node_weights  # a bound map: no get()
         return dict(weights[node]) if node in weights else {}
     rig = get_rig(obj)
@@ -919,17 +1196,33 @@ def import_rig(obj, path, up="AUTO"):
     return rig
 
 
-def bake_cache(obj, path, frame_start, frame_end, scene=None):
-    """Writes the deformation of frames [start, end] as a PC2 cache and plays it
-    with a Mesh Cache modifier, so the .blend plays without the add-on. Live
-    deformation of the object stops."""
+def clip_range(obj, scene=None):
+    """The frames to bake: the bound armature's action (its clip), else the scene's range."""
     scene = scene or bpy.context.scene
+    arm = bound_armature(obj)
+    action = arm.animation_data.action if arm is not None and arm.animation_data else None
+    if action is not None:
+        start, end = action.frame_range
+        return int(math.floor(start)), int(math.ceil(end))
+    return scene.frame_start, scene.frame_end
+
+
+def bake_cache(obj, path, frame_start=None, frame_end=None, scene=None):
+    """Writes the deformation of frames [start, end] (by default the clip's,
+    clip_range) as a PC2 cache and makes its Mesh Cache modifier the one
+    deformation ('cache'), so the .blend plays without the add-on."""
+    scene = scene or bpy.context.scene
+    if not path or os.path.basename(path) in ("", ".pc2"):
+        raise Refused("Choose a file for the cache: the path is empty.")
+    default_start, default_end = clip_range(obj, scene)
+    frame_start = default_start if frame_start is None else frame_start
+    frame_end = default_end if frame_end is None else frame_end
     if frame_end < frame_start:
-        raise ValueError("the last frame comes before the first")
+        raise Refused("The last frame (%d) comes before the first (%d)." % (frame_end, frame_start))
     binding = ensure_binding(obj)
     arm = bound_armature(obj)
     if binding is None or arm is None:
-        raise curvenet.InputError(obj.name, "binding", "bind the mesh to an armature first")
+        raise Refused("Bind %s to an armature first." % obj.name)
     st = state(obj)
     M = np.empty((len(st.bone_names), 4, 4))
     current = scene.frame_current
@@ -943,11 +1236,8 @@ def bake_cache(obj, path, frame_start, frame_end, scene=None):
         curvenet.animate_poses(binding, pose, frame_start, frame_end, path, fps=scene.render.fps)
     finally:
         scene.frame_set(current)
-    unbind(obj)
-    for mod in obj.modifiers:
-        if mod.type == "MESH_CACHE" and mod.name == "curvenet":
-            obj.modifiers.remove(mod)
-    mod = obj.modifiers.new("curvenet", "MESH_CACHE")
+    set_deformation(obj, "cache", arm)
+    mod = obj.modifiers.new(CACHE_MODIFIER, "MESH_CACHE")
     mod.cache_format = "PC2"
     mod.filepath = path
     # The cache holds object-space positions in Blender's own axes and vertex order.
@@ -957,7 +1247,4 @@ def bake_cache(obj, path, frame_start, frame_end, scene=None):
     mod.frame_scale = 1.0
     with bpy.context.temp_override(object=obj):
         bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
-    for m in obj.modifiers:
-        if m.type == "ARMATURE":
-            m.show_viewport = False
-            m.show_render = False
+    return frame_start, frame_end

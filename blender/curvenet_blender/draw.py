@@ -15,12 +15,21 @@ COLOURS = {
     "failed": (1.0, 0.15, 0.1, 1.0),
     "node": (1.0, 0.85, 0.1, 1.0),
     "selected": (1.0, 0.3, 0.9, 1.0),
+    "selected_path": (1.0, 0.3, 0.9, 1.0),
 }
 
 
-def selected_nodes(scene):
-    text = scene.curvenet.selected_nodes
+def _ids(text):
     return [s for s in (t.strip() for t in text.split(",")) if s]
+
+
+def selected_nodes(scene):
+    return _ids(scene.curvenet.selected_nodes)
+
+
+def shown(obj):
+    """The overlay lies at rest: it shows unless the mesh is deformed away from rest."""
+    return not core.is_posed(obj)
 
 
 def overlay_geometry(obj, scene):
@@ -28,17 +37,20 @@ def overlay_geometry(obj, scene):
     rig = core.get_rig(obj)
     paths = core.traced_paths(obj)
     W = np.array(obj.matrix_world)
-    st = core.state(obj)
 
     def world(p):
         p = np.asarray(p, dtype=np.float64)
         return p @ W[:3, :3].T + W[:3, 3]
 
-    lines = {"path": [], "failed": []}
+    result = core.connect_result(obj) or {}
+    failed = result.get("failed_profile") or scene.curvenet.selected_profile
+    chosen_profiles = set(_ids(scene.curvenet.selected_profiles))
+    lines = {"path": [], "failed": [], "selected_path": []}
     for pid, path in paths.items():
         pts = world(path)
         seg = np.repeat(pts, 2, axis=0)[1:-1]
-        lines["failed" if pid == st.failed_profile else "path"].append(seg)
+        kind = "failed" if pid == failed else "selected_path" if pid in chosen_profiles else "path"
+        lines[kind].append(seg)
     chosen = set(selected_nodes(scene))
     points = {"node": [], "selected": []}
     for n in rig.nodes:
@@ -67,7 +79,7 @@ def _draw():
     from gpu_extras.batch import batch_for_shader
 
     obj = bpy.context.active_object
-    if not core.has_rig(obj):
+    if not core.has_rig(obj) or not shown(obj):
         return
     try:
         geo = overlay_geometry(obj, bpy.context.scene)
@@ -79,7 +91,7 @@ def _draw():
     gpu.state.depth_test_set("LESS_EQUAL")
     gpu.state.line_width_set(3.0)
     gpu.state.point_size_set(9.0)
-    for key in ("path", "failed"):
+    for key in ("path", "selected_path", "failed"):
         if len(geo[key]):
             batch = batch_for_shader(shader, "LINES", {"pos": geo[key].astype(np.float32).tolist()})
             shader.bind()

@@ -11,7 +11,7 @@ from . import core
 _busy = False
 
 
-def _update_all(depsgraph=None):
+def _update_all(depsgraph=None, force=False):
     global _busy
     if _busy:
         return
@@ -20,7 +20,7 @@ def _update_all(depsgraph=None):
         for obj in core.live_objects():
             try:
                 if core.ensure_binding(obj) is not None:
-                    core.update_live(obj, depsgraph)
+                    core.update_live(obj, depsgraph, force=force)
             except Exception as e:  # a handler must not raise into Blender
                 core.state(obj).error = str(e)
     finally:
@@ -51,7 +51,16 @@ def on_load(_dummy=None):
     _update_all()
 
 
+@persistent
+def on_undo_redo(_scene=None, _dummy=None):
+    # Undo and redo bring back the object's rig, deformation and shape key;
+    # the bindings made from another rig are made again (ensure_binding).
+    _update_all(force=True)
+
+
 HANDLERS = (
+    (bpy.app.handlers.undo_post, on_undo_redo),
+    (bpy.app.handlers.redo_post, on_undo_redo),
     (bpy.app.handlers.frame_change_post, on_frame_change),
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
     (bpy.app.handlers.load_post, on_load),

@@ -4,6 +4,7 @@ step can be scripted (bpy.ops.curvenet.*) and tested headless."""
 import os
 
 import bpy
+import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras import view3d_utils
 from bpy_extras.io_utils import ExportHelper, ImportHelper
@@ -13,16 +14,33 @@ import curvenet
 from . import core
 
 
+def _is_character_mesh(o):
+    return o is not None and o.type == "MESH" and not o.get("curvenet_preview_of")
+
+
 def _mesh(context):
+    """The mesh to work on: the active object, or, with an armature active
+    (selected last, as for Ctrl+P), the selected mesh."""
     obj = context.active_object
-    return obj if obj is not None and obj.type == "MESH" and not obj.get("curvenet_preview_of") else None
+    if _is_character_mesh(obj):
+        return obj
+    if obj is not None and obj.type == "ARMATURE":
+        meshes = [o for o in context.selected_objects if _is_character_mesh(o)]
+        if len(meshes) == 1:
+            return meshes[0]
+    return None
 
 
 def _armature(context):
+    """The armature: the active one, a selected one, the panel's, or the one the mesh is bound to."""
+    obj = context.active_object
+    if obj is not None and obj.type == "ARMATURE":
+        return obj
     for o in context.selected_objects:
         if o.type == "ARMATURE":
             return o
-    return context.scene.curvenet.armature
+    mesh = _mesh(context)
+    return context.scene.curvenet.armature or (core.bound_armature(mesh) if mesh is not None else None)
 
 
 def _target(context, source):
@@ -44,20 +62,37 @@ def _status(context, text):
     context.scene.curvenet.status = text.splitlines()[0] if text else ""
 
 
-def _attempt(op, context, label, call, errors=(curvenet.Error,)):
+def redraw(context):
+    """Every 3D view and the panel show the change at once."""
+    screen = context.screen
+    for area in screen.areas if screen is not None else ():
+        if area.type == "VIEW_3D":
+            area.tag_redraw()
+
+
+def _message(e):
+    """An exception as one sentence: a KeyError's text without its quotes."""
+    text = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
+    text = str(text).strip()
+    return (text[:1].upper() + text[1:]) if text else type(e).__name__
+
+
+def _attempt(op, context, label, call, errors=(curvenet.Error, KeyError, ValueError)):
     """Runs a core call; a refusal is reported in the info bar and the panel.
     Returns (ok, result)."""
     try:
         return True, call()
     except errors as e:
-        op.report({"ERROR"}, str(e))
-        _status(context, "%s: %s" % (label, e))
+        op.report({"ERROR"}, _message(e))
+        _status(context, "%s: %s" % (label, _message(e)))
+        redraw(context)
         return False, None
 
 
 def _done(op, context, message, ok=True):
     _status(context, message)
     op.report({"INFO"} if ok else {"WARNING"}, message)
+    redraw(context)
     return {"FINISHED"} if ok else {"CANCELLED"}
 
 
@@ -67,76 +102,108 @@ class _MeshOperator:
         return _mesh(context) is not None
 
 
+DRAW_HINT = ("Draw: click on the mesh to place nodes (a click near a node reuses it); each click after the first "
+             "makes a profile | Ctrl+Z undo | Enter/Esc finish")
+
+
 class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
     """Draw a net on the mesh: click to place nodes (a click near a node reuses it);
-    each click after the first makes a profile, traced on the surface. Ctrl+Z removes
-    the last profile; Enter or Esc finishes"""
+    each click after the first makes a profile, traced on the surface, as one undo
+    step. Ctrl+Z undoes a profile; Enter or Esc finishes"""
 
     bl_idname = "curvenet.draw"
     bl_label = "Draw"
     bl_options = {"REGISTER"}
 
+    @property
+    def obj(self):
+        return bpy.data.objects.get(self.obj_name)  # looked up anew: an undo replaces the object
+
     def invoke(self, context, event):
         if context.area is None or context.area.type != "VIEW_3D":
             self.report({"WARNING"}, "Draw works in a 3D view")
             return {"CANCELLED"}
-        self.obj = _mesh(context)
-        self.previous = None
+        self.obj_name = _mesh(context).name
+        self.previous = None  # the stroke's last end: a node id, or a point not yet a node
         self.stroke = []  # surface points the mouse passed over since the last click
         context.window_manager.modal_handler_add(self)
-        _status(context, "Draw: click on the mesh; Ctrl+Z undoes a profile; Enter or Esc finishes")
+        context.area.header_text_set(DRAW_HINT)
+        _status(context, DRAW_HINT)
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
         context.area.tag_redraw()
         try:
-            return self._step(context, event)
+            result = self._step(context, event)
         except curvenet.Error as e:  # a mesh the engine refuses: say why and stop
-            self.report({"ERROR"}, str(e))
-            _status(context, "Draw: " + str(e))
-            return {"CANCELLED"}
+            self.report({"ERROR"}, _message(e))
+            _status(context, "Draw: " + _message(e))
+            result = {"CANCELLED"}
+        if result != {"RUNNING_MODAL"} and result != {"PASS_THROUGH"}:
+            context.area.header_text_set(None)
+        return result
 
     def _step(self, context, event):
+        obj = self.obj
+        if obj is None:
+            return {"CANCELLED"}
         if event.type in {"RET", "NUMPAD_ENTER", "ESC"} and event.value == "PRESS":
-            _status(context, "Draw: finished, %d profiles" % len(core.get_rig(self.obj).profiles))
+            _status(context, "Draw: finished, %d profiles" % len(core.get_rig(obj).profiles))
             return {"FINISHED"}
         if event.type == "Z" and event.ctrl and event.value == "PRESS":
-            removed = core.remove_last_profile(self.obj)
-            if removed is not None:
-                rig = core.get_rig(self.obj)
-                last = rig.profiles[len(rig.profiles) - 1] if len(rig.profiles) else None
-                self.previous = last.to if last is not None else None
-                _status(context, "Draw: removed profile %s" % removed)
-            self.stroke = []
-            return {"RUNNING_MODAL"}
+            return self._undo(context, redo=event.shift)
         if event.type == "MOUSEMOVE" and self.previous is not None:
-            hit = core.surface_hit(self.obj, *_event_ray(context, event))
+            hit = core.surface_hit(obj, *_event_ray(context, event))
             if hit is not None:
-                step = 0.01 * core.state(self.obj).diagonal
+                step = 0.01 * core.state(obj).diagonal
                 if not self.stroke or ((hit - self.stroke[-1]) ** 2).sum() ** 0.5 > step:
                     self.stroke.append(hit)
             return {"RUNNING_MODAL"}
         if event.type == "LEFTMOUSE" and event.value == "PRESS":
-            origin, direction = _event_ray(context, event)
-            node = core.add_node_at(self.obj, origin, direction)
-            if node is None:
-                return {"RUNNING_MODAL"}  # a miss: the click is the user's to make again
-            if self.previous is not None and node != self.previous:
-                try:
-                    rig = core.get_rig(self.obj)
-                    ends = [rig.node(self.previous).position, rig.node(node).position]
-                    via = [p for p in self.stroke if min(((p - e) ** 2).sum() for e in ends) ** 0.5 > 1e-9]
-                    pid = core.add_profile(self.obj, self.previous, node, via or None)
-                    _status(context, "Draw: profile %s, %s -> %s" % (pid, self.previous, node))
-                except curvenet.Error as e:
-                    self.report({"WARNING"}, str(e))
-                    _status(context, "Draw: " + str(e))
-                    self.stroke = []
-                    return {"RUNNING_MODAL"}
-            self.previous = node
+            return self._click(context, obj, *_event_ray(context, event))
+        return {"PASS_THROUGH"}
+
+    def _click(self, context, obj, origin, direction):
+        placed = core.place(obj, origin, direction, context.scene.curvenet.snap)
+        if placed is None:
+            self.report({"WARNING"}, "Draw: the click missed the mesh")
+            _status(context, "Draw: the click missed the mesh; click on its surface")
+            return {"RUNNING_MODAL"}
+        point, node, radius = placed
+        end = node if node is not None else point
+        where = "node %s" % node if node is not None else "a new node"
+        if self.previous is None or (node is not None and node == self.previous):
+            self.previous, self.stroke = end, []
+            _status(context, "Draw: starts at %s (snap radius %.3g)" % (where, radius))
+            return {"RUNNING_MODAL"}
+        ends = [np.asarray(core.get_rig(obj).node(e).position) if isinstance(e, str) else e
+                for e in (self.previous, end)]
+        via = [p for p in self.stroke if min(((p - e) ** 2).sum() for e in ends) ** 0.5 > 1e-9]
+        try:
+            pid, a, b = core.add_stroke(obj, self.previous, end, via or None)
+        except curvenet.Error as e:
+            self.report({"WARNING"}, _message(e))
+            _status(context, "Draw: " + _message(e))
             self.stroke = []
             return {"RUNNING_MODAL"}
-        return {"PASS_THROUGH"}
+        bpy.ops.ed.undo_push(message="Curvenet: draw profile %s" % pid)
+        _status(context, "Draw: profile %s, %s -> %s (%s)" % (pid, a, b, where))
+        self.previous, self.stroke = b, []
+        return {"RUNNING_MODAL"}
+
+    def _undo(self, context, redo=False):
+        """Blender's own undo (or redo): the profile drawn last goes (or comes back)."""
+        try:
+            bpy.ops.ed.redo() if redo else bpy.ops.ed.undo()
+        except RuntimeError as e:
+            _status(context, "Draw: %s" % _message(e))
+            return {"RUNNING_MODAL"}
+        obj = self.obj
+        rig = core.get_rig(obj) if obj is not None else None
+        last = rig.profiles[len(rig.profiles) - 1] if rig is not None and len(rig.profiles) else None
+        self.previous, self.stroke = (last.to if last is not None else None), []
+        _status(context, "Draw: %s, %d profiles" % ("redone" if redo else "undone", len(rig.profiles) if rig else 0))
+        return {"RUNNING_MODAL"}
 
 
 class CURVENET_OT_connect(_MeshOperator, bpy.types.Operator):
@@ -148,13 +215,13 @@ class CURVENET_OT_connect(_MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         obj = _mesh(context)
-        ok, _report, message = core.connect(obj)
-        _status(context, message)
-        failed = core.state(obj).failed_profile
-        if failed:
-            context.scene.curvenet.selected_profile = failed
-        self.report({"INFO"} if ok else {"WARNING"}, "Curvenet embedding: " + message)
-        return {"FINISHED"} if ok else {"CANCELLED"}
+        ok, result = _attempt(self, context, "Connect", lambda: core.connect(obj))
+        if not ok:
+            return {"CANCELLED"}
+        ok, _report, message = result
+        failed = (core.connect_result(obj) or {}).get("failed_profile", "")
+        context.scene.curvenet.selected_profile = failed
+        return _done(self, context, message, ok)
 
 
 class CURVENET_OT_starter(_MeshOperator, bpy.types.Operator):
@@ -174,8 +241,9 @@ class CURVENET_OT_starter(_MeshOperator, bpy.types.Operator):
         ok, r = _attempt(self, context, "Starter", lambda: core.starter(obj, arm, nodes_per_ring=self.nodes_per_ring))
         if not ok:
             return {"CANCELLED"}
-        return _done(self, context, "Starter: %d rings, %d nodes, %d profiles, %d components" % (
-            r.rings, len(r.rig.nodes), len(r.rig.profiles), r.net_components))
+        context.scene.curvenet.armature = arm
+        return _done(self, context, "Starter: %d rings, %d nodes, %d profiles, %d components; %d joints without a ring" % (
+            r.rings, len(r.rig.nodes), len(r.rig.profiles), r.net_components, len(r.ringless)))
 
 
 class CURVENET_OT_make_armature(_MeshOperator, bpy.types.Operator):
@@ -186,11 +254,14 @@ class CURVENET_OT_make_armature(_MeshOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        ok, arm = _attempt(self, context, "Make armature", lambda: core.make_armature(_mesh(context)))
+        obj = _mesh(context)
+        existing = core.matching_armature(obj)
+        ok, arm = _attempt(self, context, "Make armature", lambda: core.make_armature(obj))
         if not ok:
             return {"CANCELLED"}
         context.scene.curvenet.armature = arm
-        return _done(self, context, "Armature %s: %d bones" % (arm.name, len(arm.data.bones)))
+        verb = "Found the armature" if existing is not None else "Made the armature"
+        return _done(self, context, "%s %s: %d bones" % (verb, arm.name, len(arm.data.bones)))
 
 
 class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
@@ -219,8 +290,8 @@ class CURVENET_OT_bind(_MeshOperator, bpy.types.Operator):
         if not ok:
             return {"CANCELLED"}
         context.scene.curvenet.armature = arm
-        return _done(self, context, "Bind (%s%s): %d vertices, %.2f influences per vertex" % (
-            b.method, ", over the Armature" if layer else "", b.report["vertices"], b.report["mean_influences"]))
+        return _done(self, context, "Bind (%s): %d vertices, %.2f influences per vertex; playing: %s" % (
+            b.method, b.report["vertices"], b.report["mean_influences"], core.describe_deformation(obj)))
 
 
 class CURVENET_OT_unbind(_MeshOperator, bpy.types.Operator):
@@ -231,9 +302,9 @@ class CURVENET_OT_unbind(_MeshOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        core.unbind(_mesh(context))
-        _status(context, "Unbound")
-        return {"FINISHED"}
+        obj = _mesh(context)
+        core.unbind(obj)
+        return _done(self, context, "Unbound; playing: " + core.describe_deformation(obj))
 
 
 class CURVENET_OT_pick_node(_MeshOperator, bpy.types.Operator):
@@ -362,26 +433,35 @@ class CURVENET_OT_import_rig(_MeshOperator, bpy.types.Operator, ImportHelper):
 
 
 class CURVENET_OT_bake_cache(_MeshOperator, bpy.types.Operator, ExportHelper):
-    """Bake the scene's frame range to a PC2 cache with a Mesh Cache modifier, so the .blend plays without the add-on"""
+    """Bake the clip's frames to a PC2 cache with a Mesh Cache modifier, so the .blend plays without the add-on"""
 
     bl_idname = "curvenet.bake_cache"
     bl_label = "Bake Cache"
     bl_options = {"REGISTER", "UNDO"}
     filename_ext = ".pc2"
     filter_glob: StringProperty(default="*.pc2", options={"HIDDEN"})
-    frame_start: IntProperty(name="Start", default=-1, description="-1: the scene's")
-    frame_end: IntProperty(name="End", default=-1, description="-1: the scene's")
+    frame_start: IntProperty(name="Start", default=-1, description="-1: the clip's first frame (else the scene's)")
+    frame_end: IntProperty(name="End", default=-1, description="-1: the clip's last frame (else the scene's)")
+
+    def invoke(self, context, event):
+        obj = _mesh(context)
+        start, end = core.clip_range(obj, context.scene)
+        if self.frame_start < 0:
+            self.frame_start = start
+        if self.frame_end < 0:
+            self.frame_end = end
+        return ExportHelper.invoke(self, context, event)
 
     def execute(self, context):
-        scene = context.scene
-        start = scene.frame_start if self.frame_start < 0 else self.frame_start
-        end = scene.frame_end if self.frame_end < 0 else self.frame_end
-        path = bpy.path.abspath(self.filepath)
-        ok, _ = _attempt(self, context, "Bake cache", lambda: core.bake_cache(_mesh(context), path, start, end, scene),
-                         (curvenet.Error, ValueError))
+        obj = _mesh(context)
+        start = None if self.frame_start < 0 else self.frame_start
+        end = None if self.frame_end < 0 else self.frame_end
+        path = bpy.path.abspath(self.filepath) if self.filepath else ""
+        ok, frames = _attempt(self, context, "Bake cache", lambda: core.bake_cache(obj, path, start, end, context.scene))
         if not ok:
             return {"CANCELLED"}
-        return _done(self, context, "Cache written: %s (frames %d-%d)" % (os.path.basename(path), start, end))
+        return _done(self, context, "Cache written: %s (frames %d-%d); playing: %s" % (
+            os.path.basename(path), frames[0], frames[1], core.describe_deformation(obj)))
 
 
 class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
@@ -403,8 +483,8 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
         if not ok:
             return {"CANCELLED"}
         used = int((w.joint >= 0).sum())
-        return _done(self, context, "Vertex groups: %d vertices, %.2f joints each, Armature modifier on %s" % (
-            w.num_vertices, used / max(1, w.num_vertices), arm.name))
+        return _done(self, context, "Vertex groups: %d vertices, %.2f joints each; playing: %s" % (
+            w.num_vertices, used / max(1, w.num_vertices), core.describe_deformation(obj)))
 
 
 class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):
@@ -418,8 +498,7 @@ class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):
         obj = _mesh(context)
         core.unbind(obj)
         core.clear_rig(obj)
-        _status(context, "Net removed")
-        return {"FINISHED"}
+        return _done(self, context, "Net removed; playing: " + core.describe_deformation(obj))
 
 
 CLASSES = (

@@ -3,7 +3,7 @@
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, PointerProperty, StringProperty
 
-from . import core
+from . import core, operators
 
 
 def _is_armature(_self, obj):
@@ -17,7 +17,12 @@ def _is_mesh(_self, obj):
 class CurvenetSceneProps(bpy.types.PropertyGroup):
     armature: PointerProperty(name="Armature", type=bpy.types.Object, poll=_is_armature)
     target: PointerProperty(name="Target", type=bpy.types.Object, poll=_is_mesh)
-    selected_nodes: StringProperty(name="Nodes", description="Nodes for the weight editor, comma-separated")
+    selected_nodes: StringProperty(name="Nodes", description="The selected nodes, comma-separated")
+    selected_profiles: StringProperty(name="Profiles", description="The selected profiles, comma-separated")
+    snap: FloatProperty(
+        name="Snap", default=core.SNAP_FRACTION, min=0.001, max=0.2, precision=3,
+        description="A click this near a node (a fraction of the mesh's diagonal, never more than a third of "
+                    "the limb's thickness there) reuses the node")
     selected_profile: StringProperty(name="Profile", description="The profile the last failure named")
     weight: FloatProperty(name="Weight", default=1.0, min=0.0, max=1.0)
     method: EnumProperty(
@@ -44,18 +49,41 @@ class CURVENET_PT_panel(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         props = context.scene.curvenet
-        obj = context.active_object
-        if obj is None or obj.type != "MESH":
-            layout.label(text="Select a mesh")
+        obj = operators._mesh(context)
+        if obj is None:
+            layout.label(text="Select a mesh (and its armature)")
             return
         rig = core.get_rig(obj) if core.has_rig(obj) else None
         box = layout.box()
         box.label(text="1. Net", icon="CURVE_DATA")
         row = box.row(align=True)
         row.operator("curvenet.draw")
-        row.operator("curvenet.starter")
+        row.operator("curvenet.starter", text="Starter")
+        row = box.row(align=True)
+        row.prop(props, "snap")
         if rig is not None:
             box.label(text="%d nodes, %d profiles" % (len(rig.nodes), len(rig.profiles)))
+            row = box.row(align=True)
+            row.operator("curvenet.edit_net", icon="EDITMODE_HLT")
+            row.operator("curvenet.delete", text="", icon="TRASH")
+            row.operator("curvenet.merge_nodes", text="", icon="AUTOMERGE_ON")
+            if props.selected_nodes or props.selected_profiles:
+                col = box.column(align=True)
+                if props.selected_nodes:
+                    col.label(text="nodes: " + props.selected_nodes, icon="DOT")
+                if props.selected_profiles:
+                    col.label(text="profiles: " + props.selected_profiles, icon="IPO_LINEAR")
+        notes = core.starter_notes(obj)
+        if notes:
+            sub = box.box()
+            sub.label(text="%d joints without a ring:" % len(notes), icon="INFO")
+            for joint, reason in notes[:12]:
+                r = sub.row(align=True)
+                op = r.operator("curvenet.select_bone", text=joint, emboss=False, icon="BONE_DATA")
+                op.bone = joint
+                r.label(text=reason)
+            if len(notes) > 12:
+                sub.label(text="and %d more" % (len(notes) - 12))
         row = box.row(align=True)
         row.operator("curvenet.import_rig", text="Import")
         row.operator("curvenet.export_rig", text="Export")
@@ -64,25 +92,32 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box = layout.box()
         box.label(text="2. Connect", icon="MOD_MESHDEFORM")
         box.operator("curvenet.connect")
-        rep = core.state(obj).report
-        if rep is not None:
+        result = core.connect_result(obj)
+        if result is not None:
             col = box.column(align=True)
-            col.label(text="SUCCESS" if rep["ok"] else "FAILED", icon="CHECKMARK" if rep["ok"] else "ERROR")
-            col.label(text="regions %d / expected %s" % (rep["regions"], rep["expected_regions"]))
-            col.label(text="unmapped faces %d" % rep["unmapped_faces"])
-        if props.selected_profile:
-            box.label(text="profile: " + props.selected_profile, icon="ERROR")
+            col.label(text="SUCCESS" if result["ok"] else "FAILED", icon="CHECKMARK" if result["ok"] else "ERROR")
+            rep = result["report"]
+            if rep is not None:
+                col.label(text="regions %d / expected %s" % (rep["regions"], rep["expected_regions"]))
+                col.label(text="unmapped faces %d" % rep["unmapped_faces"])
+            if result.get("failed_profile"):
+                col.label(text="profile: " + result["failed_profile"], icon="ERROR")
+        elif rig is not None and obj.get(core.CONNECT_KEY):
+            box.label(text="the net changed since: connect again", icon="INFO")
 
         box = layout.box()
         box.label(text="3. Bind", icon="ARMATURE_DATA")
-        box.prop(props, "armature")
-        box.prop(props, "method")
-        box.prop(props, "layer")
-        if rig is not None and rig.has_skeleton and props.armature is None:
+        col = box.column()
+        col.use_property_split = True
+        col.prop(props, "armature", text="Rig")
+        col.prop(props, "method", text="Mode")
+        col.prop(props, "layer", text="Layer")
+        if rig is not None and rig.has_skeleton and props.armature is None and core.matching_armature(obj) is None:
             box.operator("curvenet.make_armature")
         row = box.row(align=True)
         row.operator("curvenet.bind")
         row.operator("curvenet.unbind")
+        box.label(text="Playing: " + core.describe_deformation(obj), icon="PLAY")
         box.label(text="Node weights")
         row = box.row(align=True)
         row.operator("curvenet.pick_node", text="Pick")
@@ -102,13 +137,52 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box.operator("curvenet.bake_cache")
         box.operator("curvenet.bake_vertex_groups")
         if props.status:
-            layout.label(text=props.status)
+            for line in _wrap(props.status, 48):
+                layout.label(text=line)
         err = core.state(obj).error
         if err:
             layout.label(text=err, icon="ERROR")
 
 
-CLASSES = (CurvenetSceneProps, CURVENET_PT_panel)
+def _wrap(text, width):
+    """The status on several lines: a sidebar label cuts a long line off."""
+    words, lines, line = text.split(), [], ""
+    for w in words:
+        if line and len(line) + 1 + len(w) > width:
+            lines.append(line)
+            line = w
+        else:
+            line = (line + " " + w).strip()
+    if line:
+        lines.append(line)
+    return lines[:6]
+
+
+class CURVENET_OT_select_bone(bpy.types.Operator):
+    """Make the bone the armature's active, selected bone (to see where a ring is missing)"""
+
+    bl_idname = "curvenet.select_bone"
+    bl_label = "Select Bone"
+    bl_options = {"REGISTER", "UNDO"}
+
+    bone: StringProperty(name="Bone")
+
+    def execute(self, context):
+        obj = operators._mesh(context)
+        arm = context.scene.curvenet.armature or (core.bound_armature(obj) if obj is not None else None)
+        if arm is None or self.bone not in arm.data.bones:
+            self.report({"ERROR"}, "No armature with a bone %s: set the armature in the panel" % self.bone)
+            return {"CANCELLED"}
+        for b in arm.data.bones:
+            b.select = b.select_head = b.select_tail = False
+        bone = arm.data.bones[self.bone]
+        bone.select = bone.select_head = bone.select_tail = True
+        arm.data.bones.active = bone
+        self.report({"INFO"}, "Bone %s selected" % self.bone)
+        return {"FINISHED"}
+
+
+CLASSES = (CurvenetSceneProps, CURVENET_PT_panel, CURVENET_OT_select_bone)
 
 
 def register():

@@ -37,7 +37,7 @@ t.select(variant, arm)
 t.check(bpy.ops.curvenet.starter() == {"FINISHED"}, bpy.context.scene.curvenet.status)
 t.select(variant)
 t.check(bpy.ops.curvenet.connect() == {"FINISHED"}, "Connect: " + bpy.context.scene.curvenet.status)
-rep = core.state(variant).report
+rep = core.connect_result(variant)["report"]
 t.check(rep["ok"] and rep["regions"] == rep["expected_regions"] and rep["unmapped_faces"] == 0, "the counts agree")
 t.select(variant, arm)
 t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "Bind: " + bpy.context.scene.curvenet.status)

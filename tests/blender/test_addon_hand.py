@@ -75,11 +75,30 @@ from curvenet_blender import operators  # noqa: E402
 drawn_by_core = core.get_rig(obj).to_json()
 core.clear_rig(obj)
 operators._event_ray = lambda _context, event: event.ray
-shell = SimpleNamespace(obj=obj, previous=None, stroke=[], report=lambda kind, text: print("REPORT", kind, text))
+
+
+class Shell:
+    """The Draw operator's state and methods, without a window."""
+
+    obj = operators.CURVENET_OT_draw.obj
+    _step = operators.CURVENET_OT_draw._step
+    _click = operators.CURVENET_OT_draw._click
+    _undo = operators.CURVENET_OT_draw._undo
+
+    def __init__(self, name):
+        self.obj_name, self.previous, self.stroke = name, None, []
+
+    def report(self, kind, text):
+        print("REPORT", kind, text)
+
+
+obj_name, arm_name = obj.name, arm.name
+bpy.ops.ed.undo_push(message="before drawing")
+shell = Shell(obj_name)
 
 
 def event(kind, ray=None, ctrl=False):
-    return SimpleNamespace(type=kind, value="PRESS", ctrl=ctrl, ray=ray)
+    return SimpleNamespace(type=kind, value="PRESS", ctrl=ctrl, shift=False, ray=ray)
 
 
 def step(e):
@@ -93,8 +112,17 @@ for i, d in enumerate(clicks):
             step(event("MOUSEMOVE", (centre, ((1 - s) * clicks[i - 1] + s * d).normalized())))
     t.check(step(event("LEFTMOUSE", (centre, d))) == {"RUNNING_MODAL"}, "a click")
 t.check(len(core.get_rig(obj).profiles) == 4, "five clicks round the finger make the ring's 4 profiles")
-t.check(step(event("Z", ctrl=True)) == {"RUNNING_MODAL"} and len(core.get_rig(obj).profiles) == 3, "Ctrl+Z")
-t.check(shell.previous == core.get_rig(obj).profiles[2].to, "the stroke goes on from the last profile's end")
+t.check(step(event("Z", ctrl=True)) == {"RUNNING_MODAL"}, "Ctrl+Z in Draw")
+obj, arm = bpy.data.objects[obj_name], bpy.data.objects[arm_name]  # an undo replaces the objects
+rig = core.get_rig(obj)
+t.check(len(rig.profiles) == 3 and len(rig.nodes) == 4, "Ctrl+Z is Blender's undo: the last profile goes, and no node is left behind")
+t.check(shell.previous == rig.profiles[2].to, "the stroke goes on from the last profile's end")
+redo = SimpleNamespace(type="Z", value="PRESS", ctrl=True, shift=True, ray=None)
+t.check(step(redo) == {"RUNNING_MODAL"}, "Ctrl+Shift+Z in Draw")
+obj, arm = bpy.data.objects[obj_name], bpy.data.objects[arm_name]
+t.check(len(core.get_rig(obj).profiles) == 4, "redo brings the profile back")
+step(event("Z", ctrl=True))
+obj, arm = bpy.data.objects[obj_name], bpy.data.objects[arm_name]
 step(event("LEFTMOUSE", (centre, rays[0])))
 t.check(step(event("RET")) == {"FINISHED"}, "Enter finishes")
 rig = core.get_rig(obj)
@@ -105,14 +133,15 @@ t.check(len(rig.profile("p1").curve.points) > 2, "a profile passes through the s
 t.select(obj)
 result = bpy.ops.curvenet.connect()
 st = core.state(obj)
-t.check(result == {"FINISHED"} and st.report["ok"], "Connect: " + bpy.context.scene.curvenet.status)
-t.check(st.report["regions"] == 2 and st.report["expected_regions"] == 2, "a ring on a closed hand makes 2 regions")
+report = core.connect_result(obj)["report"]
+t.check(result == {"FINISHED"} and report["ok"], "Connect: " + bpy.context.scene.curvenet.status)
+t.check(report["regions"] == 2 and report["expected_regions"] == 2, "a ring on a closed hand makes 2 regions")
 t.check(bpy.context.scene.curvenet.status.startswith("SUCCESS"), "the panel says SUCCESS")
 preview = bpy.data.objects[obj.name + core.PREVIEW_SUFFIX]
 t.check(preview.data.color_attributes.get("regions") is not None, "the preview object has region colours")
 t.check(np.array_equal(np.array([v.co[:] for v in obj.data.vertices]), rest), "the user's mesh is not edited")
 # For every traced path, the chain the cut made ends at the same nodes.
-for pid, chain in st.paths.items():
+for pid, chain in core.traced_paths(obj).items():
     t.check(len(chain) >= 2, "profile %s has a chain" % pid)
 
 # A profile along the finger that crosses the ring between two of its nodes
@@ -124,10 +153,11 @@ f = core.add_node_at(obj, centre + axis * (0.35 * length), diag45)
 across = core.add_profile(obj, e, f, [core.surface_hit(obj, centre, diag45)])
 ok, _, message = core.connect(obj)
 t.check(not ok and message.startswith("FAILED") and ("'%s'" % across) in message, "a crossing net fails: " + message)
-t.check(core.state(obj).failed_profile in (across, pids[0]), "the failure names the crossing profiles")
+failed = core.connect_result(obj)["failed_profile"]
+t.check(failed == across, "the failure marks the profile drawn last of those it names (%s)" % failed)
 t.select(obj)
 t.check(bpy.ops.curvenet.connect() == {"CANCELLED"}, "the operator reports the failure")
-t.check(bpy.context.scene.curvenet.selected_profile == core.state(obj).failed_profile, "the named profile is selected")
+t.check(bpy.context.scene.curvenet.selected_profile == across, "the named profile is selected")
 
 # --- 3. starter net from the armature, connect, bind -----------------------
 t.select(obj, arm)
@@ -218,10 +248,17 @@ t.select(obj)
 bpy.ops.curvenet.connect()
 preview = bpy.data.objects[obj.name + core.PREVIEW_SUFFIX]
 chains = bpy.data.objects[obj.name + core.CHAINS_SUFFIX]
+t.check(preview.hide_viewport and chains.hide_viewport, "while the net deforms the mesh, the rest-pose preview hides")
+t.check(bpy.ops.curvenet.unbind() == {"FINISHED"} and not preview.hide_viewport, "unbound, the preview shows")
+t.check(len(preview.data.materials) > 1 and preview.show_in_front,
+        "the regions show in Solid shading (one material per colour), in front of the mesh they lie on")
 scene.frame_set(1)
 obj.hide_render = True
 t.render_workbench([preview, chains], os.path.join(t.OUT, "hand_regions.png"), colour="VERTEX")
+t.render_workbench([preview, chains], os.path.join(t.OUT, "hand_regions_material.png"), colour="MATERIAL")
 obj.hide_render = False
+t.select(obj, arm)
+t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "bound again")
 
 # --- bake a cache that plays without the add-on ----------------------------
 pc2 = os.path.join(t.OUT, "hand_bake.pc2")
