@@ -69,6 +69,7 @@ class ObjectState:
         self.last_pose = None  # the matrices of the last update, to skip unchanged poses
         self.changed = None  # scratch for comparing them
         self.error = ""  # the last failure of live deformation, one line
+        self.preview = None  # while a node is dragged: {"paths": {id: path}, "nodes": {id: point}}
 
 
 STATE = {}
@@ -329,9 +330,10 @@ def _signature(rig, p):
     return hashlib.sha1(repr(parts).encode()).hexdigest()
 
 
-def _trace(obj, rig, ids):
-    """Traces the profiles `ids` of `rig` alone on the surface and keeps the
-    paths with their curves' signatures."""
+def _trace(obj, rig, ids, keep=True):
+    """Traces the profiles `ids` of `rig` alone on the surface; keeps the
+    paths with their curves' signatures (unless `keep` is False, for a
+    preview) and returns them by id."""
     wanted = set(ids)
     alone = curvenet.Rig()
     alone.coverage = "local"
@@ -348,8 +350,10 @@ def _trace(obj, rig, ids):
         q.curve = p.curve
     paths = curvenet.trace_profiles(engine_mesh(obj), alone)
     st = state(obj)
-    for p, path in zip(picked, paths):
-        st.paths[p.id] = (_signature(rig, p), path)
+    if keep:
+        for p, path in zip(picked, paths):
+            st.paths[p.id] = (_signature(rig, p), path)
+    return {p.id: path for p, path in zip(picked, paths)}
 
 
 def traced_paths(obj, rig=None):

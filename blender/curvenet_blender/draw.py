@@ -35,7 +35,9 @@ def shown(obj):
 def overlay_geometry(obj, scene):
     """World-space line segments and points to draw, by colour name."""
     rig = core.get_rig(obj)
-    paths = core.traced_paths(obj)
+    paths = dict(core.traced_paths(obj))
+    preview = core.state(obj).preview or {}
+    paths.update(preview.get("paths", {}))  # a node being dragged: its profiles where it would put them
     W = np.array(obj.matrix_world)
 
     def world(p):
@@ -53,8 +55,9 @@ def overlay_geometry(obj, scene):
         lines[kind].append(seg)
     chosen = set(selected_nodes(scene))
     points = {"node": [], "selected": []}
+    moved = preview.get("nodes", {})
     for n in rig.nodes:
-        points["selected" if n.id in chosen else "node"].append(world(n.position))
+        points["selected" if n.id in chosen else "node"].append(world(moved.get(n.id, n.position)))
     out = {}
     for k, v in lines.items():
         out[k] = np.vstack(v) if v else np.zeros((0, 3))

@@ -86,6 +86,32 @@ def move_node(obj, node, point):
     return _commit(obj, rig, _profiles_at(rig, node))
 
 
+def preview_move(obj, node, point):
+    """The node's profiles as they would be traced with the node at `point`,
+    without changing the rig: kept on the state for the overlay (a drag).
+    Returns the state's preview, or None when they do not trace."""
+    st = core.state(obj)
+    p = core.on_surface(obj, [point])[0]
+    try:
+        rig = curvenet.move_node(core.get_rig(obj), node, p, obj.name)
+        changed = _profiles_at(rig, node)
+        for pid in changed:
+            prof = rig.profile(pid)
+            pts = np.asarray(prof.curve.points)
+            if len(pts) > 2:
+                c = prof.curve
+                c.points = np.vstack([pts[:1], core.on_surface(obj, pts[1:-1]), pts[-1:]])
+                prof.curve = c
+        st.preview = {"paths": core._trace(obj, rig, changed, keep=False), "nodes": {node: p}}
+    except curvenet.Error:
+        st.preview = None
+    return st.preview
+
+
+def end_preview(obj):
+    core.state(obj).preview = None
+
+
 def move_node_to_ray(obj, node, origin, direction):
     hit = core.surface_hit(obj, origin, direction)
     if hit is None:

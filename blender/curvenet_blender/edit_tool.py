@@ -11,7 +11,18 @@ from bpy_extras import view3d_utils
 import curvenet
 
 from . import core, edit
-from .operators import _MeshOperator, _attempt, _done, _event_ray, _mesh, _status, redraw
+from .operators import (
+    _MeshOperator,
+    _attempt,
+    _done,
+    _event_ray,
+    _mesh,
+    _status,
+    change_snap,
+    hide_hint,
+    redraw,
+    show_hint,
+)
 
 
 def _ids(text):
@@ -165,7 +176,8 @@ def _one(ids):
 
 
 EDIT_HINT = ("Edit Net: click select (Shift adds), drag a box | G move node | K split profile at mouse | "
-             "M merge 2 nodes | R reroute profile (click points, Enter) | X delete | Ctrl+Z undo | Enter/Esc finish")
+             "M merge 2 nodes | R reroute profile (click points, Enter) | X delete | [ ] snap | Ctrl+Z undo | "
+             "Enter/Esc finish")
 
 
 class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
@@ -193,7 +205,7 @@ class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
         self.press = None  # where a left press started (region pixels)
         self.route = []
         context.window_manager.modal_handler_add(self)
-        context.area.header_text_set(EDIT_HINT)
+        show_hint(context, "edit", EDIT_HINT)
         _status(context, EDIT_HINT)
         return {"RUNNING_MODAL"}
 
@@ -211,18 +223,25 @@ class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
             return {"RUNNING_MODAL"}
 
     def _finish(self, context, result):
-        context.area.header_text_set(None)
-        redraw(context)
+        obj = self.obj
+        if obj is not None:
+            edit.end_preview(obj)
+        hide_hint(context, "edit")
         return result
 
     def _step(self, context, event, obj):
         press = event.value == "PRESS"
         if self.mode == "GRAB":
             if event.type == "MOUSEMOVE":
-                _status(context, "Edit Net: move node %s; click to place it, Esc cancels" % self.grabbed)
+                hit = core.surface_hit(obj, *_event_ray(context, event))
+                if hit is not None:  # the profiles traced live where the node would go
+                    shown = edit.preview_move(obj, self.grabbed, hit) is not None
+                    _status(context, "Edit Net: move node %s; click to place it, Esc cancels%s" % (
+                        self.grabbed, "" if shown else " (its profiles do not trace there)"))
                 return {"RUNNING_MODAL"}
             if event.type == "LEFTMOUSE" and press:
                 hit = core.surface_hit(obj, *_event_ray(context, event))
+                edit.end_preview(obj)
                 self.mode = "SELECT"
                 if hit is None:
                     _status(context, "Edit Net: off the mesh; the node stays")
@@ -230,6 +249,7 @@ class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
                 _run("move_node", node=self.grabbed, location=tuple(hit))
                 return {"RUNNING_MODAL"}
             if event.type in {"ESC", "RIGHTMOUSE"} and press:
+                edit.end_preview(obj)
                 self.mode = "SELECT"
                 _status(context, "Edit Net: move cancelled")
             return {"RUNNING_MODAL"}
@@ -269,6 +289,8 @@ class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
                 return {"RUNNING_MODAL"}
         if not press:
             return {"PASS_THROUGH"}
+        if change_snap(context, event):
+            return {"RUNNING_MODAL"}
         nodes, profiles = selection(context)
         if event.type in {"X", "DEL"}:
             _run("delete")

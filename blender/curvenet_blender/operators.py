@@ -103,7 +103,34 @@ class _MeshOperator:
 
 
 DRAW_HINT = ("Draw: click on the mesh to place nodes (a click near a node reuses it); each click after the first "
-             "makes a profile | Ctrl+Z undo | Enter/Esc finish")
+             "makes a profile | [ ] snap radius | Ctrl+Z undo | Enter/Esc finish")
+
+RUNNING = set()  # the modal tools running now: the 3D view's header shows their snap setting
+
+
+def show_hint(context, name, text):
+    """The tool's keys in the status bar, and its snap setting in the 3D view's header."""
+    RUNNING.add(name)
+    if context.workspace is not None:
+        context.workspace.status_text_set(text)
+    redraw(context)
+
+
+def hide_hint(context, name):
+    RUNNING.discard(name)
+    if context.workspace is not None:
+        context.workspace.status_text_set(None)
+    redraw(context)
+
+
+def change_snap(context, event):
+    """[ and ] shrink and grow the snap radius. Returns True when the event was one."""
+    if event.type not in {"LEFT_BRACKET", "RIGHT_BRACKET"} or event.value != "PRESS":
+        return False
+    props = context.scene.curvenet
+    props.snap = props.snap * (0.8 if event.type == "LEFT_BRACKET" else 1.25)
+    _status(context, "Snap: %.3f of the diagonal (at most a third of the limb's thickness)" % props.snap)
+    return True
 
 
 class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
@@ -127,7 +154,7 @@ class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
         self.previous = None  # the stroke's last end: a node id, or a point not yet a node
         self.stroke = []  # surface points the mouse passed over since the last click
         context.window_manager.modal_handler_add(self)
-        context.area.header_text_set(DRAW_HINT)
+        show_hint(context, "draw", DRAW_HINT)
         _status(context, DRAW_HINT)
         return {"RUNNING_MODAL"}
 
@@ -140,7 +167,7 @@ class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
             _status(context, "Draw: " + _message(e))
             result = {"CANCELLED"}
         if result != {"RUNNING_MODAL"} and result != {"PASS_THROUGH"}:
-            context.area.header_text_set(None)
+            hide_hint(context, "draw")
         return result
 
     def _step(self, context, event):
@@ -152,6 +179,8 @@ class CURVENET_OT_draw(_MeshOperator, bpy.types.Operator):
             return {"FINISHED"}
         if event.type == "Z" and event.ctrl and event.value == "PRESS":
             return self._undo(context, redo=event.shift)
+        if change_snap(context, event):
+            return {"RUNNING_MODAL"}
         if event.type == "MOUSEMOVE" and self.previous is not None:
             hit = core.surface_hit(obj, *_event_ray(context, event))
             if hit is not None:

@@ -185,10 +185,20 @@ class CURVENET_OT_select_bone(bpy.types.Operator):
 CLASSES = (CurvenetSceneProps, CURVENET_PT_panel, CURVENET_OT_select_bone)
 
 
+def header(self, context):
+    """While Draw or Edit Net runs, the 3D view's header shows the snap setting, to adjust as one draws."""
+    if operators.RUNNING and getattr(context.scene, "curvenet", None) is not None:
+        self.layout.separator()
+        self.layout.label(text="Curvenet " + " / ".join(sorted(operators.RUNNING)), icon="CURVE_DATA")
+        self.layout.prop(context.scene.curvenet, "snap")
+
+
 def register():
     bpy.types.Scene.curvenet = PointerProperty(type=CurvenetSceneProps)
+    bpy.types.VIEW3D_HT_header.append(header)
 
 
 def unregister():
+    bpy.types.VIEW3D_HT_header.remove(header)
     if hasattr(bpy.types.Scene, "curvenet"):
         del bpy.types.Scene.curvenet

@@ -145,6 +145,16 @@ def moved():
     return np.linalg.norm(p - target) < 1e-6 * core.state(o).diagonal and np.linalg.norm(end - p) < 1e-3 * core.state(o).diagonal
 
 
+# While G drags a node, the overlay shows its profiles traced where it would go; the rig is unchanged.
+before = rig_text()
+preview = edit.preview_move(obj, a, target)
+geo = draw.overlay_geometry(obj, bpy.context.scene)
+W = np.array(obj.matrix_world)
+want_marker = W[:3, :3] @ core.on_surface(obj, [target])[0] + W[:3, 3]
+t.check(preview is not None and pid in preview["paths"] and rig_text() == before
+        and np.min(np.linalg.norm(np.vstack([geo["node"], geo["selected"]]) - want_marker, axis=1)) < 1e-9,
+        "dragging a node traces its profiles live for the overlay, without changing the net")
+edit.end_preview(obj)
 check_undoable("move a node", lambda: press("move_node", node=a, location=tuple(target)), moved)
 obj, arm = objects()
 n_nodes = len(core.get_rig(obj).nodes)
@@ -355,6 +365,9 @@ class Shell:
         self.reports.append((kind, text))
 
 
+snap = bpy.context.scene.curvenet.snap
+t.check(operators.change_snap(bpy.context, SimpleNamespace(type="RIGHT_BRACKET", value="PRESS"))
+        and abs(bpy.context.scene.curvenet.snap - 1.25 * snap) < 1e-6, "] grows the snap radius while drawing")
 operators._event_ray = lambda _context, event: event.ray
 shell = Shell(MESH)
 nodes_before = len(core.get_rig(obj).nodes)
