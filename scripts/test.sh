@@ -10,6 +10,11 @@ validator=2.0.0-dev.3.10
 if ! grep -qs "\"version\": \"$validator\"" build-tools/node_modules/gltf-validator/package.json; then
   npm install --no-audit --no-fund --silent --prefix build-tools "gltf-validator@$validator"
 fi
+# three.js, the engine that poses the baked skins in tests/engine (pinned).
+three=0.170.0
+if ! grep -qs "\"version\": \"$three\"" build-tools/node_modules/three/package.json; then
+  npm install --no-audit --no-fund --silent --prefix build-tools "three@$three"
+fi
 
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j "$jobs"
