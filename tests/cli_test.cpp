@@ -678,6 +678,10 @@ TEST(Cli, BakeWritesASkinnedGlbAndTheWeightsOrNothing) {
   EXPECT_TRUE(fs::file_size(glb) > 1000 && fs::file_size(csv) > 1000);
   const SkinnedMesh back = load_skinned_mesh(glb.string());
   EXPECT_EQ(back.clip_names, std::vector<std::string>{"Grip"});
+  // The skin against the rig, for the one clip carried: mean and worst vertex with its place.
+  EXPECT_NE(r.out.find("fidelity: the skin against the rig, % of the diagonal: mean "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  clip 'Grip': 1 frames, mean "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("clip 'Pinky'"), std::string::npos) << "only the clips carried";
   // Fitted over the clips' frames.
   r = run("bake " + mesh + " " + rig + " --weights-csv " + (dir / "fit.csv").string() + " --fit " + clips, dir);
   ASSERT_EQ(r.code, 0) << r.err;

@@ -136,3 +136,51 @@ TEST(Jobs, APoseJobReadsTheMeshFileOnceForItsSurfaceAndItsTopology) {
     EXPECT_EQ(detail::file_reads(job.scene.mesh), again) << mesh;
   }
 }
+
+TEST(Jobs, ABakeReportsEachClipsFidelityToTheRigWorstFirst) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("bake_fidelity");
+  BakeJob job;
+  job.scene = {test::data("xr_tools_hand/hand_l.gltf"), test::data("xr_tools_hand/example/hand_l.cnrig.json"), "", ""};
+  job.clip_file = test::data("xr_tools_hand/hand_l_poses.glb");
+  job.glb = (dir / "hand.glb").string();
+  const BakeSummary s = run(job);
+  ASSERT_EQ(s.fidelity.size(), 35u);
+  for (size_t i = 0; i < s.fidelity.size(); ++i) {
+    const auto& f = s.fidelity[i];
+    EXPECT_EQ(f.frames, 1) << f.clip; // the hand's clips are single poses
+    EXPECT_GE(f.max, f.mean) << f.clip;
+    EXPECT_GE(f.worst_vertex, 0) << f.clip;
+    EXPECT_FALSE(f.worst_joint.empty()) << f.clip;
+    if (i > 0)
+      EXPECT_LE(f.max, s.fidelity[i - 1].max) << "worst first";
+  }
+  // The worst clip's worst vertex, measured anew: the baked file's own
+  // weights under LBS against the rig's deformation at that pose.
+  const auto& worst = s.fidelity.front();
+  const SurfaceMesh mesh = load_mesh(job.scene.mesh);
+  const Binding b = bind(mesh, read_rig(job.scene.rig));
+  const SkinnedMesh baked = load_skinned_mesh(job.glb), clips = load_skinned_mesh(job.clip_file);
+  const int c = clips.find_clip(worst.clip);
+  const double t = clips.clip_range(c).first;
+  std::vector<Vec3> rest(b.num_input_vertices()), rig(rest.size());
+  b.deform(std::vector<Mat4>(b.joints().size(), Mat4::Identity()), rest);
+  b.deform(clip_skinning_matrices(b.joints(), clips, c, t), rig);
+  const std::vector<Vec3> skin = skin_positions(baked, rest, clip_skinning_matrices(baked.joints, clips, c, t));
+  const double diag = mesh.bbox_diagonal();
+  const auto v = static_cast<size_t>(worst.worst_vertex);
+  EXPECT_NEAR((skin[v] - rig[v]).norm() / diag, worst.max, 1e-5);
+  for (size_t i = 0; i < rest.size(); ++i)
+    EXPECT_LE((skin[i] - rig[i]).norm() / diag, worst.max + 1e-5);
+  // Weights fitted to these clips play them closer, worst vertex and mean.
+  job.fit = job.clip_file;
+  const BakeSummary fitted = run(job);
+  EXPECT_LT(fitted.fidelity.front().max, worst.max);
+  double mean = 0, fitted_mean = 0;
+  for (size_t i = 0; i < s.fidelity.size(); ++i) {
+    mean += s.fidelity[i].mean;
+    fitted_mean += fitted.fidelity[i].mean;
+  }
+  EXPECT_LT(fitted_mean, mean);
+}

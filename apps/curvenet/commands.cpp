@@ -196,8 +196,10 @@ int run_bake(const BakeArgs& a) {
                               : "fitted to the deformation over " + a.fit)
             << ", " << std::fixed << std::setprecision(2) << j.mean_joints << std::defaultfloat << std::setprecision(6)
             << " joints per vertex on average, " << j.most_joints << " at most, " << j.joints << " joints\n";
-  if (!a.clip_file.empty())
+  if (!a.clip_file.empty()) {
     std::cout << "clips: " << j.clips << " from " << a.clip_file << " at " << a.fps << " keys per second\n";
+    print_bake_fidelity(std::cout, j.fidelity);
+  }
   if (!a.out.empty())
     std::cout << "glTF: " << a.out << " (" << j.vertices << " vertices, Y-up"
               << (a.up == "z" ? ", turned from Z-up" : "") << ")\n";

@@ -62,6 +62,28 @@ void print_bind(std::ostream& out, const JobSummary& j) {
     out << "note: " << n << "\n";
 }
 
+void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>& clips) {
+  if (clips.empty())
+    return;
+  double mean = 0;
+  for (const auto& c : clips)
+    mean += c.mean;
+  mean /= static_cast<double>(clips.size());
+  const auto& worst = clips.front();
+  const auto flags = out.flags();
+  const auto precision = out.precision();
+  out << std::fixed << std::setprecision(2);
+  out << "fidelity: the skin against the rig, % of the diagonal: mean " << 100 * mean << ", worst vertex "
+      << 100 * worst.max << " (clip '" << worst.clip << "')\n";
+  for (const auto& c : clips)
+    out << "  clip '" << c.clip << "': " << c.frames << " frames, mean " << 100 * c.mean << ", max " << 100 * c.max
+        << " at vertex " << c.worst_vertex << " (" << std::setprecision(4) << c.worst_rest.x() << ", "
+        << c.worst_rest.y() << ", " << c.worst_rest.z() << std::setprecision(2) << "; " << c.worst_joint << "), "
+        << std::setprecision(3) << c.worst_time << std::setprecision(2) << " s in\n";
+  out.flags(flags);
+  out.precision(precision);
+}
+
 void print_job(std::ostream& out, const char* command, const JobSummary& j) {
   for (const auto& n : j.notes)
     out << "note: " << n << "\n";

@@ -203,11 +203,27 @@ struct BakeJob {
   /// skin), not to the net alone.
   LayerSpec layer;
 };
+/// How closely the baked skin plays one clip like the rig: over the clip's
+/// frames at the job's fps, the distance of each vertex under LBS with the
+/// baked weights from the rig's own deformation, as fractions of the mesh's
+/// bounding-box diagonal.
+struct BakeClipFidelity {
+  std::string clip;
+  int frames = 0;
+  double mean = 0; ///< over the frames, of the mean over the vertices
+  double max = 0;  ///< the worst vertex of the worst frame
+  int worst_vertex = -1;
+  Vec3 worst_rest = Vec3::Zero(); ///< where that vertex is at rest (mesh space)
+  std::string worst_joint;        ///< its heaviest baked joint
+  double worst_time = 0;          ///< seconds into the clip
+};
 struct BakeSummary : JobSummary {
   int joints = 0, influences = 0;
   double mean_joints = 0; ///< joints of non-zero weight per vertex
   int most_joints = 0;
   int clips = 0; ///< clips carried into the GLB
+  /// Per clip carried into the GLB, the skin against the rig, worst first.
+  std::vector<BakeClipFidelity> fidelity;
 };
 BakeSummary run(const BakeJob& job);
 

@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <functional>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -295,6 +296,62 @@ std::vector<std::vector<Mat4>> clip_poses(const std::vector<Joint>& joints, cons
   return poses;
 }
 
+namespace {
+
+/// The baked skin against the rig's deformation (`deform`, one frame) over
+/// each carried clip's frames: BakeClipFidelity, worst clip first.
+std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips,
+                                            const std::vector<std::string>& names, double fps,
+                                            const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform) {
+  const size_t n = static_cast<size_t>(b.num_input_vertices());
+  std::vector<Vec3> rest(n), rig(n);
+  deform(std::vector<Mat4>(b.joints().size(), Mat4::Identity()), rest);
+  Eigen::AlignedBox3d box;
+  for (const auto& p : rest)
+    box.extend(p);
+  const double diag = std::max(box.diagonal().norm(), 1e-300);
+  std::vector<BakeClipFidelity> out;
+  for (int c = 0; c < clips.num_clips(); ++c) {
+    if (!names.empty() && std::find(names.begin(), names.end(), clips.clip_names[static_cast<size_t>(c)]) == names.end())
+      continue;
+    BakeClipFidelity f;
+    f.clip = clips.clip_names[static_cast<size_t>(c)];
+    const auto [first, last] = clip_frames(clips, c, fps);
+    const double t0 = clips.clip_range(c).first;
+    for (int frame = first; frame <= last; ++frame) {
+      const double t = std::max(t0, frame / fps);
+      const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t);
+      deform(M, rig);
+      const std::vector<Vec3> skin = skin_positions(w, rest, M);
+      double sum = 0;
+      for (size_t v = 0; v < n; ++v) {
+        const double d = (skin[v] - rig[v]).norm() / diag;
+        sum += d;
+        if (d > f.max) {
+          f.max = d;
+          f.worst_vertex = static_cast<int>(v);
+          f.worst_time = t - t0;
+        }
+      }
+      f.mean += n ? sum / static_cast<double>(n) : 0.0;
+      ++f.frames;
+    }
+    if (f.frames)
+      f.mean /= f.frames;
+    if (f.worst_vertex >= 0) {
+      const size_t v = static_cast<size_t>(f.worst_vertex);
+      f.worst_rest = rest[v];
+      const int j = w.joint[v * static_cast<size_t>(w.influences)]; // the largest weight comes first
+      f.worst_joint = j >= 0 ? w.joints[static_cast<size_t>(j)] : "";
+    }
+    out.push_back(std::move(f));
+  }
+  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.max > b.max; });
+  return out;
+}
+
+} // namespace
+
 BakeSummary run(const BakeJob& job) {
   std::optional<SkinnedMesh> clips, fit;
   if (!job.clip_file.empty()) {
@@ -371,6 +428,15 @@ BakeSummary run(const BakeJob& job) {
   out.joints = static_cast<int>(w.joints.size());
   out.influences = w.influences;
   out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;
+  if (clips) {
+    const double envelope = job.layer.envelope;
+    out.fidelity = bake_fidelity(b, w, *clips, job.clip_names, job.fps, [&](std::span<const Mat4> M, std::span<Vec3> x) {
+      if (layer)
+        layer->deform_frames(M, x, envelope);
+      else
+        b.deform(M, x);
+    });
+  }
   return out;
 }
 
