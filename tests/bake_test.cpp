@@ -14,6 +14,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <random>
 #include <sstream>
 
@@ -223,4 +224,71 @@ TEST(Bake, AnObjKeepsItsVertexOrderAndSplitsOnlyWhereItsCornersDiffer) {
       triangles += topo.faces.face_offsets[f + 1] - topo.faces.face_offsets[f] - 2;
     EXPECT_EQ(static_cast<int>(raw.face_offsets.size()) - 1, triangles);
   }
+}
+
+TEST(Bake, TrainingPosesBendAndTwistEachJointAboutItsRestPositionThenAllAtOnce) {
+  const std::vector<Joint> joints = make_tube_net().joints; // root, mid, tip along +y
+  TrainingPoses opt;
+  const auto poses = training_poses(joints, opt);
+  const size_t per_joint = 2 * 2 * opt.bends.size() + 2;
+  ASSERT_EQ(poses.size(), joints.size() * per_joint + static_cast<size_t>(opt.random_poses));
+  for (const auto& M : poses) {
+    ASSERT_EQ(M.size(), joints.size());
+    for (const Mat4& m : M) {
+      const Eigen::Matrix3d R = m.block<3, 3>(0, 0);
+      EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 1e-12); // rigid
+      EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+      EXPECT_EQ(m.row(3), Eigen::RowVector4d(0, 0, 0, 1));
+    }
+  }
+  // The mid joint alone: the root stays, the mid joint's rest position stays
+  // put, and the tip joint moves with it, rigidly.
+  const auto& bent = poses[per_joint]; // the mid joint's first bend
+  EXPECT_TRUE(bent[0].isIdentity(0));
+  const Vec3 mid = joints[1].bind.block<3, 1>(0, 3), tip = joints[2].bind.block<3, 1>(0, 3);
+  EXPECT_LT((bent[1] * mid.homogeneous() - mid.homogeneous()).norm(), 1e-12);
+  EXPECT_TRUE(bent[2].isApprox(bent[1], 1e-12));
+  const double angle = std::acos(std::clamp(((bent[1] * tip.homogeneous()).head<3>() - mid).normalized().dot(
+                                                (tip - mid).normalized()),
+                                            -1.0, 1.0));
+  EXPECT_NEAR(angle * 180 / std::numbers::pi, opt.bends[0], 1e-9); // a bend across the bone
+  // The same every run.
+  EXPECT_TRUE(training_poses(joints, opt).back().back().isApprox(poses.back().back(), 0));
+  Joint bad = joints[0];
+  bad.bind(0, 0) = std::nan("");
+  EXPECT_THROW(training_poses({bad}), InputError);
+}
+
+TEST(Bake, WeightsFittedOverTheSkeletonsOwnPosesPlayClipsTheyNeverSawCloser) {
+  // The harmonic mode: the rig's deformation is a blend of the joints' matrices
+  // with per-vertex detail, which a fitted linear skin can follow.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SurfaceMesh m = load_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  BindOptions opt;
+  opt.method = DeformMethod::Harmonic;
+  const Binding b = bind(m, read_rig(test::data("xr_tools_hand/example/hand_l.cnrig.json")), opt);
+  const SkinnedMesh clips = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  const SkinWeights harmonic = bake_weights(b, 4), fitted = fit_weights(b, training_poses(b.joints()), 4);
+  const auto rest = rest_of(b);
+  const double diag = m.bbox_diagonal();
+  double mean_h = 0, mean_f = 0, max_h = 0, max_f = 0;
+  std::vector<Vec3> rig(rest.size());
+  for (int c = 0; c < clips.num_clips(); ++c) {
+    const auto M = clip_skinning_matrices(b.joints(), clips, c, clips.clip_range(c).first);
+    b.deform(M, rig);
+    const auto h = skin_positions(harmonic, rest, M), f = skin_positions(fitted, rest, M);
+    for (size_t v = 0; v < rest.size(); ++v) {
+      const double dh = (h[v] - rig[v]).norm() / diag, df = (f[v] - rig[v]).norm() / diag;
+      mean_h += dh;
+      mean_f += df;
+      max_h = std::max(max_h, dh);
+      max_f = std::max(max_f, df);
+    }
+  }
+  const double n = static_cast<double>(rest.size()) * clips.num_clips();
+  std::printf("held-out clips, %% of the diagonal: harmonic mean %.3f max %.2f; fitted mean %.3f max %.2f\n",
+              100 * mean_h / n, 100 * max_h, 100 * mean_f / n, 100 * max_f);
+  EXPECT_LT(mean_f, 0.7 * mean_h);
+  EXPECT_LT(max_f, 0.8 * max_h);
 }

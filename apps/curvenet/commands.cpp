@@ -188,12 +188,16 @@ int run_bake(const BakeArgs& a) {
   job.max_influences = a.max_influences;
   job.fps = a.fps;
   job.up = a.up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
+  job.weights = a.weights == "harmonic" ? BakeJob::Weights::Harmonic : BakeJob::Weights::Fitted;
   job.layer = layer_spec(a);
   const BakeSummary j = run(job);
   print_job(std::cout, "bake", j);
+  const std::string over = a.fit.empty() ? "" : " and the clips of " + a.fit;
   std::cout << "weights: "
-            << (a.fit.empty() ? std::string("harmonic, top ") + std::to_string(j.influences)
-                              : "fitted to the deformation over " + a.fit)
+            << (a.weights == "fitted" ? "fitted to the rig over " + std::to_string(j.training_poses) +
+                                            " poses of the skeleton" + over + ", top " + std::to_string(j.influences)
+                : a.fit.empty() ? std::string("harmonic, top ") + std::to_string(j.influences)
+                                : "fitted to the deformation over " + a.fit)
             << ", " << std::fixed << std::setprecision(2) << j.mean_joints << std::defaultfloat << std::setprecision(6)
             << " joints per vertex on average, " << j.most_joints << " at most, " << j.joints << " joints\n";
   if (!a.clip_file.empty()) {

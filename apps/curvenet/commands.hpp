@@ -68,7 +68,7 @@ int run_farm_merge(const std::string& folder);
 int run_farm_status(const std::string& folder);
 
 struct BakeArgs : DeformArgs {
-  std::string out, weights_csv, clip_file, fit, up = "y";
+  std::string out, weights_csv, clip_file, fit, up = "y", weights = "harmonic";
   std::vector<std::string> clip_names;
   int max_influences = 4;
   double fps = 24;

@@ -214,8 +214,14 @@ int main(int argc, char** argv) {
   bake->add_option("--up", bake_args.up, "The source's up axis; glTF is Y-up, a Z-up source is turned")
       ->capture_default_str()
       ->check(CLI::IsMember({"y", "z"}));
+  bake->add_option("--weights", bake_args.weights,
+                   "fitted: fit the weights to the rig over poses of the skeleton itself (each joint bent and "
+                   "twisted, and random poses of all), and the --fit clips; harmonic: the top harmonic weights "
+                   "(fitted over the --fit clips alone when given)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"fitted", "harmonic"}));
   bake->add_option("--fit", bake_args.fit,
-                   "Fit the weights to the full deformation over every frame of this glTF/GLB's clips "
+                   "Fit the weights to the full deformation over every frame of this glTF/GLB's clips too "
                    "(least squares per vertex, non-negative, on the harmonic influences)");
   layer_options(bake, bake_args);
   (void)bake_out;

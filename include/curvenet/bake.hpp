@@ -50,6 +50,22 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
                         const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
                         const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates);
 
+/// How training_poses() moves the skeleton.
+struct TrainingPoses {
+  std::vector<double> bends{45, 90}; ///< degrees, each joint alone, both ways about both axes across its bone
+  double twist = 45;                 ///< degrees, each joint alone about its bone, both ways
+  int random_poses = 48;             ///< poses that move every joint at once
+  double random_bend = 60, random_twist = 30; ///< their largest angles, degrees
+  unsigned seed = 1;
+};
+
+/// Poses from the skeleton alone, for a fit without the user's clips: skinning
+/// matrices (one per joint, the order of `joints`, mesh space) of each joint
+/// bent and twisted on its own, then of random poses of every joint at once.
+/// A joint's bone runs to the mean of its children (a leaf continues its
+/// parent's). 	hrow InputError for a non-finite bind matrix.
+std::vector<std::vector<Mat4>> training_poses(const std::vector<Joint>& joints, const TrainingPoses& options = {});
+
 /// Skinning with these weights: `rest` (one position per input vertex) moved
 /// by `skinning` (one matrix per joint of the weights), linearly or by dual
 /// quaternions.

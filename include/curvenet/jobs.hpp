@@ -195,7 +195,11 @@ struct BakeJob {
   std::string glb, weights_csv;
   std::string clip_file;               ///< optional: clips to carry into the GLB
   std::vector<std::string> clip_names; ///< of those, these; empty for all
-  std::string fit;                     ///< optional: fit the weights to the deformation over this file's clips
+  std::string fit;                     ///< optional: fit the weights to the deformation over this file's clips too
+  /// Fitted: weights fitted to the rig over training poses of the skeleton
+  /// (training_poses) and the `fit` clips; harmonic: the top-k harmonic
+  /// weights (or, with `fit`, fitted over its clips alone).
+  enum class Weights { Fitted, Harmonic } weights = Weights::Harmonic;
   int max_influences = 4;
   double fps = 24;
   GltfBakeOptions::Up up = GltfBakeOptions::Up::Y;
@@ -222,6 +226,7 @@ struct BakeSummary : JobSummary {
   double mean_joints = 0; ///< joints of non-zero weight per vertex
   int most_joints = 0;
   int clips = 0; ///< clips carried into the GLB
+  int training_poses = 0; ///< poses of the skeleton the weights were fitted over
   /// Per clip carried into the GLB, the skin against the rig, worst first.
   std::vector<BakeClipFidelity> fidelity;
 };

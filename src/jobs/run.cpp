@@ -373,18 +373,26 @@ BakeSummary run(const BakeJob& job) {
   std::optional<CurveLayer> layer;
   std::optional<BoundScene> bound;
   if (layered(job.layer, false)) {
-    if (!fit)
+    if (!fit && job.weights == BakeJob::Weights::Harmonic)
       throw InputError("--over-skin", "", "a layered bake fits its weights: give the clips to fit over with --fit");
     layer.emplace(layer_of(scene, job.layer, job.options));
   } else {
     bound.emplace(bind_scene(std::move(scene), job.options, files));
   }
   const Binding& b = layer ? layer->binding() : bound->binding;
+  // The poses to fit over: the skeleton's own training poses, and the clips given.
+  std::vector<std::vector<Mat4>> poses;
+  if (job.weights == BakeJob::Weights::Fitted)
+    poses = training_poses(b.joints());
+  if (fit) {
+    auto more = clip_poses(b.joints(), *fit, job.fps);
+    poses.insert(poses.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
+  }
   SkinWeights w;
   if (layer) {
     const double envelope = job.layer.envelope;
     w = fit_weights(
-        b, clip_poses(b.joints(), *fit, job.fps), job.max_influences,
+        b, poses, job.max_influences,
         [&](std::span<const Mat4> M, std::span<Vec3> out) { layer->deform_frames(M, out, envelope); },
         [&](int v, std::vector<std::pair<int, double>>& inf) {
           // The skin's joints join the net's, and the pull goes towards the skin's weights.
@@ -401,8 +409,7 @@ BakeSummary run(const BakeJob& job) {
           }
         });
   } else {
-    w = fit ? fit_weights(b, clip_poses(b.joints(), *fit, job.fps), job.max_influences)
-            : bake_weights(b, job.max_influences);
+    w = poses.empty() ? bake_weights(b, job.max_influences) : fit_weights(b, poses, job.max_influences);
   }
   GltfBakeOptions opt;
   opt.up = job.up;
@@ -427,6 +434,7 @@ BakeSummary run(const BakeJob& job) {
   out.mean_joints = w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0;
   out.joints = static_cast<int>(w.joints.size());
   out.influences = w.influences;
+  out.training_poses = job.weights == BakeJob::Weights::Fitted ? static_cast<int>(training_poses(b.joints()).size()) : 0;
   out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;
   if (clips) {
     const double envelope = job.layer.envelope;
