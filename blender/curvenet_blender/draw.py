@@ -81,7 +81,9 @@ def _draw():
     import gpu
     from gpu_extras.batch import batch_for_shader
 
-    obj = bpy.context.active_object
+    from . import operators
+
+    obj = operators._mesh(bpy.context)  # the mesh, also when its armature was selected last
     if not core.has_rig(obj) or not shown(obj):
         return
     try:

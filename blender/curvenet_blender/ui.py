@@ -37,6 +37,7 @@ class CurvenetSceneProps(bpy.types.PropertyGroup):
                     "as a corrective shape key",
         default=False)
     status: StringProperty(name="Status")
+    show_starter_notes: BoolProperty(name="Reasons", description="Show why each joint has no ring", default=True)
 
 
 class CURVENET_PT_panel(bpy.types.Panel):
@@ -76,12 +77,16 @@ class CURVENET_PT_panel(bpy.types.Panel):
         notes = core.starter_notes(obj)
         if notes:
             sub = box.box()
-            sub.label(text="%d joints without a ring:" % len(notes), icon="INFO")
+            row = sub.row()
+            row.prop(props, "show_starter_notes", text="%d joints without a ring" % len(notes), emboss=False,
+                     icon="TRIA_DOWN" if props.show_starter_notes else "TRIA_RIGHT")
             for joint, reason in notes[:12]:
-                r = sub.row(align=True)
-                op = r.operator("curvenet.select_bone", text=joint, emboss=False, icon="BONE_DATA")
+                col = sub.column(align=True)
+                op = col.operator("curvenet.select_bone", text=joint, emboss=False, icon="BONE_DATA")
                 op.bone = joint
-                r.label(text=reason)
+                if props.show_starter_notes:
+                    for line in _wrap(reason, 44):
+                        col.label(text="    " + line)
             if len(notes) > 12:
                 sub.label(text="and %d more" % (len(notes) - 12))
         row = box.row(align=True)
@@ -155,7 +160,7 @@ def _wrap(text, width):
             line = (line + " " + w).strip()
     if line:
         lines.append(line)
-    return lines[:6]
+    return lines[:8]
 
 
 class CURVENET_OT_select_bone(bpy.types.Operator):
