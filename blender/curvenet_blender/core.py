@@ -35,6 +35,7 @@ ARMATURE_KEY = "curvenet_armature"
 SHAPE_KEY = "curvenet"
 MODIFIERS_KEY = "curvenet_disabled_modifiers"  # the Armature modifiers switched off while bound
 PREVIEW_SUFFIX = ".curvenet_regions"
+PREVIEW_LIFT = 5e-4  # the preview lies this far outside the mesh (a fraction of the diagonal)
 CHAINS_SUFFIX = ".curvenet_chains"
 CONNECT_KEY = "curvenet_connect"  # the last Connect's result, with the rig it was made for
 STARTER_KEY = "curvenet_starter"  # the last starter net's joints without a ring, and why
@@ -451,10 +452,15 @@ def make_preview(obj, emb):
         me.materials.append(_region_material(rgb))
     me.polygons.foreach_set("material_index", face_material.astype(np.int32).ravel())
     me.update()
+    # A hair outside the mesh it lies on, so that the two never fight for depth.
+    normals = np.empty(len(me.vertices) * 3)
+    me.vertices.foreach_get("normal", normals)
+    co = np.asarray(V, dtype=np.float64) + PREVIEW_LIFT * state(obj).diagonal * normals.reshape(-1, 3)
+    me.vertices.foreach_set("co", co.ravel())
+    me.update()
     preview = _attach(bpy.data.objects.new(name, me), obj)
-    preview.show_in_front = True
     make_chains(obj, emb.chains)
-    _show_previews(obj, deformation(obj) in ("rest", "skin"))
+    sync_previews(obj)
     return preview
 
 
@@ -473,11 +479,13 @@ def _region_material(rgb):
     return mat
 
 
-def _show_previews(obj, shown):
-    """The region preview and the chains lie at rest: they hide while the mesh is deformed."""
+def sync_previews(obj):
+    """The region preview and the chains lie at rest: they show while the mesh
+    is at rest and hide while it is posed (whichever deformation poses it)."""
+    shown = not is_posed(obj)
     for suffix in (PREVIEW_SUFFIX, CHAINS_SUFFIX):
         o = bpy.data.objects.get(obj.name + suffix)
-        if o is not None:
+        if o is not None and o.hide_viewport == shown:  # only a change: each write is a depsgraph update
             o.hide_viewport = not shown
             o.hide_render = not shown
 
@@ -495,9 +503,7 @@ def make_chains(obj, chains):
         co = np.ones((len(pts), 4))
         co[:, :3] = pts
         spline.points.foreach_set("co", co.ravel())
-    chains_obj = _attach(bpy.data.objects.new(name, cu), obj)
-    chains_obj.show_in_front = True
-    return chains_obj
+    return _attach(bpy.data.objects.new(name, cu), obj)
 
 
 def _remove_object(name):
@@ -516,6 +522,7 @@ def _attach(new, obj):
     new.parent = obj
     new.matrix_parent_inverse = Matrix.Identity(4)
     new["curvenet_preview_of"] = obj.name
+    new.hide_select = True  # a click on the character selects the character, not its preview
     return new
 
 
@@ -819,7 +826,7 @@ def set_deformation(obj, kind, arm=None):
     elif MODIFIERS_KEY in obj:
         del obj[MODIFIERS_KEY]
     obj[DEFORMATION_KEY] = kind
-    _show_previews(obj, kind in ("rest", "skin"))
+    sync_previews(obj)
     obj.data.update()
     return kind
 
@@ -1012,6 +1019,18 @@ def is_posed(obj):
         if not np.allclose(np.array(pb.matrix), np.array(pb.bone.matrix_local), atol=1e-6 * scale):
             return True
     return kind == "cache"
+
+
+def previewed_objects():
+    """The meshes that have a region preview."""
+    out = []
+    for o in bpy.data.objects:
+        owner = o.get("curvenet_preview_of")
+        if owner and o.name.endswith(PREVIEW_SUFFIX):
+            mesh = bpy.data.objects.get(owner)
+            if mesh is not None:
+                out.append(mesh)
+    return out
 
 
 def live_objects():

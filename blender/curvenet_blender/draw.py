@@ -66,6 +66,24 @@ def overlay_geometry(obj, scene):
     return out
 
 
+def _towards_viewer(geo, rv3d, distance):
+    """Moves the overlay a little towards the viewer, so that it shows over
+    the region preview, which lies a hair outside the mesh."""
+    if rv3d is None:
+        return
+    inv = np.array(rv3d.view_matrix.inverted())
+    eye, back = inv[:3, 3], inv[:3, 2]  # the view's position, and its +z (towards the viewer)
+    for key, pts in geo.items():
+        if len(pts) == 0:
+            continue
+        if rv3d.is_perspective:
+            d = eye - pts
+            d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+        else:
+            d = np.broadcast_to(back, pts.shape)
+        geo[key] = pts + distance * d
+
+
 def _shader():
     import gpu
 
@@ -93,6 +111,7 @@ def _draw():
     shader = _shader()
     if shader is None:
         return
+    _towards_viewer(geo, bpy.context.region_data, 3 * core.PREVIEW_LIFT * core.state(obj).diagonal)
     gpu.state.depth_test_set("LESS_EQUAL")
     gpu.state.line_width_set(3.0)
     gpu.state.point_size_set(9.0)

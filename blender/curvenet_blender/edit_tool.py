@@ -336,6 +336,7 @@ class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
         elif pid not in chosen:
             chosen.append(pid)
         set_selection(context, nodes, profiles)
+        bpy.ops.ed.undo_push(message="Curvenet: select")  # undo brings the selection back with the net
         text = "Edit Net: %s %s" % (kind, pid)
         if kind == "node":
             w = core.node_weights(obj, pid)
@@ -354,6 +355,7 @@ class CURVENET_OT_edit_net(_MeshOperator, bpy.types.Operator):
             if p is not None and x0 <= p.x <= x1 and y0 <= p.y <= y1 and n.id not in nodes:
                 nodes.append(n.id)
         set_selection(context, nodes, profiles)
+        bpy.ops.ed.undo_push(message="Curvenet: box select")
         _status(context, "Edit Net: %d nodes selected" % len(nodes))
 
 

@@ -23,6 +23,8 @@ def _update_all(depsgraph=None, force=False):
                     core.update_live(obj, depsgraph, force=force)
             except Exception as e:  # a handler must not raise into Blender
                 core.state(obj).error = str(e)
+        for obj in core.previewed_objects():
+            core.sync_previews(obj)
     finally:
         _busy = False
 
@@ -34,7 +36,8 @@ def on_frame_change(scene, depsgraph=None):
 
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
-    # Only a pose or transform change of an armature, or a node handle moved, can move a bound mesh.
+    # Only a pose or transform change of an armature, or a node handle moved,
+    # can move a bound mesh or pose a previewed one.
     if depsgraph is not None:
         if not any(
             isinstance(u.id, bpy.types.Object)
@@ -56,6 +59,13 @@ def on_undo_redo(_scene=None, _dummy=None):
     # Undo and redo bring back the object's rig, deformation and shape key;
     # the bindings made from another rig are made again (ensure_binding).
     _update_all(force=True)
+    # The status line says what the data is now, not what it said at that step.
+    scene = bpy.context.scene
+    obj = bpy.context.active_object
+    if scene is not None and getattr(scene, "curvenet", None) is not None and core.has_rig(obj):
+        rig = core.get_rig(obj)
+        scene.curvenet.status = "After undo or redo: %s has %d nodes and %d profiles; playing: %s" % (
+            obj.name, len(rig.nodes), len(rig.profiles), core.describe_deformation(obj))
 
 
 HANDLERS = (

@@ -27,7 +27,7 @@ class CurvenetSceneProps(bpy.types.PropertyGroup):
     weight: FloatProperty(name="Weight", default=1.0, min=0.0, max=1.0)
     method: EnumProperty(
         name="Method",
-        items=(("dq", "Dual quaternion", "Blend the joints' rigid motions per vertex as dual quaternions, with the net's weights"),
+        items=(("dq", "DQ", "Dual quaternion: blend the joints' rigid motions per vertex as dual quaternions, with the net's weights"),
                ("harmonic", "Harmonic", "Blend the joints' matrices per vertex, linearly, with the net's weights"),
                ("gradient", "Gradient", "Per-face deformation gradients, rotation-aware, and a Poisson solve")),
         default="dq")
@@ -122,7 +122,9 @@ class CURVENET_PT_panel(bpy.types.Panel):
         row = box.row(align=True)
         row.operator("curvenet.bind")
         row.operator("curvenet.unbind")
-        box.label(text="Playing: " + core.describe_deformation(obj), icon="PLAY")
+        playing = _wrap("Playing: " + core.describe_deformation(obj), 34)
+        for i, line in enumerate(playing):
+            box.label(text=line, icon="PLAY" if i == 0 else "BLANK1")
         box.label(text="Node weights")
         row = box.row(align=True)
         row.operator("curvenet.pick_node", text="Pick")
@@ -131,8 +133,8 @@ class CURVENET_PT_panel(bpy.types.Panel):
         if arm is not None and arm.data.bones.active is not None:
             box.label(text="bone: " + arm.data.bones.active.name, icon="BONE_DATA")
         row = box.row(align=True)
-        row.prop(props, "weight")
-        op = row.operator("curvenet.set_node_weight", text="Set")
+        row.prop(props, "weight", text="")
+        op = row.operator("curvenet.set_node_weight", text="Set weight")
         op.weight = props.weight
 
         box = layout.box()
@@ -142,7 +144,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box.operator("curvenet.bake_cache")
         box.operator("curvenet.bake_vertex_groups")
         if props.status:
-            for line in _wrap(props.status, 48):
+            for line in _wrap(props.status, 40):
                 layout.label(text=line)
         err = core.state(obj).error
         if err:

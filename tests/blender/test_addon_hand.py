@@ -248,11 +248,15 @@ t.select(obj)
 bpy.ops.curvenet.connect()
 preview = bpy.data.objects[obj.name + core.PREVIEW_SUFFIX]
 chains = bpy.data.objects[obj.name + core.CHAINS_SUFFIX]
-t.check(preview.hide_viewport and chains.hide_viewport, "while the net deforms the mesh, the rest-pose preview hides")
-t.check(bpy.ops.curvenet.unbind() == {"FINISHED"} and not preview.hide_viewport, "unbound, the preview shows")
-t.check(len(preview.data.materials) > 1 and preview.show_in_front,
-        "the regions show in Solid shading (one material per colour), in front of the mesh they lie on")
+t.check(preview.hide_viewport and chains.hide_viewport, "while the mesh is posed (frame 21), the rest-pose preview hides")
 scene.frame_set(1)
+t.check(not preview.hide_viewport and not chains.hide_viewport, "at the rest frame the preview shows, bound or not")
+t.check(bpy.ops.curvenet.unbind() == {"FINISHED"} and not preview.hide_viewport, "unbound at rest, the preview shows")
+scene.frame_set(21)
+t.check(preview.hide_viewport, "posed by the mesh's own skin, the preview hides too")
+scene.frame_set(1)
+t.check(len(preview.data.materials) > 1 and preview.hide_select,
+        "the regions show in Solid shading (one material per colour); a click selects the mesh, not its preview")
 obj.hide_render = True
 t.render_workbench([preview, chains], os.path.join(t.OUT, "hand_regions.png"), colour="VERTEX")
 t.render_workbench([preview, chains], os.path.join(t.OUT, "hand_regions_material.png"), colour="MATERIAL")
