@@ -37,6 +37,30 @@ def enable_addon():
     return mod
 
 
+def draw_shell(name):
+    """The Draw operator's state and methods without a window, for mesh `name`:
+    feed it events with `.ray` (the world-space ray under the mouse) through
+    `_step(bpy.context, event)`. Its reports are kept in `.reports`."""
+    from curvenet_blender import operators
+
+    operators._event_ray = lambda _context, event: event.ray
+
+    class Shell:
+        obj = operators.CURVENET_OT_draw.obj
+        _step = operators.CURVENET_OT_draw._step
+        _click = operators.CURVENET_OT_draw._click
+        _undo = operators.CURVENET_OT_draw._undo
+
+        def __init__(self):
+            self.obj_name, self.previous, self.stroke, self.reports = name, None, [], []
+
+        def report(self, kind, text):
+            print("REPORT", kind, text)
+            self.reports.append((kind, text))
+
+    return Shell()
+
+
 def check(condition, what):
     if not condition:
         raise AssertionError("CURVENET_TEST failed: " + what)

@@ -74,27 +74,9 @@ from curvenet_blender import operators  # noqa: E402
 
 drawn_by_core = core.get_rig(obj).to_json()
 core.clear_rig(obj)
-operators._event_ray = lambda _context, event: event.ray
-
-
-class Shell:
-    """The Draw operator's state and methods, without a window."""
-
-    obj = operators.CURVENET_OT_draw.obj
-    _step = operators.CURVENET_OT_draw._step
-    _click = operators.CURVENET_OT_draw._click
-    _undo = operators.CURVENET_OT_draw._undo
-
-    def __init__(self, name):
-        self.obj_name, self.previous, self.stroke = name, None, []
-
-    def report(self, kind, text):
-        print("REPORT", kind, text)
-
-
 obj_name, arm_name = obj.name, arm.name
 bpy.ops.ed.undo_push(message="before drawing")
-shell = Shell(obj_name)
+shell = t.draw_shell(obj_name)
 
 
 def event(kind, ray=None, ctrl=False):

@@ -352,24 +352,10 @@ placed_b = core.place(obj, centre, v, snap=0.2)
 t.check(np.linalg.norm(placed_a[0] - placed_b[0]) > radius, "two clicks a quarter turn apart round a finger stay two nodes")
 
 
-class Shell:
-    obj = operators.CURVENET_OT_draw.obj
-    _step = operators.CURVENET_OT_draw._step
-    _click = operators.CURVENET_OT_draw._click
-    _undo = operators.CURVENET_OT_draw._undo
-
-    def __init__(self, name):
-        self.obj_name, self.previous, self.stroke, self.reports = name, None, [], []
-
-    def report(self, kind, text):
-        self.reports.append((kind, text))
-
-
 snap = bpy.context.scene.curvenet.snap
 t.check(operators.change_snap(bpy.context, SimpleNamespace(type="RIGHT_BRACKET", value="PRESS"))
         and abs(bpy.context.scene.curvenet.snap - 1.25 * snap) < 1e-6, "] grows the snap radius while drawing")
-operators._event_ray = lambda _context, event: event.ray
-shell = Shell(MESH)
+shell = t.draw_shell(MESH)
 nodes_before = len(core.get_rig(obj).nodes)
 shell._step(bpy.context, SimpleNamespace(type="LEFTMOUSE", value="PRESS", ctrl=False, shift=False,
                                          ray=(centre + axis * 100, axis)))
