@@ -1260,6 +1260,9 @@ def bake_cache(obj, path, frame_start=None, frame_end=None, scene=None):
     finally:
         scene.frame_set(current)
     set_deformation(obj, "cache", arm)
+    old = obj.modifiers.get(CACHE_MODIFIER)
+    if old is not None and old.type == "MESH_CACHE":  # a bake over a bake replaces its cache
+        obj.modifiers.remove(old)
     mod = obj.modifiers.new(CACHE_MODIFIER, "MESH_CACHE")
     mod.cache_format = "PC2"
     mod.filepath = path
