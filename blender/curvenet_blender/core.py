@@ -627,8 +627,9 @@ def starter(obj, arm, **options):
 
 
 def starter_notes(obj):
-    """[(joint, reason)] for the joints the last starter net left without a ring,
-    while the rig is still that net (an edit keeps them: they are about the skeleton)."""
+    """[(joint, reason)] for the joints the last starter net left without a ring.
+    Edits keep them (they are about the skeleton); a rig imported, transferred
+    in or cleared takes them away."""
     text = obj.get(STARTER_KEY) if obj is not None else None
     if not text:
         return []
@@ -1152,6 +1153,8 @@ def transfer(obj, target):
     )
     if result.ok:
         set_rig(target, result.rig)
+        if STARTER_KEY in target:
+            del target[STARTER_KEY]
         state(target).paths.clear()
     return result
 
@@ -1215,6 +1218,8 @@ def import_rig(obj, path, up="AUTO"):
     F = Y_UP_TO_BLENDER @ frame if up == "Y" else frame
     rig = apply_frame(rig, F)
     set_rig(obj, rig)
+    if STARTER_KEY in obj:
+        del obj[STARTER_KEY]
     state(obj).paths.clear()
     return rig
 
