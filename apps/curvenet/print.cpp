@@ -73,10 +73,14 @@ void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>&
   const auto flags = out.flags();
   const auto precision = out.precision();
   out << std::fixed << std::setprecision(2);
+  // A clip without a name is called by its index in the clip file.
+  auto name = [](const BakeClipFidelity& c) {
+    return c.clip.empty() ? "clip " + std::to_string(c.index) + " (unnamed)" : "clip '" + c.clip + "'";
+  };
   out << "fidelity: the skin against the rig, % of the diagonal: mean " << 100 * mean << ", worst vertex "
-      << 100 * worst.max << " (clip '" << worst.clip << "')\n";
+      << 100 * worst.max << " (" << name(worst) << ")\n";
   for (const auto& c : clips)
-    out << "  clip '" << c.clip << "': " << c.frames << " frames, mean " << 100 * c.mean << ", max " << 100 * c.max
+    out << "  " << name(c) << ": " << c.frames << " frames, mean " << 100 * c.mean << ", max " << 100 * c.max
         << " at vertex " << c.worst_vertex << " (" << std::setprecision(4) << c.worst_rest.x() << ", "
         << c.worst_rest.y() << ", " << c.worst_rest.z() << std::setprecision(2) << "; " << c.worst_joint << "), "
         << std::setprecision(3) << c.worst_time << std::setprecision(2) << " s in\n";

@@ -212,7 +212,8 @@ struct BakeJob {
 /// baked weights from the rig's own deformation, as fractions of the mesh's
 /// bounding-box diagonal.
 struct BakeClipFidelity {
-  std::string clip;
+  std::string clip; ///< its name in the clip file (may be empty)
+  int index = 0;    ///< its index there
   int frames = 0;
   double mean = 0; ///< over the frames, of the mean over the vertices
   double max = 0;  ///< the worst vertex of the worst frame

@@ -316,6 +316,7 @@ std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights&
       continue;
     BakeClipFidelity f;
     f.clip = clips.clip_names[static_cast<size_t>(c)];
+    f.index = c;
     const auto [first, last] = clip_frames(clips, c, fps);
     const double t0 = clips.clip_range(c).first;
     for (int frame = first; frame <= last; ++frame) {
