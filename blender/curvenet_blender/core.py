@@ -313,8 +313,8 @@ def add_profile(obj, a, b, via=None):
 
 
 def remove_last_profile(obj):
-    """Removes the last profile, and its end node when no other profile uses
-    it (the stroke goes back to the profile's first node). Returns the
+    """Removes the last profile, and those of its end nodes no other profile
+    uses (curvenet.remove_profiles: no orphan node stays). Returns the
     removed id, or None."""
     rig = get_rig(obj)
     if len(rig.profiles) == 0:
