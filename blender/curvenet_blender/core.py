@@ -431,8 +431,9 @@ def make_preview(obj, emb):
     CutChains as a curve object), parented to the mesh. The mesh itself is
     never edited. The regions show in Solid shading as it is: each colour is
     a material's viewport colour (and a colour attribute, for Attribute
-    shading and renders); the preview draws in front of the mesh it lies on,
-    so the two never fight for depth."""
+    shading and renders). The preview lies a hair outside the mesh
+    (PREVIEW_LIFT), so the two never fight for depth; it cannot be selected,
+    and it hides while the mesh is posed (sync_previews)."""
     V, offsets, corners = emb.cut_mesh()
     faces = [corners[offsets[f] : offsets[f + 1]].tolist() for f in range(len(offsets) - 1)]
     name = obj.name + PREVIEW_SUFFIX
