@@ -44,121 +44,110 @@ class CurvenetPoint(bpy.types.PropertyGroup):
     co: FloatVectorProperty(name="Point", size=3, subtype="XYZ")
 
 
-class CURVENET_OT_delete(_MeshOperator, bpy.types.Operator):
+class _EditOperator(_MeshOperator):
+    """An edit of the net: `edit(context, obj)` does it and returns the status
+    message; a refusal (core.Refused, the engine's errors) changes nothing and is reported."""
+
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = _mesh(context)
+        ok, message = _attempt(self, context, self.bl_label, lambda: self.edit(context, obj))
+        return _done(self, context, message) if ok else {"CANCELLED"}
+
+
+def _given_or_one(given, selected, what):
+    """The id given to the operator, or else the one selected id."""
+    chosen = given or _one(selected)
+    if not chosen:
+        raise core.Refused("Select one %s first." % what)
+    return chosen
+
+
+class CURVENET_OT_delete(_EditOperator, bpy.types.Operator):
     """Delete the selected nodes (with their profiles) and profiles (with the nodes they leave alone)"""
 
     bl_idname = "curvenet.delete"
     bl_label = "Delete"
-    bl_options = {"REGISTER", "UNDO"}
 
     nodes: StringProperty(name="Nodes", description="Comma-separated node ids; empty: the selected nodes")
     profiles: StringProperty(name="Profiles", description="Comma-separated profile ids; empty: the selected ones")
 
-    def execute(self, context):
-        obj = _mesh(context)
-        sel_nodes, sel_profiles = selection(context)
-        nodes = _ids(self.nodes) if self.nodes or self.profiles else sel_nodes
-        profiles = _ids(self.profiles) if self.nodes or self.profiles else sel_profiles
-        ok, rig = _attempt(self, context, "Delete", lambda: edit.delete(obj, nodes, profiles))
-        if not ok:
-            return {"CANCELLED"}
+    def edit(self, context, obj):
+        nodes, profiles = selection(context)
+        if self.nodes or self.profiles:
+            nodes, profiles = _ids(self.nodes), _ids(self.profiles)
+        rig = edit.delete(obj, nodes, profiles)
         set_selection(context)
-        return _done(self, context, "Deleted %d nodes and %d profiles: %d nodes, %d profiles left" % (
-            len(nodes), len(profiles), len(rig.nodes), len(rig.profiles)))
+        return "Deleted %d nodes and %d profiles: %d nodes, %d profiles left" % (
+            len(nodes), len(profiles), len(rig.nodes), len(rig.profiles))
 
 
-class CURVENET_OT_move_node(_MeshOperator, bpy.types.Operator):
+class CURVENET_OT_move_node(_EditOperator, bpy.types.Operator):
     """Move a node to a point on the surface; its profiles follow"""
 
     bl_idname = "curvenet.move_node"
     bl_label = "Move Node"
-    bl_options = {"REGISTER", "UNDO"}
 
     node: StringProperty(name="Node", description="Empty: the one selected node")
     location: FloatVectorProperty(name="Location", size=3, subtype="XYZ", description="Object space")
 
-    def execute(self, context):
-        obj = _mesh(context)
-        node = self.node or _one(selection(context)[0])
-        if not node:
-            self.report({"ERROR"}, "Select one node to move")
-            return {"CANCELLED"}
-        ok, _ = _attempt(self, context, "Move node", lambda: edit.move_node(obj, node, tuple(self.location)))
-        if not ok:
-            return {"CANCELLED"}
-        return _done(self, context, "Moved node %s" % node)
+    def edit(self, context, obj):
+        node = _given_or_one(self.node, selection(context)[0], "node to move")
+        edit.move_node(obj, node, tuple(self.location))
+        return "Moved node %s" % node
 
 
-class CURVENET_OT_split_profile(_MeshOperator, bpy.types.Operator):
+class CURVENET_OT_split_profile(_EditOperator, bpy.types.Operator):
     """Insert a node on a profile, at its point nearest to a location"""
 
     bl_idname = "curvenet.split_profile"
     bl_label = "Split Profile"
-    bl_options = {"REGISTER", "UNDO"}
 
     profile: StringProperty(name="Profile", description="Empty: the one selected profile")
     location: FloatVectorProperty(name="Location", size=3, subtype="XYZ", description="Object space")
 
-    def execute(self, context):
-        obj = _mesh(context)
-        profile = self.profile or _one(selection(context)[1])
-        if not profile:
-            self.report({"ERROR"}, "Select one profile to split")
-            return {"CANCELLED"}
-        ok, result = _attempt(self, context, "Split", lambda: edit.split(obj, profile, tuple(self.location)))
-        if not ok:
-            return {"CANCELLED"}
-        _rig, node, new = result
+    def edit(self, context, obj):
+        profile = _given_or_one(self.profile, selection(context)[1], "profile to split")
+        _rig, node, new = edit.split(obj, profile, tuple(self.location))
         set_selection(context, [node])
-        return _done(self, context, "Split %s at the new node %s; the new profile %s goes on" % (profile, node, new))
+        return "Split %s at the new node %s; the new profile %s goes on" % (profile, node, new)
 
 
-class CURVENET_OT_merge_nodes(_MeshOperator, bpy.types.Operator):
+class CURVENET_OT_merge_nodes(_EditOperator, bpy.types.Operator):
     """Merge the second selected node into the first (the profiles between them go)"""
 
     bl_idname = "curvenet.merge_nodes"
     bl_label = "Merge Nodes"
-    bl_options = {"REGISTER", "UNDO"}
 
     kept: StringProperty(name="Kept", description="Empty: the first selected node")
     merged: StringProperty(name="Merged", description="Empty: the second selected node")
 
-    def execute(self, context):
-        obj = _mesh(context)
+    def edit(self, context, obj):
         nodes = selection(context)[0]
         kept = self.kept or (nodes[0] if len(nodes) == 2 else "")
         merged = self.merged or (nodes[1] if len(nodes) == 2 else "")
         if not kept or not merged:
-            self.report({"ERROR"}, "Select exactly two nodes: the second is merged into the first")
-            return {"CANCELLED"}
-        ok, _ = _attempt(self, context, "Merge", lambda: edit.merge(obj, kept, merged))
-        if not ok:
-            return {"CANCELLED"}
+            raise core.Refused("Select exactly two nodes: the second is merged into the first.")
+        edit.merge(obj, kept, merged)
         set_selection(context, [kept])
-        return _done(self, context, "Merged node %s into %s" % (merged, kept))
+        return "Merged node %s into %s" % (merged, kept)
 
 
-class CURVENET_OT_reroute_profile(_MeshOperator, bpy.types.Operator):
+class CURVENET_OT_reroute_profile(_EditOperator, bpy.types.Operator):
     """Route a profile anew through points on the surface, between its same two nodes"""
 
     bl_idname = "curvenet.reroute_profile"
     bl_label = "Reroute Profile"
-    bl_options = {"REGISTER", "UNDO"}
 
     profile: StringProperty(name="Profile", description="Empty: the one selected profile")
     points: CollectionProperty(type=CurvenetPoint)
 
-    def execute(self, context):
-        obj = _mesh(context)
-        profile = self.profile or _one(selection(context)[1])
-        if not profile:
-            self.report({"ERROR"}, "Select one profile to reroute")
-            return {"CANCELLED"}
+    def edit(self, context, obj):
+        profile = _given_or_one(self.profile, selection(context)[1], "profile to reroute")
         pts = [tuple(p.co) for p in self.points]
-        ok, _ = _attempt(self, context, "Reroute", lambda: edit.reroute(obj, profile, pts))
-        if not ok:
-            return {"CANCELLED"}
-        return _done(self, context, "Rerouted %s through %d points" % (profile, len(pts)))
+        edit.reroute(obj, profile, pts)
+        return "Rerouted %s through %d points" % (profile, len(pts))
 
 
 def _run(name, **properties):

@@ -385,6 +385,7 @@ BakeSummary run(const BakeJob& job) {
   std::vector<std::vector<Mat4>> poses;
   if (job.weights == BakeJob::Weights::Fitted)
     poses = training_poses(b.joints());
+  const int skeleton_poses = static_cast<int>(poses.size());
   if (fit) {
     auto more = clip_poses(b.joints(), *fit, job.fps);
     poses.insert(poses.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
@@ -435,7 +436,7 @@ BakeSummary run(const BakeJob& job) {
   out.mean_joints = w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0;
   out.joints = static_cast<int>(w.joints.size());
   out.influences = w.influences;
-  out.training_poses = job.weights == BakeJob::Weights::Fitted ? static_cast<int>(training_poses(b.joints()).size()) : 0;
+  out.training_poses = skeleton_poses;
   out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;
   if (clips) {
     const double envelope = job.layer.envelope;
