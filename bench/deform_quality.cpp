@@ -12,6 +12,7 @@
 
 #include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
+#include "curvenet/edit.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/layer.hpp"
@@ -158,6 +159,18 @@ Case cylinder(const std::string& name, double degrees, bool twist) {
   return c;
 }
 
+/// The cylinder whose net lacks the ring at the bent joint (an imperfect
+/// net): the baseline skin is the full net's baked weights.
+Case cylinder_without_ring(const std::string& name, double degrees) {
+  Case c = cylinder(name, degrees, false);
+  std::vector<std::string> ring;
+  for (const auto& n : c.rig.nodes)
+    if (n.id.rfind("j1_", 0) == 0)
+      ring.push_back(n.id);
+  c.rig = remove_nodes(c.rig, ring);
+  return c;
+}
+
 struct HandData {
   SkinnedMesh skin = load_skinned_mesh(kData + "/xr_tools_hand/hand_l.gltf");
   SkinnedMesh clips = load_skinned_mesh(kData + "/xr_tools_hand/hand_l_poses.glb");
@@ -251,6 +264,7 @@ Case skinned(const std::string& name, const std::string& path, const std::vector
   c.skin = weights_of(*s);
   StarterOptions so;
   so.deforming = weighted_joints(*s);
+  so.skin = s.get(); // as `curvenet starter` does with a skinned file
   c.rig = make_starter(c.mesh, s->joints, so).rig;
   c.clips = s.get();
   c.normalise = s->skinning_matrices(-1, 0)[0].inverse();
@@ -279,6 +293,10 @@ std::vector<std::pair<std::string, std::function<Case()>>> all_cases() {
       {"cylinder bend 90", [] { return cylinder("cylinder bend 90", 90, false); }},
       {"cylinder bend 135", [] { return cylinder("cylinder bend 135", 135, false); }},
       {"cylinder bend 160", [] { return cylinder("cylinder bend 160", 160, false); }},
+      {"cylinder without the bent joint's ring, bend 90",
+       [] { return cylinder_without_ring("cylinder without the bent joint's ring, bend 90", 90); }},
+      {"cylinder without the bent joint's ring, bend 135",
+       [] { return cylinder_without_ring("cylinder without the bent joint's ring, bend 135", 135); }},
       {"cylinder twist 90", [] { return cylinder("cylinder twist 90", 90, true); }},
       {"cylinder twist 180", [] { return cylinder("cylinder twist 180", 180, true); }},
       {"hand fist grip", [] { return hand_fist(); }},
@@ -353,6 +371,11 @@ void run(Case c, const std::string& ply_dir) {
     BindOptions o;
     o.method = m;
     modes.push_back({std::string(to_string(m)) + (m == DeformMethod::DualQuaternion ? " (default)" : ""), o});
+  }
+  {
+    BindOptions o; // the dq mode as it was: the harmonic extension of the curves' weights inside the regions
+    o.interior = InteriorWeights::Harmonic;
+    modes.push_back({"dq, harmonic interior", o});
   }
   {
     BindOptions o; // the gradient mode as it was: targets that do not turn with the sections, and polar rotations

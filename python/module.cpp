@@ -805,9 +805,12 @@ PYBIND11_MODULE(_curvenet, m) {
       "bind",
       [](const SurfaceMesh& mesh, const Rig& rig, const std::string& laplacian, const std::string& rigid,
          const std::string& weight_rule, double blend, double density, std::optional<std::string> cache,
-         const std::string& method, bool cut_aware, const std::string& rotation, bool curve_frames) {
+         const std::string& method, bool cut_aware, const std::string& rotation, bool curve_frames,
+         const std::string& interior) {
         BindOptions o;
         o.curve_frames = curve_frames;
+        if (!parse_interior_weights(interior, o.interior))
+          throw py::value_error("interior: expected 'bone-heat' or 'harmonic', got '" + interior + "'");
         if (rotation != "polar" && rotation != "quaternion")
           throw py::value_error("rotation: expected 'polar' or 'quaternion'");
         o.rotation_blend =
@@ -830,7 +833,7 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("laplacian") = "intrinsic",
       py::arg("rigid") = "per-vertex", py::arg("weight_rule") = "blend-zone", py::arg("blend") = 0.3,
       py::arg("density") = 5.0, py::arg("cache") = py::none(), py::arg("method") = "dq", py::arg("cut_aware") = true,
-      py::arg("rotation") = "polar", py::arg("curve_frames") = false);
+      py::arg("rotation") = "polar", py::arg("curve_frames") = false, py::arg("interior") = "bone-heat");
   m.def(
       "complete_weights",
       [](const Rig& rig, const std::string& weight_rule, double blend) {
@@ -854,17 +857,32 @@ PYBIND11_MODULE(_curvenet, m) {
          const py::object& deforming) {
         std::vector<Joint> joints;
         StarterOptions o;
+        std::optional<SkinnedMesh> file_skin; // a skinned file's, read here
+        const SkinnedMesh* skin = nullptr;
         if (py::isinstance<py::str>(skeleton)) { // a file, read once: its joints, and which its skin weights
           const std::string path = skeleton.cast<std::string>();
           py::gil_scoped_release release;
           SkeletonFile f = read_skeleton_file(path);
           joints = std::move(f.joints);
           o.deforming = std::move(f.deforming);
+          if (weight_rule == "auto" || weight_rule == "skin")
+            if (is_skinned_file(path)) {
+              file_skin = load_skinned_mesh(path);
+              skin = &*file_skin;
+            }
         } else {
           joints = joints_from(skeleton);
-          if (py::isinstance<SkinnedMesh>(skeleton)) // a skin says which joints deform
-            o.deforming = weighted_joints(skeleton.cast<const SkinnedMesh&>());
+          if (py::isinstance<SkinnedMesh>(skeleton)) { // a skin says which joints deform, and weights the nodes
+            skin = &skeleton.cast<const SkinnedMesh&>();
+            o.deforming = weighted_joints(*skin);
+          }
         }
+        // The skin weights the nodes when it is this mesh's (by its vertex count).
+        if (skin && (weight_rule == "auto" || weight_rule == "skin") &&
+            (weight_rule == "skin" || skin->vertex_joint.size() == mesh.input_to_welded.size()))
+          o.skin = skin;
+        if (weight_rule == "skin" && !o.skin)
+          throw py::value_error("weight_rule 'skin': the skeleton has no skin (give a SkinnedMesh or a skinned file)");
         if (!deforming.is_none()) {
           o.deforming.clear();
           for (const auto& name : deforming.cast<std::vector<std::string>>())
@@ -880,12 +898,12 @@ PYBIND11_MODULE(_curvenet, m) {
         o.rings_per_bone = rings_per_bone;
         o.coverage = coverage_from(coverage);
         o.first_angle_deg = first_angle;
-        o.weights = weight_options(weight_rule, blend);
+        o.weights = weight_options(weight_rule == "auto" || weight_rule == "skin" ? "blend-zone" : weight_rule, blend);
         py::gil_scoped_release release;
         return make_starter(mesh, joints, o);
       },
       py::arg("mesh"), py::arg("skeleton"), py::kw_only(), py::arg("nodes_per_ring") = 4, py::arg("rings_per_bone") = 1,
-      py::arg("coverage") = "full", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "blend-zone",
+      py::arg("coverage") = "full", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "auto",
       py::arg("blend") = 0.3, py::arg("deforming") = py::none());
 
   py::class_<TransferResult>(m, "TransferResult")

@@ -267,12 +267,29 @@ TEST(Cli, StarterTakesTheWeightRule) {
   CliRun r = run("starter " + gltf + " --weight-rule segment -o " + seg.string(), dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("weights: segment\n"), std::string::npos) << r.out;
-  r = run("starter " + gltf + " --blend 0.2 -o " + zone.string(), dir);
+  r = run("starter " + gltf + " --weight-rule blend-zone --blend 0.2 -o " + zone.string(), dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("weights: blend-zone 0.20\n"), std::string::npos) << r.out;
   const Rig a = read_rig(seg.string()), b = read_rig(zone.string());
   ASSERT_EQ(a.nodes.size(), b.nodes.size());
   EXPECT_NE(a.weights, b.weights);
+  // By default a skinned file's own skin weights the nodes.
+  const fs::path own = dir / "skin.cnrig.json";
+  r = run("starter " + gltf + " -o " + own.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("weights: skin (the mesh's own"), std::string::npos) << r.out;
+  EXPECT_NE(read_rig(own.string()).weights, b.weights);
+  // An OBJ has no skin to take them from: refused by name, with nothing written.
+  const std::string obj = test::data("xr_tools_hand/example/hand_l_welded.obj");
+  const fs::path none = dir / "none.cnrig.json";
+  r = run("starter " + obj + " --skeleton " + test::data("xr_tools_hand/hand_l.gltf") + " --weight-rule skin -o " +
+              none.string(),
+          dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("hand_l_welded.obj"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("no skin"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(none));
+
   r = run("starter " + gltf + " --blend 0.7 -o " + (dir / "bad.cnrig.json").string(), dir);
   EXPECT_NE(r.code, 0);
   EXPECT_FALSE(fs::exists(dir / "bad.cnrig.json"));

@@ -1,10 +1,12 @@
 // Binding and deforming: the invariants, the maths, and the thesis's tube.
 
+#include "bind/bone_heat.hpp"
 #include "bind/gradient.hpp"
 #include "bind/laplacian.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
 #include "curvenet/deform.hpp"
+#include "curvenet/edit.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
@@ -12,8 +14,10 @@
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
 #include "curvenet/subdivide.hpp"
+#include "embed/embedding_impl.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
+#include "trace/trace_mesh.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -594,6 +598,80 @@ TEST(DualQuaternion, ATwistOf180KeepsTheLimbsSections) {
   EXPECT_LT(pose_limb(method(DeformMethod::Harmonic), 180, Vec3::UnitY()).smallest_section, 0.5);
 }
 
+TEST(DualQuaternion, ANetWithoutARingAtTheBentJointBendsAsTheCompleteNetsSkin) {
+  // The limb's net without its middle ring: the bent joint lies inside one
+  // region. Against dual-quaternion skinning with the complete net's baked
+  // weights (the skin a rigger would have): its volume within one point,
+  // its smallest section within 0.02, and no more bulge. With the harmonic
+  // interior the region blends its two rings' joints end to end and the
+  // bent joint leaves the surface behind: a lost section or a bulge.
+  const Limb& l = limb();
+  std::vector<std::string> ring;
+  for (const auto& n : l.rig.nodes)
+    if (n.id.rfind("j1_", 0) == 0)
+      ring.push_back(n.id);
+  ASSERT_EQ(ring.size(), 4u);
+  const Rig ringless = remove_nodes(l.rig, ring);
+  const SkinWeights skin = bake_weights(bind(l.mesh, l.rig), 4);
+  const std::vector<Vec3> rest = input_positions(l.mesh);
+  QualityOptions q;
+  q.limbs = {{0, 1, 2}};
+  const std::vector<int> dominant(l.mesh.num_vertices(), 0);
+  BindOptions harmonic_inside;
+  harmonic_inside.interior = InteriorWeights::Harmonic;
+  const Binding ours = bind(l.mesh, ringless), harmonic = bind(l.mesh, ringless, harmonic_inside);
+  for (const double degrees : {90.0, 135.0}) {
+    Pose pose;
+    pose["j1"] = rotation(degrees, Vec3::UnitZ());
+    const auto M = skinning_matrices(ours.joints(), pose);
+    auto measure = [&](const std::vector<Vec3>& per_input) {
+      return measure_deformation(l.mesh, l.mesh.welded(per_input), ours.joints(), M, dominant, q);
+    };
+    const DeformationQuality dqs = measure(skin_positions(skin, rest, M, Skinning::DualQuaternion));
+    const DeformationQuality a = measure(deform(ours, pose)), h = measure(deform(harmonic, pose));
+    std::printf("bend %.0f: DQS %+.2f%% %.2f %.2f%%; bone heat %+.2f%% %.2f %.2f%%; harmonic %+.2f%% %.2f %.2f%%\n",
+                degrees, 100 * dqs.volume_change, dqs.smallest_section, 100 * dqs.bulge, 100 * a.volume_change,
+                a.smallest_section, 100 * a.bulge, 100 * h.volume_change, h.smallest_section, 100 * h.bulge);
+    EXPECT_LE(std::abs(a.volume_change), std::abs(dqs.volume_change) + 0.01) << degrees;
+    EXPECT_GE(a.smallest_section, dqs.smallest_section - 0.02) << degrees;
+    EXPECT_LE(a.bulge, dqs.bulge) << degrees;
+    EXPECT_TRUE(h.smallest_section < dqs.smallest_section - 0.02 || h.bulge > dqs.bulge) << degrees;
+  }
+}
+
+TEST(DualQuaternion, BoneHeatInsideTheRegionsLeavesTheCurvesTheirWeights) {
+  // Every vertex of a curve keeps its profile's interpolated weights (the
+  // rig format's rule), whatever the inside of the regions does.
+  const Limb& l = limb();
+  BindOptions harmonic_inside;
+  harmonic_inside.interior = InteriorWeights::Harmonic;
+  const Binding b = bind(l.mesh, l.rig), h = bind(l.mesh, l.rig, harmonic_inside);
+  const auto& emb = b.embedding().impl();
+  std::vector<std::pair<int, double>> wb, wh;
+  int curve_vertices = 0, inside_differs = 0;
+  std::vector<char> on_curve(l.mesh.num_vertices(), 0);
+  for (const auto& chain : emb.result.chains)
+    for (const auto v : chain.vertices)
+      if (v.idx < l.mesh.num_vertices())
+        on_curve[v.idx] = 1;
+  for (int v = 0; v < l.mesh.num_vertices(); ++v) {
+    b.harmonic_weights(v, wb);
+    h.harmonic_weights(v, wh);
+    double sum = 0;
+    for (const auto& [j, x] : wb)
+      sum += x;
+    EXPECT_NEAR(sum, 1.0, 1e-12) << v;
+    if (on_curve[v]) {
+      ++curve_vertices;
+      EXPECT_EQ(wb, wh) << v;
+    } else {
+      inside_differs += wb != wh;
+    }
+  }
+  EXPECT_GT(curve_vertices, 100);
+  EXPECT_GT(inside_differs, 100); // the inside does change
+}
+
 TEST(DualQuaternion, ABendOf135KeepsTheVolumeWithinOnePercent) {
   EXPECT_LT(std::abs(pose_limb({}, 135, Vec3::UnitZ()).volume_change), 0.01);
   EXPECT_GT(std::abs(pose_limb(method(DeformMethod::Harmonic), 135, Vec3::UnitZ()).volume_change), 0.1);
@@ -604,7 +682,13 @@ TEST(DualQuaternion, TheHandDrawnHandNetMakesAFistNoWorseThanItsSkin) {
   // bones bend inside one region. The Grip clip's fist, through the net,
   // against the file's own skin on the same pose: no more self-intersecting
   // triangle pairs than its linear blend skin, and a volume change within
-  // its dual-quaternion skin's plus one point.
+  // its dual-quaternion skin's plus one and a half points. The net gains
+  // volume where DQS loses it: its palm ring follows the first finger
+  // bones (the rig's weights), which domes the back of the hand by about
+  // 10 % of the hand's volume. The harmonic interior hid part of that
+  // under a collapse of the thumb's base (-7.7 % of the volume against DQS
+  // there, -5.3 % with bone heat), so its total was nearer (+4.7 % against
+  // +5.2 %); the bound is not tightened to that cancellation.
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const std::string path = test::data("xr_tools_hand/hand_l.gltf");
@@ -634,9 +718,9 @@ TEST(DualQuaternion, TheHandDrawnHandNetMakesAFistNoWorseThanItsSkin) {
   std::printf("Grip fist: LBS %+.2f%% (%d pairs), DQS %+.2f%% (%d), dq %+.2f%% (%d)\n", 100 * lbs_volume, lbs_pairs,
               100 * dqs_volume, dqs_pairs, 100 * volume, pairs);
   EXPECT_LE(pairs, lbs_pairs);
-  EXPECT_LE(std::abs(volume), std::abs(dqs_volume) + 0.01);
+  EXPECT_LE(std::abs(volume), std::abs(dqs_volume) + 0.015);
   // The harmonic mode loses a fifth of the hand's volume here.
-  EXPECT_GT(std::abs(ours(method(DeformMethod::Harmonic)).first), std::abs(dqs_volume) + 0.01);
+  EXPECT_GT(std::abs(ours(method(DeformMethod::Harmonic)).first), std::abs(dqs_volume) + 0.015);
 }
 
 TEST(DualQuaternion, TheHandPosesTheSameOnItsRefinement) {
@@ -948,4 +1032,118 @@ TEST(Gradient, MalformedSideScalesAreRefusedNamingTheirPath) {
     // The harmonic mode does not read them.
     EXPECT_NO_THROW((void)bind(m, rig));
   }
+}
+
+// ---- bone heat (bind/bone_heat.hpp) ----------------------------------------
+
+namespace {
+
+/// Bone heat on a welded mesh with a skeleton, every joint taking part.
+detail::BoneHeat heat_on(const SurfaceMesh& m, const std::vector<Joint>& joints) {
+  const detail::CutMesh cut = detail::CutMesh::from_surface(m);
+  const detail::TraceMesh tm(m, cut);
+  const auto L = detail::cut_mesh_laplacian(cut, detail::LaplacianKind::IntrinsicDelaunay);
+  detail::BoneHeatInput in;
+  in.cut = &cut;
+  in.laplacian = &L;
+  in.surface = &tm;
+  in.joints = &joints;
+  in.deforming.assign(joints.size(), 1);
+  return detail::bone_heat(in);
+}
+
+} // namespace
+
+TEST(BoneHeat, IsAPartitionOfUnityRigidInTheMiddleOfABoneAndHalvedAtItsJoint) {
+  // A slender limb (bones 1.6 long, radius 0.25): heat spreads about as far
+  // as the surface lies from its bone, so the middle of a bone is its own.
+  TubeSpec ts;
+  ts.radius = 0.25;
+  ts.around = 32;
+  ts.along = 64;
+  ts.triangulate = true;
+  const SurfaceMesh m = make_surface_mesh(make_capped_tube(ts), "slender tube");
+  const auto joints = make_tube_skeleton({0.4, 2.0, 3.6}); // j0 -> j1 -> j2 along y
+  const detail::BoneHeat h = heat_on(m, joints);
+  EXPECT_EQ(h.blind, 0);
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    double sum = 0;
+    for (const auto& w : h.weight)
+      if (w.size() > 0) {
+        EXPECT_GE(w[v], 0);
+        sum += w[v];
+      }
+    EXPECT_NEAR(sum, 1.0, 1e-12) << v;
+    const double y = m.positions[v].y();
+    if (std::abs(y - 1.0) < 0.05) // the middle of j0's bone
+      EXPECT_GT(h.weight[0][v], 0.9) << y;
+    if (std::abs(y - 2.0) < 0.02) // at j1: half and half
+      EXPECT_NEAR(h.weight[0][v], 0.5, 0.1) << y;
+    if (y > 3.7) // past the last joint: j1's bone runs to it, j2 takes what lies beyond
+      EXPECT_LT(h.weight[0][v], 0.05) << y;
+  }
+}
+
+TEST(BoneHeat, DoesNotDependOnTheModelsScale) {
+  const SurfaceMesh m = test::tube(16, 24, 3, true);
+  const auto joints = make_tube_skeleton({0.4, 2.0, 3.6});
+  const double k = 1000;
+  SurfaceMesh big = m;
+  for (auto& p : big.positions)
+    p *= k;
+  auto big_joints = joints;
+  for (auto& j : big_joints)
+    j.bind.block<3, 1>(0, 3) *= k;
+  const detail::BoneHeat a = heat_on(m, joints), b = heat_on(big, big_joints);
+  for (size_t j = 0; j < joints.size(); ++j)
+    for (int v = 0; v < m.num_vertices(); ++v)
+      ASSERT_NEAR(a.weight[j][v], b.weight[j][v], 1e-9) << j << " " << v;
+}
+
+TEST(BoneHeat, AVertexTakesHeatFromTheBonesItSeesNotFromANearerOneBehindAnotherSurface) {
+  // A thick limb (radius 1) with a thin one (radius 0.2) alongside it, a
+  // gap of 0.1 between them (a finger against the palm), each with a bone
+  // along its axis. Where the thick limb faces the thin one, the thin
+  // limb's bone is three times nearer than its own, but behind the thin
+  // limb's surface: the heat comes from its own bone.
+  TubeSpec thick, thin;
+  thick.radius = 1.0;
+  thick.around = 64;
+  thick.along = 24;
+  thick.triangulate = true;
+  thin = thick;
+  thin.radius = 0.2;
+  thin.around = 16;
+  RawMesh a = make_capped_tube(thick);
+  const RawMesh b = make_capped_tube(thin);
+  const Vec3 shift(1.3, 0, 0);
+  const int base = static_cast<int>(a.positions.size());
+  for (const auto& p : b.positions)
+    a.positions.push_back(p + shift);
+  for (size_t f = 0; f + 1 < b.face_offsets.size(); ++f) {
+    for (int k = b.face_offsets[f]; k < b.face_offsets[f + 1]; ++k)
+      a.face_vertices.push_back(b.face_vertices[k] + base);
+    a.face_offsets.push_back(static_cast<int>(a.face_vertices.size()));
+  }
+  const SurfaceMesh m = make_surface_mesh(a, "two limbs");
+  // j0 -> j1 along the thick limb's axis, j2 -> j3 along the thin one's.
+  std::vector<Joint> joints(4);
+  for (int k = 0; k < 4; ++k) {
+    joints[k].name = "j" + std::to_string(k);
+    joints[k].bind.block<3, 1>(0, 3) = Vec3(k < 2 ? 0.0 : 1.3, k % 2 == 0 ? 0.5 : 3.5, 0);
+  }
+  joints[1].parent = "j0";
+  joints[3].parent = "j2";
+  const detail::BoneHeat h = heat_on(m, joints);
+  int facing = 0;
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    const Vec3& p = m.positions[v];
+    if (p.y() < 1.5 || p.y() > 2.5)
+      continue;
+    const bool thick_limb = v < base;
+    const double other = thick_limb ? h.weight[2][v] + h.weight[3][v] : h.weight[0][v] + h.weight[1][v];
+    EXPECT_EQ(other, 0) << v << " at " << p.transpose();
+    facing += thick_limb && p.x() > 0.95;
+  }
+  EXPECT_GT(facing, 0);
 }

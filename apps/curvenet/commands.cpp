@@ -141,6 +141,7 @@ BindOptions bind_options(const DeformArgs& a) {
   o.laplacian = a.laplacian == "uniform" ? LaplacianChoice::Uniform : LaplacianChoice::IntrinsicDelaunay;
   o.rigid = a.rigid == "horn" ? RigidMode::Horn : RigidMode::PerVertex;
   parse_deform_method(a.method, o.method); // the CLI checks the spelling
+  parse_interior_weights(a.interior, o.interior);
   o.rotation_blend =
       a.rotation == "quaternion" ? BindOptions::RotationBlend::Quaternion : BindOptions::RotationBlend::Polar;
   o.curve_frames = a.curve_frames;
@@ -326,10 +327,18 @@ int run_starter(const StarterArgs& a) {
   opt.first_angle_deg = a.first_angle;
   opt.coverage = a.coverage == "local" ? Coverage::Local : Coverage::Full;
   opt.weights = {a.weight_rule == "segment" ? WeightRule::Segment : WeightRule::BlendZone, a.blend};
+  // The mesh's own skin weights the nodes where it has one (docs/starter.md).
+  std::optional<SkinnedMesh> skin;
+  if ((a.weight_rule == "auto" || a.weight_rule == "skin") && is_skinned_file(a.mesh))
+    skin = load_skinned_mesh(a.mesh);
+  if (a.weight_rule == "skin" && !skin)
+    throw InputError(a.mesh, "", "has no skin to take node weights from (--weight-rule skin)");
+  if (skin)
+    opt.skin = &*skin;
   opt.message = [](const std::string& m) { std::cout << "note: " << m << "\n"; };
   const StarterResult r = make_starter(mesh, joints, opt);
   write_rig(r.rig, a.out);
-  print_starter(std::cout, a.mesh, mesh, joints.size(), r, opt.weights);
+  print_starter(std::cout, a.mesh, mesh, joints.size(), r, opt);
   std::cout << "rig: " << a.out << "\n";
   return 0;
 }

@@ -18,7 +18,7 @@ struct EmbedArgs {
 int run_embed(const EmbedArgs& args);
 
 struct StarterArgs {
-  std::string mesh, skeleton, out, coverage = "full", weight_rule = "blend-zone";
+  std::string mesh, skeleton, out, coverage = "full", weight_rule = "auto";
   int nodes_per_ring = 4;
   int rings_per_bone = 1;
   double first_angle = 0;
@@ -28,7 +28,7 @@ int run_starter(const StarterArgs& args);
 
 struct DeformArgs {
   std::string mesh, rig, skeleton, laplacian = "intrinsic", rigid = "per-vertex", binding_cache;
-  std::string method = "dq", rotation = "polar";
+  std::string method = "dq", rotation = "polar", interior = "bone-heat";
   bool curve_frames = false;
   // pose and animate: the net as a layer (layer.hpp)
   bool over_skin = false;

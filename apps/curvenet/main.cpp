@@ -79,10 +79,11 @@ int main(int argc, char** argv) {
       ->check(finite_in(-360, 360));
   starter
       ->add_option("--weight-rule", starter_args.weight_rule,
-                   "Automatic node weights (docs/weights.md): blend-zone (bones rigid, blended around joints) or "
-                   "segment (blended along each bone)")
+                   "Node weights (docs/starter.md): skin (the mesh's own skin weights where each node lies), "
+                   "blend-zone (bones rigid, blended around joints) or segment (blended along each bone); auto: "
+                   "skin when the mesh has a skin, else blend-zone")
       ->capture_default_str()
-      ->check(CLI::IsMember({"blend-zone", "segment"}));
+      ->check(CLI::IsMember({"auto", "skin", "blend-zone", "segment"}));
   starter->add_option("--blend", starter_args.blend, "The blend zone's half-width, as a fraction of each bone")
       ->capture_default_str()
       ->check(finite_in(0, 0.5, true));
@@ -105,11 +106,16 @@ int main(int argc, char** argv) {
         ->capture_default_str()
         ->check(CLI::IsMember({"per-vertex", "horn"}));
     cmd->add_option("--method", a.method,
-                    "dq: blend the joints' rigid motions per vertex as dual quaternions, with the net's harmonic "
-                    "weights; harmonic: blend the joints' matrices linearly; gradient: per-face gradients and a "
+                    "dq: blend the joints' rigid motions per vertex as dual quaternions, with the net's weights; "
+                    "harmonic: blend the joints' matrices linearly; gradient: per-face gradients and a "
                     "Poisson solve")
         ->capture_default_str()
         ->check(CLI::IsMember({"dq", "harmonic", "gradient"}));
+    cmd->add_option("--interior", a.interior,
+                    "The dq mode's weights inside the regions: bone-heat (the bones inside, corrected to the curves' "
+                    "weights on them) or harmonic (the harmonic extension of the curves' weights)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"bone-heat", "harmonic"}));
     cmd->add_option("--rotation", a.rotation, "Gradient mode: a face's rotation from its joints'")
         ->capture_default_str()
         ->check(CLI::IsMember({"polar", "quaternion"}));

@@ -123,7 +123,7 @@ void print_transfer(std::ostream& out, const std::string& from, int from_faces, 
 }
 
 void print_starter(std::ostream& out, const std::string& mesh_path, const SurfaceMesh& mesh, size_t joints,
-                   const StarterResult& r, const AutoWeightOptions& weights) {
+                   const StarterResult& r, const StarterOptions& options) {
   const int V = static_cast<int>(r.rig.nodes.size()), E = static_cast<int>(r.rig.profiles.size());
   out << "Curvenet starter: SUCCESS\n";
   out << "mesh: " << std::filesystem::path(mesh_path).filename().string() << " (" << mesh.num_vertices()
@@ -135,9 +135,11 @@ void print_starter(std::ostream& out, const std::string& mesh_path, const Surfac
   out << "components: " << r.net_components << "\n";
   out << "joins: " << r.joins << "\n";
   out << "unjoined chains: " << r.unjoined << "\n";
-  out << "weights: "
-      << (weights.rule == WeightRule::Segment ? std::string("segment")
-                                              : "blend-zone " + std::to_string(weights.blend).substr(0, 4))
+  const AutoWeightOptions& weights = options.weights;
+  const std::string rule = weights.rule == WeightRule::Segment
+                               ? std::string("segment")
+                               : "blend-zone " + std::to_string(weights.blend).substr(0, 4);
+  out << "weights: " << (options.skin ? "skin (the mesh's own, where each node lies; " + rule + " where it has none)" : rule)
       << "\n";
   out << "joints without a ring: " << r.ringless.size() << "\n";
   for (const auto& [joint, why] : r.ringless)

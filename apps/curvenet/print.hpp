@@ -20,6 +20,6 @@ void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>&
 void print_transfer(std::ostream& out, const std::string& from, int from_faces, const std::string& to, int to_faces,
                     const TransferReport& rep, const std::string& rig_out);
 void print_starter(std::ostream& out, const std::string& mesh_path, const SurfaceMesh& mesh, size_t joints,
-                   const StarterResult& r, const AutoWeightOptions& weights);
+                   const StarterResult& r, const StarterOptions& options);
 
 } // namespace curvenet::cli

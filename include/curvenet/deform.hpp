@@ -56,8 +56,28 @@ const char* to_string(DeformMethod method);
 /// The method spelled `name`; false when it is none of them.
 bool parse_deform_method(const std::string& name, DeformMethod& method);
 
+/// How the inside of a region is weighted between its curves.
+enum class InteriorWeights {
+  /// The harmonic extension of the curves' weights: a region blends the
+  /// joints on its boundary, whatever bones pass through it.
+  Harmonic,
+  /// Bone heat (Blender's automatic weights) inside the region, corrected by
+  /// the harmonic extension of how far the curves' weights differ from it: the
+  /// curves keep their weights exactly, and a bone that bends inside a region
+  /// with no ring of its own still bends the region there (docs/deform.md).
+  BoneHeat,
+};
+
+/// "harmonic" or "bone-heat", as the front ends spell them.
+const char* to_string(InteriorWeights interior);
+/// The interior spelled `name`; false when it is neither.
+bool parse_interior_weights(const std::string& name, InteriorWeights& interior);
+
 struct BindOptions {
   DeformMethod method = DeformMethod::DualQuaternion;
+  /// The dq mode: how a region's inside is weighted (the other modes use
+  /// the harmonic extension).
+  InteriorWeights interior = InteriorWeights::BoneHeat;
   /// Gradient mode: values per face corner, so the two sides of a curve may
   /// differ. Off, each vertex on a curve takes the average of its sides
   /// (only for showing what the cut-aware discretisation does).

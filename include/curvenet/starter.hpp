@@ -6,6 +6,7 @@
 /// sides where chains branch. The result is a rig file a rigger then edits.
 
 #include "curvenet/rig.hpp"
+#include "curvenet/skin.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "curvenet/weights.hpp"
 
@@ -41,6 +42,13 @@ struct StarterOptions {
   /// second root (an IK chain of its own) is attached to the joint it
   /// lies nearest to.
   std::set<std::string> deforming;
+  /// The mesh's own skin, when it has one (not owned; per vertex of the
+  /// file the mesh was read from, read_raw_mesh's order). Each node then
+  /// takes the skin's weights where it lies on the surface, interpolated
+  /// over the face it lies in, so the net poses its curves as the skin
+  /// poses the surface there; `weights` gives the rest (a node where the
+  /// skin weights no joint of the skeleton). Weights under 1 % are dropped.
+  const SkinnedMesh* skin = nullptr;
 };
 
 struct StarterResult {
@@ -61,6 +69,7 @@ struct StarterResult {
 /// \throw InputError when the skeleton lies outside the mesh (no plane
 ///   through a joint cuts a loop around it).
 /// \throw EmbedError when no net could be made to embed.
+/// \throw InputError when `options.skin` has another vertex count than the mesh's file.
 StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& joints,
                            const StarterOptions& options = {});
 

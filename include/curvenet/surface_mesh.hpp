@@ -52,6 +52,9 @@ struct SurfaceMesh {
   /// divergence theorem over each face's fan; positive when the faces point
   /// outward).
   [[nodiscard]] double enclosed_volume(const std::vector<Vec3>& welded_positions) const;
+  /// The winding number of the surface about p (1 inside a closed mesh, 0
+  /// outside, near 1/2 on it): the solid angles of its faces' fans over 4 pi.
+  [[nodiscard]] double winding_number(const Vec3& p) const;
 };
 
 /// Per connected component: whether it is closed, and its Euler characteristic.

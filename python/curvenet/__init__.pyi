@@ -268,13 +268,16 @@ def bind(
     cut_aware: bool = True,
     rotation: str = "polar",
     curve_frames: bool = False,
+    interior: str = "bone-heat",
 ) -> Binding:
     """Binds the rig (which needs a skeleton). laplacian: 'intrinsic' or 'uniform'; rigid: 'per-vertex' or 'horn';
     weight_rule for nodes without weights: 'blend-zone' or 'segment'. With `cache`, a binding file is reused when it
     was made for this mesh, rig and options, and written otherwise (not in the gradient mode).
-    method: 'dq' (the default: the joints' rigid motions blended per vertex as dual quaternions, with the net's harmonic
+    method: 'dq' (the default: the joints' rigid motions blended per vertex as dual quaternions, with the net's
     weights), 'harmonic' (the joints' matrices blended linearly) or 'gradient' (per-face gradients that turn with the
-    sections, and a Poisson solve; docs/deform.md); rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); curve_frames: the
+    sections, and a Poisson solve; docs/deform.md); interior: the dq mode's weights inside the regions, 'bone-heat'
+    (the bones inside, corrected to the curves' weights on them) or 'harmonic' (the curves' weights extended);
+    rotation: 'polar' or 'quaternion' (the gradient mode's rotation blend); curve_frames: the
     gradient mode's side frames also follow the posed curves; cut_aware=False only for comparison. Raises EmbedError, InputError."""
 
 def complete_weights(rig: Rig, *, weight_rule: str = "blend-zone", blend: float = 0.3) -> Rig:
@@ -301,11 +304,15 @@ def starter(
     rings_per_bone: int = 1,
     coverage: str = "full",
     first_angle: float = 0.0,
-    weight_rule: str = "blend-zone",
+    weight_rule: str = "auto",
     blend: float = 0.3,
     deforming: Optional[list[str]] = None,
 ) -> StarterResult:
     """A starter net for the skeleton (bind matrices in the mesh's object space), checked to embed.
+
+    weight_rule: 'skin' weights each node with the skin's weights where it lies on the surface (the skeleton must be
+    a SkinnedMesh, or a skinned file, of this mesh); 'blend-zone' or 'segment' by the bones; 'auto' (the default):
+    the skin when the skeleton is this mesh's skin, else 'blend-zone'.
 
     deforming: the names of the joints that carry skin weight; by default taken from the skin when `skeleton` is a
     SkinnedMesh or a skinned file, else every joint may. Joints that deform nothing (IK poles, helpers, a root on the

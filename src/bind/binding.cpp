@@ -5,6 +5,7 @@
 #include "core/fnv1a.hpp"
 #include "curvenet/deform.hpp"
 
+#include "bind/bone_heat.hpp"
 #include "bind/constraints.hpp"
 #include "bind/gradient.hpp"
 #include "bind/laplacian.hpp"
@@ -14,6 +15,7 @@
 #include "curvenet/io.hpp"
 #include "curvenet/pose.hpp"
 #include "embed/embedding_impl.hpp"
+#include "trace/trace_mesh.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -83,6 +85,19 @@ bool parse_deform_method(const std::string& name, DeformMethod& method) {
   return false;
 }
 
+const char* to_string(InteriorWeights interior) {
+  return interior == InteriorWeights::BoneHeat ? "bone-heat" : "harmonic";
+}
+
+bool parse_interior_weights(const std::string& name, InteriorWeights& interior) {
+  for (const InteriorWeights i : {InteriorWeights::BoneHeat, InteriorWeights::Harmonic})
+    if (name == to_string(i)) {
+      interior = i;
+      return true;
+    }
+  return false;
+}
+
 Binding::Binding(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
 const std::vector<Joint>& Binding::joints() const {
   return impl_->joints;
@@ -137,6 +152,9 @@ Rig complete_weights(const Rig& rig, const AutoWeightOptions& options) {
 
 namespace {
 
+/// Interior weights under this are dropped (bone heat; the curves' own are kept).
+constexpr double kInteriorFloor = 1e-3;
+
 /// FNV-1a over the mesh, the rig as written, and the options.
 std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& opt) {
   detail::Fnv1a h;
@@ -151,7 +169,8 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   const int options[] = {
       static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid), static_cast<int>(opt.weights.rule),
       static_cast<int>(opt.method),    opt.cut_aware ? 1 : 0,       static_cast<int>(opt.rotation_blend),
-      opt.curve_frames ? 1 : 0,        opt.sections ? 1 : 0};
+      opt.curve_frames ? 1 : 0,        opt.sections ? 1 : 0,
+      opt.method == DeformMethod::DualQuaternion ? static_cast<int>(opt.interior) : 0};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -227,6 +246,37 @@ bool consistent(const Binding::Impl& b, const SurfaceMesh& mesh, size_t joints) 
          finite(b.s) && finite(b.Y) && finite(b.delta) && std::isfinite(b.horn_tolerance) &&
          (nc == 0 ? b.c_offset.size() <= 1 : offsets_ok(b.c_offset, nc, b.c_joint.size())) &&
          b.c_weight.size() == b.c_joint.size() && joints_ok(b.c_joint) && finite(b.c_rest) && finite(b.c_weight);
+}
+
+/// The joints whose bones heat the inside of the regions: those the rig's
+/// nodes name, and their descendants inside the mesh (the joint, or the
+/// middle of the bone to it): a bone that bends an ear or a toe which the
+/// net gives no ring. Helpers outside the body (IK poles and targets, a
+/// root on the floor) are left out unless a node names them.
+std::vector<char> deforming_joints(const SurfaceMesh& mesh, const Rig& rig, const std::vector<Joint>& joints,
+                                   const std::map<std::string, int>& joint_index) {
+  const int nj = static_cast<int>(joints.size());
+  std::vector<char> named(nj, 0), out(nj, 0);
+  for (const auto& [node, w] : rig.weights)
+    for (const auto& [name, x] : w)
+      if (x > 0)
+        named[joint_index.at(name)] = 1;
+  std::vector<int> parent(nj, -1);
+  for (int j = 0; j < nj; ++j)
+    if (joints[j].parent)
+      parent[j] = joint_index.at(*joints[j].parent);
+  auto origin = [&](int j) -> Eigen::Vector3d { return joints[j].bind.block<3, 1>(0, 3); };
+  for (int j = 0; j < nj; ++j) { // parents come before children (the rig's rule)
+    out[j] = named[j];
+    if (out[j] || parent[j] < 0)
+      continue;
+    bool below_named = false;
+    for (int a = parent[j]; a >= 0 && !below_named; a = parent[a])
+      below_named = named[a] != 0;
+    out[j] = below_named && (mesh.winding_number(origin(j)) >= 0.5 ||
+                             mesh.winding_number((origin(j) + origin(parent[j])) / 2) >= 0.5);
+  }
+  return out;
 }
 
 } // namespace
@@ -413,7 +463,16 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   const int nj = static_cast<int>(rig.joints.size());
   lap("weights");
 
-  impl->embedding = embed(mesh, rig, opt.embed);
+  // Bone heat sees the bones through the input surface (its trace mesh,
+  // which the embedding is made on too).
+  const bool bone_interior = opt.method == DeformMethod::DualQuaternion && opt.interior == InteriorWeights::BoneHeat;
+  std::unique_ptr<TraceMesh> surface;
+  if (bone_interior) {
+    surface = std::make_unique<TraceMesh>(mesh, CutMesh::from_surface(mesh));
+    impl->embedding = embed_on(mesh, *surface, rig, opt.embed);
+  } else {
+    impl->embedding = embed(mesh, rig, opt.embed);
+  }
   const EmbedReport& er = impl->embedding.report();
   if (!er.ok)
     throw EmbedError("bind: the rig does not embed on " + mesh.source + ": " +
@@ -534,11 +593,40 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   }
   lap("factor");
 
-  // Right-hand sides per joint: w_j and w_j p on the constraints.
+  // Bone heat for the joints the rig's nodes name: the inside of each
+  // region is B_j + H(w_j - B_j), which is w_j on the curves.
+  BoneHeat heat;
+  if (bone_interior && nf > 0) {
+    BoneHeatInput bi;
+    bi.cut = &cut;
+    bi.laplacian = &L;
+    bi.surface = surface.get();
+    bi.joints = &impl->joints;
+    bi.rule = opt.weights;
+    bi.deforming = deforming_joints(mesh, rig, impl->joints, joint_index);
+    heat = bone_heat(bi);
+    if (heat.blind > 0)
+      rep.notes.push_back(std::to_string(heat.blind) +
+                          " vertices see no bone through the surface and take bone heat from the nearest bone");
+    lap("bone heat");
+  }
+  auto has_heat = [&](int j) { return !heat.weight.empty() && heat.weight[j].size() > 0; };
+
+  // Right-hand sides per joint: w_j and w_j p on the constraints (w_j - B_j with bone heat).
   std::vector<std::vector<std::pair<int, double>>> joint_constraints(nj); // joint -> (vertex, weight)
   for (int v = 0; v < nc; ++v)
     for (const auto& [j, w] : cw[v])
       joint_constraints[j].emplace_back(v, w);
+  for (int j = 0; j < nj; ++j)
+    if (has_heat(j)) {
+      std::vector<double> wv(nc, 0.0);
+      for (const auto& [v, w] : joint_constraints[j])
+        wv[v] = w;
+      joint_constraints[j].clear();
+      for (int v = 0; v < nc; ++v)
+        if (constrained[v] && (wv[v] != 0 || heat.weight[j][v] != 0))
+          joint_constraints[j].emplace_back(v, wv[v] - heat.weight[j][v]);
+    }
   std::vector<Eigen::VectorXd> sj(nj), yj[3];
   for (auto& y : yj)
     y.resize(nj);
@@ -546,7 +634,7 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   const bool positions = opt.method == DeformMethod::Harmonic;
   Eigen::MatrixXd rhs(nf, positions ? 4 : 1), sol;
   for (int j = 0; j < nj; ++j) {
-    if (joint_constraints[j].empty() || nf == 0)
+    if (nf == 0 || (joint_constraints[j].empty() && !has_heat(j)))
       continue;
     rhs.setZero();
     std::vector<double> wv(nc, 0.0);
@@ -568,6 +656,9 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
     if (solver.info() != Eigen::Success || !sol.allFinite())
       throw EmbedError("bind: the harmonic solve failed for joint '" + impl->joints[j].name + "'");
     sj[j] = sol.col(0);
+    if (has_heat(j))
+      for (int k = 0; k < nf; ++k)
+        sj[j][k] += heat.weight[j][free_vertices[k]];
     if (positions)
       for (int c = 0; c < 3; ++c)
         yj[c][j] = sol.col(c + 1);
@@ -591,6 +682,22 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
       impl->s.push_back(1.0);
       impl->Y.push_back(X);
       ++rep.rigid;
+    } else if (!heat.weight.empty()) {
+      // B_j + H(w_j - B_j) sums to 1 but may dip below 0 where a joint's
+      // heat meets a curve that does not name it: clamped, the small ones
+      // dropped, renormalised.
+      const int k = free_index[v];
+      double sum = 0;
+      for (int j = 0; j < nj; ++j)
+        if (sj[j].size() > 0 && sj[j][k] >= kInteriorFloor)
+          sum += sj[j][k];
+      for (int j = 0; j < nj; ++j)
+        if (sj[j].size() > 0 && (sum > 0 ? sj[j][k] >= kInteriorFloor : heat.weight[j].size() > 0 && heat.weight[j][v] > 0)) {
+          const double x = sum > 0 ? sj[j][k] / sum : heat.weight[j][v];
+          impl->joint.push_back(j);
+          impl->s.push_back(x);
+          impl->Y.push_back(x * X);
+        }
     } else {
       const int k = free_index[v];
       Eigen::Vector3d Hp = Eigen::Vector3d::Zero();

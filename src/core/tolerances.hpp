@@ -63,6 +63,11 @@ struct Tolerances {
   /// centimetres spans 0.01; one made for the mesh spans at least a limb).
   static constexpr double min_rig_extent_rel = 1e-3;
 
+  /// Whether a vertex sees a bone (bone heat, bind/bone_heat.hpp): the
+  /// segment from it to the bone must cross no triangle past this first
+  /// stretch, which leaves out the triangles the vertex itself lies on.
+  static constexpr double visibility_skip_rel = 1e-4;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
   [[nodiscard]] double fidelity() const { return fidelity_rel * diagonal; }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <numbers>
 #include <numeric>
 #include <queue>
 #include <sstream>
@@ -89,6 +90,21 @@ double SurfaceMesh::enclosed_volume(const std::vector<Vec3>& welded_positions) c
       v += welded_positions[c[0]].dot(welded_positions[c[k]].cross(welded_positions[c[k + 1]])) / 6;
   }
   return v;
+}
+
+double SurfaceMesh::winding_number(const Vec3& p) const {
+  double sum = 0;
+  for (int f = 0; f < num_faces(); ++f) {
+    const auto c = face(f);
+    for (size_t k = 1; k + 1 < c.size(); ++k) {
+      const Vec3 a = positions[c[0]] - p, b = positions[c[k]] - p, d = positions[c[k + 1]] - p;
+      const double la = a.norm(), lb = b.norm(), ld = d.norm();
+      const double num = a.dot(b.cross(d));
+      const double den = la * lb * ld + a.dot(b) * ld + b.dot(d) * la + d.dot(a) * lb;
+      sum += 2 * std::atan2(num, den); // the solid angle of the triangle (Van Oosterom and Strackee)
+    }
+  }
+  return sum / (4 * std::numbers::pi);
 }
 
 namespace {

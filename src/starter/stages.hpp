@@ -11,6 +11,7 @@
 //   weights   (starter.cpp)   automatic weights on every node
 
 #include "curvenet/rig.hpp"
+#include "curvenet/embed.hpp"
 #include "curvenet/starter.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "starter/plane_section.hpp"
@@ -216,13 +217,16 @@ void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int,
 
 // ---- stage 8: weights -----------------------------------------------------
 
-/// Each node's weights, from the bones near its ring's joints in the
-/// skeleton (those that meet at them, at their parents or at their
-/// children): a node follows the limb it lies on, whatever passes near it.
-/// A ring out beyond a weighted joint that ends its chain (a foot, a head)
-/// is that joint's alone, as is the joint's own ring when that ring is
-/// the last.
+/// Each node's weights. With the mesh's own skin (StarterOptions::skin):
+/// the skin's where the node lies on the surface (`embedding`'s node
+/// vertex). Otherwise, or where the skin names no joint of the skeleton,
+/// by the weight rule on the bone its ring's centre lies nearest to, of
+/// those near its ring's joints (that meet at them, at their parents or at
+/// their children): a node follows the limb it lies on, whatever passes
+/// near it. A ring out beyond a weighted joint that ends its chain (a
+/// foot, a head) is that joint's alone, as is the joint's own ring when
+/// that ring is the last.
 void node_weights(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                  NetResult& net);
+                  const Embedding& embedding, const std::vector<Joint>& rig_joints, NetResult& net);
 
 } // namespace curvenet::detail

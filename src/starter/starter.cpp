@@ -48,23 +48,6 @@ std::string starter_extension(const std::vector<Ring>& rings, const std::vector<
   return ext + "]}";
 }
 
-/// The winding number of the mesh about p (1 inside a closed mesh, 0
-/// outside): the solid angles of its triangles over 4 pi.
-double winding_number_at(const SurfaceMesh& mesh, const Vec3& p) {
-  double sum = 0;
-  for (int f = 0; f < mesh.num_faces(); ++f) {
-    const auto c = mesh.face(f);
-    for (size_t k = 1; k + 1 < c.size(); ++k) {
-      const Vec3 a = mesh.positions[c[0]] - p, b = mesh.positions[c[k]] - p, d = mesh.positions[c[k + 1]] - p;
-      const double la = a.norm(), lb = b.norm(), ld = d.norm();
-      const double num = a.dot(b.cross(d));
-      const double den = la * lb * ld + a.dot(b) * ld + b.dot(d) * la + d.dot(a) * lb;
-      sum += 2 * std::atan2(num, den);
-    }
-  }
-  return sum / (4 * std::numbers::pi);
-}
-
 /// The skeleton the net is made for (docs/starter.md, "Joints that
 /// deform"). When the skin's weights are known: the joints that carry
 /// weight, and the tips that end a weighted bone inside the mesh; otherwise
@@ -84,8 +67,8 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
   std::vector<char> inside(n, 0), rigged(n, 0);
   for (int j = 0; j < n; ++j) {
     const int p = sk.parent[j];
-    inside[j] = winding_number_at(mesh, sk.origin[j]) >= 0.5 ||
-                (p >= 0 && winding_number_at(mesh, (sk.origin[p] + sk.origin[j]) / 2) >= 0.5);
+    inside[j] = mesh.winding_number(sk.origin[j]) >= 0.5 ||
+                (p >= 0 && mesh.winding_number((sk.origin[p] + sk.origin[j]) / 2) >= 0.5);
   }
   for (int pass = 0; pass <= n; ++pass) { // from the leaves up, until nothing changes
     bool changed = false;
@@ -125,7 +108,7 @@ std::vector<Joint> working_skeleton(const SurfaceMesh& mesh, const std::vector<J
   // A bone that runs outside the body (a foot parented to a root on the
   // floor, as IK rigs do) does not hold its joint: the joint goes where a
   // second root goes.
-  auto through_body = [&](const Vec3& a, const Vec3& b) { return winding_number_at(mesh, (a + b) / 2) >= 0.5; };
+  auto through_body = [&](const Vec3& a, const Vec3& b) { return mesh.winding_number((a + b) / 2) >= 0.5; };
   for (int j = 0; j < n; ++j)
     if (rigged[j] && parent[j] >= 0 && !through_body(sk.origin[parent[j]], sk.origin[j]))
       parent[j] = -1;
@@ -241,6 +224,10 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
                      "its " + std::to_string(all_joints.size()) +
                          " joints are all roots (a flat hierarchy, as some XR hand assets have): the starter needs "
                          "bones from parent to child; give a skeleton with --skeleton");
+  if (opt.skin && opt.skin->vertex_joint.size() != mesh.input_to_welded.size())
+    throw InputError(opt.skin->source, "skin",
+                     "weights " + std::to_string(opt.skin->vertex_joint.size()) + " vertices, but " + mesh.source +
+                         " has " + std::to_string(mesh.input_to_welded.size()) + ": it is another mesh's skin");
   StarterResult result;
   std::vector<std::pair<std::string, std::string>> skipped;
   const std::vector<Joint> work = working_skeleton(mesh, all_joints, opt, skipped);
@@ -286,7 +273,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     try {
       const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
       if (failure.empty() && e.report().ok) {
-        node_weights(c, rings, active, net);
+        node_weights(c, rings, active, e, all_joints, net);
         finish(c, rings, active, net, st, ringless, skipped, e.report().components, all_joints, result);
         return result;
       }

@@ -315,6 +315,31 @@ std::optional<TraceMesh::Nearest> TraceMesh::ray_hit(const Vec3& origin, const V
   return std::nullopt;
 }
 
+bool TraceMesh::segment_blocked(const Vec3& a, const Vec3& b, double skip) const {
+  const Vec3 o = bvh_->to_unit(a), e = bvh_->to_unit(b);
+  const Vec3 d = e - o;
+  const double len = d.norm();
+  if (!o.allFinite() || !e.allFinite() || o.norm() > 1e6 || e.norm() > 1e6)
+    return true;
+  const double start = skip / bvh_->scale;
+  if (!(len > start))
+    return false; // nothing left of the segment to meet
+  RTCRay ray{};
+  ray.org_x = static_cast<float>(o.x());
+  ray.org_y = static_cast<float>(o.y());
+  ray.org_z = static_cast<float>(o.z());
+  ray.dir_x = static_cast<float>(d.x() / len);
+  ray.dir_y = static_cast<float>(d.y() / len);
+  ray.dir_z = static_cast<float>(d.z() / len);
+  ray.tnear = static_cast<float>(start);
+  ray.tfar = static_cast<float>(len);
+  ray.mask = 0xFFFFFFFFu;
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rtcOccluded1(bvh_->scene, &context, &ray);
+  return ray.tfar < 0; // Embree marks an occluded ray with tfar = -inf
+}
+
 SmoothNormals::SmoothNormals(const TraceMesh& mesh) : mesh_(mesh), vertex_(mesh.mesh().positions.size(), Vec3::Zero()) {
   for (int t = 0; t < mesh.num_triangles(); ++t) {
     const auto& c = mesh.tri(t);

@@ -105,6 +105,12 @@ public:
   [[nodiscard]] std::optional<Nearest> ray_hit(const Vec3& origin, const Vec3& dir, double t_max,
                                                const Vec3& facing) const;
 
+  /// Whether the segment from `a` to `b` meets a triangle anywhere past the
+  /// first `skip` of its length (a segment that starts on the surface leaves
+  /// its own triangles out that way). A segment Embree cannot take (not
+  /// finite, or past single precision) counts as blocked.
+  [[nodiscard]] bool segment_blocked(const Vec3& a, const Vec3& b, double skip) const;
+
 private:
   const SurfaceMesh& mesh_;
   std::vector<std::array<int, 2>> edge_ends_;

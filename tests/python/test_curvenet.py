@@ -389,7 +389,15 @@ def test_starter_transfer_and_compare_on_the_hand():
     assert s.ringless and all(j.endswith("_Metacarpal_L") or j == "Palm_L" for j, _ in s.ringless)
     assert all(why for _, why in s.ringless)
     assert curvenet.embed(m, s.rig).ok
-    assert curvenet.starter(m, curvenet.load_skeleton(hand())).rig.to_json() == s.rig.to_json()
+    # the file's skin weights the nodes by default, read from the file or given as a SkinnedMesh
+    assert curvenet.starter(m, curvenet.load_skinned_mesh(hand())).rig.to_json() == s.rig.to_json()
+    assert curvenet.starter(m, hand(), weight_rule="skin").rig.to_json() == s.rig.to_json()
+    # bare joints have no skin: the bones' rule weights them, and asking for the skin is an error
+    by_rule = curvenet.starter(m, curvenet.load_skeleton(hand()))
+    assert by_rule.rig.to_json() != s.rig.to_json()
+    assert curvenet.starter(m, hand(), weight_rule="blend-zone").rig.to_json() == by_rule.rig.to_json()
+    with pytest.raises(ValueError):
+        curvenet.starter(m, curvenet.load_skeleton(hand()), weight_rule="skin")
     t = curvenet.transfer(s.rig, m, low)
     assert t.ok and t.agreement > 0.99
     assert t.report["target"]["regions"] == t.report["source"]["regions"]

@@ -1,0 +1,222 @@
+#include "bind/bone_heat.hpp"
+
+#include "core/tolerances.hpp"
+#include "curvenet/errors.hpp"
+#include "trace/trace_mesh.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+
+namespace curvenet::detail {
+
+namespace {
+
+struct Bone {
+  int joint = -1;
+  int child = -1; ///< -1 for a joint with no child: a point
+  Eigen::Vector3d a, b;
+};
+
+/// The closest point of segment ab to p.
+Eigen::Vector3d closest_on_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d d = b - a;
+  const double len2 = d.squaredNorm();
+  if (!(len2 > 0))
+    return a;
+  return a + std::clamp((p - a).dot(d) / len2, 0.0, 1.0) * d;
+}
+
+/// What a vertex sees: the distance to its nearest visible bone, and the
+/// bones at that distance.
+struct Source {
+  double distance = std::numeric_limits<double>::infinity();
+  std::vector<int> bones; ///< empty when no bone is seen
+};
+
+} // namespace
+
+BoneHeat bone_heat(const BoneHeatInput& in) {
+  const CutMesh& cut = *in.cut;
+  const std::vector<Joint>& joints = *in.joints;
+  const int nc = cut.num_vertices(), nj = static_cast<int>(joints.size());
+  std::map<std::string, int> index;
+  for (int j = 0; j < nj; ++j)
+    index[joints[j].name] = j;
+  std::vector<Bone> bones;
+  for (int j = 0; j < nj; ++j) {
+    if (!in.deforming[j])
+      continue;
+    const Eigen::Vector3d a = joints[j].bind.block<3, 1>(0, 3);
+    bool child = false;
+    for (int c = 0; c < nj; ++c)
+      if (joints[c].parent && index.count(*joints[c].parent) && index.at(*joints[c].parent) == j) {
+        bones.push_back({j, c, a, joints[c].bind.block<3, 1>(0, 3)});
+        child = true;
+      }
+    if (!child)
+      bones.push_back({j, -1, a, a});
+  }
+  if (bones.empty())
+    throw Error("bone heat: no joint takes part");
+
+  double diagonal = 0;
+  {
+    Eigen::AlignedBox3d box;
+    for (int v = 0; v < nc; ++v)
+      box.extend(cut.position(Vertex(v)));
+    diagonal = nc > 0 ? box.diagonal().norm() : 1.0;
+  }
+  const Tolerances tol = Tolerances::for_model(diagonal);
+  const double skip = Tolerances::visibility_skip_rel * tol.diagonal;
+  const double nearest_floor = Tolerances::visibility_skip_rel * tol.diagonal; // a vertex on a bone
+
+  // What each vertex sees: bones by distance, the first few tried for a
+  // clear segment (the nearest seen bone is nearly always among them).
+  constexpr size_t kTries = 8;
+  std::vector<Source> seen(nc), nearest(nc);
+  tbb::parallel_for(tbb::blocked_range<int>(0, nc, 1024), [&](const tbb::blocked_range<int>& r) {
+    std::vector<std::pair<double, int>> order(bones.size());
+    std::vector<Eigen::Vector3d> foot(bones.size());
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const Eigen::Vector3d& p = cut.position(Vertex(v));
+      for (size_t b = 0; b < bones.size(); ++b) {
+        foot[b] = closest_on_segment(p, bones[b].a, bones[b].b);
+        order[b] = {(foot[b] - p).norm(), static_cast<int>(b)};
+      }
+      std::sort(order.begin(), order.end());
+      nearest[v].distance = order[0].first;
+      for (const auto& [d, b] : order)
+        if (d <= order[0].first)
+          nearest[v].bones.push_back(b);
+      const size_t tries = std::min(kTries, order.size());
+      for (size_t k = 0; k < tries; ++k) {
+        const auto [d, b] = order[k];
+        if (d > seen[v].distance)
+          break; // past the nearest seen bone (ties at its distance are kept)
+        if (!in.surface->segment_blocked(p, foot[b], skip)) {
+          seen[v].distance = d;
+          seen[v].bones.push_back(b);
+        }
+      }
+    }
+  });
+
+  // Parts of the surface that see no bone at all take their nearest bones.
+  BoneHeat out;
+  const Eigen::SparseMatrix<double>& L = *in.laplacian;
+  std::vector<int> comp(nc, -1);
+  for (int s0 = 0; s0 < nc; ++s0) {
+    if (comp[s0] >= 0)
+      continue;
+    std::vector<int> members{s0}, stack{s0};
+    comp[s0] = s0;
+    bool sees = false;
+    while (!stack.empty()) {
+      const int v = stack.back();
+      stack.pop_back();
+      sees = sees || !seen[v].bones.empty();
+      for (Eigen::SparseMatrix<double>::InnerIterator it(L, v); it; ++it) {
+        const int u = static_cast<int>(it.row());
+        if (u != v && it.value() != 0 && comp[u] < 0) {
+          comp[u] = s0;
+          stack.push_back(u);
+          members.push_back(u);
+        }
+      }
+    }
+    if (!sees)
+      for (int v : members) {
+        seen[v] = nearest[v];
+        ++out.blind;
+      }
+  }
+
+  // Lumped vertex areas.
+  Eigen::VectorXd area = Eigen::VectorXd::Zero(nc);
+  for (int f = 0; f < cut.num_faces(); ++f) {
+    const auto loop = cut.face_loop(Face(f));
+    const double a = cut.face_area(Face(f)) / static_cast<double>(loop.size());
+    for (const Halfedge h : loop)
+      area[cut.from(h).idx] += a;
+  }
+
+  std::vector<int> slot(nj, -1), taking;
+  for (int j = 0; j < nj; ++j)
+    if (in.deforming[j]) {
+      slot[j] = static_cast<int>(taking.size());
+      taking.push_back(j);
+    }
+  Eigen::SparseMatrix<double> A = L;
+  std::vector<std::pair<int, double>> rule;
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(nc, static_cast<Eigen::Index>(taking.size()));
+  for (int v = 0; v < nc; ++v) {
+    if (seen[v].bones.empty()) {
+      ++out.unseen;
+      continue;
+    }
+    const double d = std::max(seen[v].distance, nearest_floor);
+    const double h = area[v] / (d * d);
+    A.coeffRef(v, v) += h;
+    const double share = h / static_cast<double>(seen[v].bones.size());
+    for (int b : seen[v].bones) {
+      // The rule's weights on this bone, over the joints that take part.
+      const Bone& bone = bones[b];
+      if (bone.child < 0) {
+        rhs(v, slot[bone.joint]) += share;
+        continue;
+      }
+      double sum = 0;
+      rule.clear();
+      for (const auto& [j, x] : auto_weights(joints, cut.position(Vertex(v)), in.rule, {bone.child}))
+        if (in.deforming[j]) {
+          rule.emplace_back(j, x);
+          sum += x;
+        }
+      if (!(sum > 0)) {
+        rhs(v, slot[bone.joint]) += share;
+        continue;
+      }
+      for (const auto& [j, x] : rule)
+        rhs(v, slot[j]) += share * x / sum;
+    }
+  }
+  A.makeCompressed();
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A);
+  if (solver.info() != Eigen::Success)
+    throw EmbedError("bone heat: the system could not be factored");
+  const Eigen::MatrixXd w = solver.solve(rhs);
+  if (solver.info() != Eigen::Success || !w.allFinite())
+    throw EmbedError("bone heat: the solve failed");
+
+  // Per vertex: drop the small weights, renormalise the rest.
+  out.weight.assign(nj, Eigen::VectorXd());
+  for (int j : taking)
+    out.weight[j] = Eigen::VectorXd::Zero(nc);
+  for (int v = 0; v < nc; ++v) {
+    double sum = 0;
+    for (size_t k = 0; k < taking.size(); ++k)
+      if (w(v, k) >= in.floor)
+        sum += w(v, k);
+    if (!(sum > 0)) {
+      // Every weight under the floor: the largest alone.
+      Eigen::Index best = 0;
+      w.row(v).maxCoeff(&best);
+      out.weight[taking[best]][v] = 1;
+      continue;
+    }
+    for (size_t k = 0; k < taking.size(); ++k)
+      if (w(v, k) >= in.floor)
+        out.weight[taking[k]][v] = w(v, k) / sum;
+  }
+  return out;
+}
+
+} // namespace curvenet::detail
