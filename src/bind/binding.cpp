@@ -18,6 +18,7 @@
 #include "trace/trace_mesh.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -463,13 +464,33 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   const int nj = static_cast<int>(rig.joints.size());
   lap("weights");
 
-  // Bone heat sees the bones through the input surface (its trace mesh,
-  // which the embedding is made on too).
+  // Bone heat is a field of the input surface, whatever the net: it is
+  // solved on the mesh while the rig is embedded in it (on the same trace
+  // mesh, whose rays tell which bones a vertex sees).
   const bool bone_interior = opt.method == DeformMethod::DualQuaternion && opt.interior == InteriorWeights::BoneHeat;
-  std::unique_ptr<TraceMesh> surface;
+  BoneHeat heat;
   if (bone_interior) {
-    surface = std::make_unique<TraceMesh>(mesh, CutMesh::from_surface(mesh));
-    impl->embedding = embed_on(mesh, *surface, rig, opt.embed);
+    const CutMesh base = CutMesh::from_surface(mesh);
+    const TraceMesh surface(mesh, base);
+    const std::vector<char> deforming = deforming_joints(mesh, rig, impl->joints, joint_index);
+    tbb::parallel_invoke([&] { impl->embedding = embed_on(mesh, surface, rig, opt.embed); },
+                         [&] {
+                           const Eigen::SparseMatrix<double> Lb =
+                               cut_mesh_laplacian(base, opt.laplacian == LaplacianChoice::Uniform
+                                                            ? LaplacianKind::Uniform
+                                                            : LaplacianKind::IntrinsicDelaunay);
+                           BoneHeatInput bi;
+                           bi.cut = &base;
+                           bi.laplacian = &Lb;
+                           bi.surface = &surface;
+                           bi.joints = &impl->joints;
+                           bi.rule = opt.weights;
+                           bi.deforming = deforming;
+                           heat = bone_heat(bi);
+                         });
+    if (heat.blind > 0)
+      rep.notes.push_back(std::to_string(heat.blind) +
+                          " vertices see no bone through the surface and take bone heat from the nearest bone");
   } else {
     impl->embedding = embed(mesh, rig, opt.embed);
   }
@@ -593,21 +614,22 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   }
   lap("factor");
 
-  // Bone heat for the joints the rig's nodes name: the inside of each
-  // region is B_j + H(w_j - B_j), which is w_j on the curves.
-  BoneHeat heat;
-  if (bone_interior && nf > 0) {
-    BoneHeatInput bi;
-    bi.cut = &cut;
-    bi.laplacian = &L;
-    bi.surface = surface.get();
-    bi.joints = &impl->joints;
-    bi.rule = opt.weights;
-    bi.deforming = deforming_joints(mesh, rig, impl->joints, joint_index);
-    heat = bone_heat(bi);
-    if (heat.blind > 0)
-      rep.notes.push_back(std::to_string(heat.blind) +
-                          " vertices see no bone through the surface and take bone heat from the nearest bone");
+  // Bone heat at the cut mesh's vertices (a curve's vertex inside an input
+  // edge or face: interpolated there). The inside of each region is then
+  // B_j + H(w_j - B_j), which is w_j on the curves.
+  if (!heat.weight.empty()) {
+    for (auto& w : heat.weight) {
+      if (w.size() == 0)
+        continue;
+      Eigen::VectorXd at_cut(nc);
+      for (int v = 0; v < nc; ++v) {
+        double x = 0;
+        for (const auto& [i, b] : cut.input_weights(Vertex(v)))
+          x += b * w[i];
+        at_cut[v] = x;
+      }
+      w = std::move(at_cut);
+    }
     lap("bone heat");
   }
   auto has_heat = [&](int j) { return !heat.weight.empty() && heat.weight[j].size() > 0; };

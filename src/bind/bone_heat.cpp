@@ -148,73 +148,88 @@ BoneHeat bone_heat(const BoneHeatInput& in) {
       area[cut.from(h).idx] += a;
   }
 
-  std::vector<int> slot(nj, -1), taking;
-  for (int j = 0; j < nj; ++j)
-    if (in.deforming[j]) {
-      slot[j] = static_cast<int>(taking.size());
-      taking.push_back(j);
-    }
-  Eigen::SparseMatrix<double> A = L;
+  // Per vertex: its screening h = M H, and its sources p_j (the rule's
+  // weights on the bones it sees, shared between bones at one distance).
+  std::vector<double> h(nc, 0.0);
+  std::vector<std::vector<std::pair<int, double>>> p(nc);
   std::vector<std::pair<int, double>> rule;
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(nc, static_cast<Eigen::Index>(taking.size()));
   for (int v = 0; v < nc; ++v) {
-    if (seen[v].bones.empty()) {
+    const Source& src = seen[v];
+    if (src.bones.empty()) {
       ++out.unseen;
       continue;
     }
-    const double d = std::max(seen[v].distance, nearest_floor);
-    const double h = area[v] / (d * d);
-    A.coeffRef(v, v) += h;
-    const double share = h / static_cast<double>(seen[v].bones.size());
-    for (int b : seen[v].bones) {
+    const double d = std::max(src.distance, nearest_floor);
+    h[v] = area[v] / (d * d);
+    const double share = 1.0 / static_cast<double>(src.bones.size());
+    std::map<int, double> pv;
+    for (int b : src.bones) {
       // The rule's weights on this bone, over the joints that take part.
       const Bone& bone = bones[b];
-      if (bone.child < 0) {
-        rhs(v, slot[bone.joint]) += share;
-        continue;
-      }
       double sum = 0;
       rule.clear();
-      for (const auto& [j, x] : auto_weights(joints, cut.position(Vertex(v)), in.rule, {bone.child}))
-        if (in.deforming[j]) {
-          rule.emplace_back(j, x);
-          sum += x;
-        }
+      if (bone.child >= 0)
+        for (const auto& [j, x] : auto_weights(joints, cut.position(Vertex(v)), in.rule, {bone.child}))
+          if (in.deforming[j]) {
+            rule.emplace_back(j, x);
+            sum += x;
+          }
       if (!(sum > 0)) {
-        rhs(v, slot[bone.joint]) += share;
+        pv[bone.joint] += share;
         continue;
       }
       for (const auto& [j, x] : rule)
-        rhs(v, slot[j]) += share * x / sum;
+        pv[j] += share * x / sum;
     }
+    p[v].assign(pv.begin(), pv.end());
   }
-  A.makeCompressed();
+
+  // (L + M H) w_j = M H p_j, factored once.
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int v = 0; v < nc; ++v)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, v); it; ++it)
+      entries.emplace_back(static_cast<int>(it.row()), v, it.value() + (it.row() == v ? h[v] : 0.0));
+  Eigen::SparseMatrix<double> A(nc, nc);
+  A.setFromTriplets(entries.begin(), entries.end());
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A);
   if (solver.info() != Eigen::Success)
     throw EmbedError("bone heat: the system could not be factored");
-  const Eigen::MatrixXd w = solver.solve(rhs);
-  if (solver.info() != Eigen::Success || !w.allFinite())
-    throw EmbedError("bone heat: the solve failed");
+  out.weight.assign(nj, Eigen::VectorXd());
+  Eigen::VectorXd rhs(nc);
+  for (int j = 0; j < nj; ++j) {
+    if (!in.deforming[j])
+      continue;
+    rhs.setZero();
+    for (int v = 0; v < nc; ++v)
+      for (const auto& [k, x] : p[v])
+        if (k == j)
+          rhs[v] = h[v] * x;
+    out.weight[j] = solver.solve(rhs);
+    if (solver.info() != Eigen::Success || !out.weight[j].allFinite())
+      throw EmbedError("bone heat: the solve failed for joint '" + joints[j].name + "'");
+  }
 
   // Per vertex: drop the small weights, renormalise the rest.
-  out.weight.assign(nj, Eigen::VectorXd());
-  for (int j : taking)
-    out.weight[j] = Eigen::VectorXd::Zero(nc);
   for (int v = 0; v < nc; ++v) {
-    double sum = 0;
-    for (size_t k = 0; k < taking.size(); ++k)
-      if (w(v, k) >= in.floor)
-        sum += w(v, k);
-    if (!(sum > 0)) {
-      // Every weight under the floor: the largest alone.
-      Eigen::Index best = 0;
-      w.row(v).maxCoeff(&best);
-      out.weight[taking[best]][v] = 1;
-      continue;
+    double sum = 0, largest = -1;
+    int best = -1;
+    for (int j = 0; j < nj; ++j) {
+      if (out.weight[j].size() == 0)
+        continue;
+      const double x = out.weight[j][v];
+      if (x >= in.floor)
+        sum += x;
+      if (x > largest) {
+        largest = x;
+        best = j;
+      }
     }
-    for (size_t k = 0; k < taking.size(); ++k)
-      if (w(v, k) >= in.floor)
-        out.weight[taking[k]][v] = w(v, k) / sum;
+    for (int j = 0; j < nj; ++j) {
+      if (out.weight[j].size() == 0)
+        continue;
+      double& x = out.weight[j][v];
+      x = sum > 0 ? (x >= in.floor ? x / sum : 0.0) : (j == best ? 1.0 : 0.0); // all under the floor: the largest alone
+    }
   }
   return out;
 }

@@ -14,8 +14,9 @@
 // (M / d^2 has no unit), so a hand in metres and a tube in centimetres get
 // the same weights.
 //
-// The binding uses it inside the regions (binding.cpp, docs/deform.md): the
-// net decides the curves, the bones the inside of a region.
+// It is a field of the input surface, whatever the net. The binding uses it
+// inside the regions (binding.cpp, docs/deform.md): the net decides the
+// curves, the bones the inside of a region.
 
 #include "cut/cut_mesh.hpp"
 #include "curvenet/rig.hpp"
@@ -30,7 +31,7 @@ namespace curvenet::detail {
 class TraceMesh;
 
 struct BoneHeatInput {
-  const CutMesh* cut = nullptr;
+  const CutMesh* cut = nullptr;                           ///< the input surface (CutMesh::from_surface)
   const Eigen::SparseMatrix<double>* laplacian = nullptr; ///< of `cut`, L_ii = sum_j w_ij
   const TraceMesh* surface = nullptr;                     ///< the input surface, for what a vertex sees
   const std::vector<Joint>* joints = nullptr;             ///< in mesh space
