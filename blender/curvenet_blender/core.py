@@ -619,9 +619,14 @@ def deforming_bones(obj, arm):
 
 def starter(obj, arm, **options):
     """A starter net from the armature's bones (rest pose), set as the object's
-    rig; the joints left without a ring, and why, are kept with it (starter_notes)."""
+    rig; the joints left without a ring, and why, are kept with it (starter_notes).
+    With vertex groups for the bones (a skinned mesh), each node takes their
+    weights where it lies, as `curvenet starter` takes a file's skin."""
     options.setdefault("deforming", deforming_bones(obj, arm))
-    result = curvenet.starter(engine_mesh(obj), armature_joints(obj, arm), **options)
+    joints = armature_joints(obj, arm)
+    names = {j.name for j in joints}
+    skeleton = skin_from_groups(obj, joints) if any(g.name in names for g in obj.vertex_groups) else joints
+    result = curvenet.starter(engine_mesh(obj), skeleton, **options)
     set_rig(obj, result.rig)
     obj[STARTER_KEY] = json.dumps({"rig": rig_key(obj), "ringless": [list(x) for x in result.ringless]})
     return result
