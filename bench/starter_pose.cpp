@@ -15,8 +15,11 @@
 // (% of the diagonal; mean over clips of the mean over vertices), the worst
 // volume change against the skin's (points), and the most triangles turned
 // more than 120 degrees against the skin in any clip, and how many poses
-// meet each of issue 14's goals. With --rules: the automatic weight rules
-// (docs/weights.md), each measured on the starter nets it makes.
+// meet each of issue 14's goals. The nets are made as `curvenet starter`
+// makes them from the file: the nodes weighted by its own skin
+// (CURVENET_RULE_WEIGHTS=1: by the weight rule, as with a bare skeleton).
+// With --rules: the automatic weight rules (docs/weights.md), each measured
+// on the starter nets it makes.
 
 #include "curvenet/deform.hpp"
 #include "curvenet/errors.hpp"
@@ -30,6 +33,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -172,6 +176,8 @@ void measure(const Character& ch) {
     const auto t0 = std::chrono::steady_clock::now();
     StarterOptions so;
     so.deforming = weighted_joints(c.skin);
+    if (!std::getenv("CURVENET_RULE_WEIGHTS"))
+      so.skin = &c.skin; // as `curvenet starter` does with a skinned file
     st = make_starter(c.mesh, c.skin.joints, so);
     starter_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   } catch (const Error& e) {
