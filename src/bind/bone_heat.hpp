@@ -18,9 +18,9 @@
 // inside the regions (binding.cpp, docs/deform.md): the net decides the
 // curves, the bones the inside of a region.
 
-#include "cut/cut_mesh.hpp"
 #include "curvenet/rig.hpp"
 #include "curvenet/weights.hpp"
+#include "cut/cut_mesh.hpp"
 
 #include <Eigen/Sparse>
 
