@@ -45,6 +45,14 @@ std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joint
 std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
                                                  const AutoWeightOptions& options, const std::vector<int>& bones);
 
+/// Each joint's parent (its index, -1 for a root), by the joints' names.
+std::vector<int> joint_parents(const std::vector<Joint>& joints);
+
+/// The same with `parent` = joint_parents(joints), for many points.
+std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const std::vector<int>& parent,
+                                                 const Eigen::Vector3d& p, const AutoWeightOptions& options,
+                                                 const std::vector<int>& bones);
+
 /// How far linear blend skinning with automatic weights lands from the same
 /// skinning with a file's own skin weights, over a set of poses (skinning
 /// matrices per joint). Distances are in the units of `positions`.

@@ -152,6 +152,7 @@ BoneHeat bone_heat(const BoneHeatInput& in) {
   // weights on the bones it sees, shared between bones at one distance).
   std::vector<double> h(nc, 0.0);
   std::vector<std::vector<std::pair<int, double>>> p(nc);
+  const std::vector<int> parent = joint_parents(joints);
   std::vector<std::pair<int, double>> rule;
   for (int v = 0; v < nc; ++v) {
     const Source& src = seen[v];
@@ -169,7 +170,7 @@ BoneHeat bone_heat(const BoneHeatInput& in) {
       double sum = 0;
       rule.clear();
       if (bone.child >= 0)
-        for (const auto& [j, x] : auto_weights(joints, cut.position(Vertex(v)), in.rule, {bone.child}))
+        for (const auto& [j, x] : auto_weights(joints, parent, cut.position(Vertex(v)), in.rule, {bone.child}))
           if (in.deforming[j]) {
             rule.emplace_back(j, x);
             sum += x;

@@ -15,18 +15,27 @@ std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joint
   return auto_weights(joints, p, opt, {});
 }
 
-std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
-                                                 const AutoWeightOptions& opt, const std::vector<int>& bones) {
+std::vector<int> joint_parents(const std::vector<Joint>& joints) {
   const int n = static_cast<int>(joints.size());
   std::map<std::string, int> index;
   for (int j = 0; j < n; ++j)
     index[joints[j].name] = j;
-  std::vector<int> parent(n, -1), children(n, 0);
+  std::vector<int> parent(n, -1);
   for (int j = 0; j < n; ++j)
-    if (joints[j].parent) {
+    if (joints[j].parent)
       parent[j] = index.at(*joints[j].parent);
-      children[parent[j]]++;
-    }
+  return parent;
+}
+
+std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const Eigen::Vector3d& p,
+                                                 const AutoWeightOptions& opt, const std::vector<int>& bones) {
+  return auto_weights(joints, joint_parents(joints), p, opt, bones);
+}
+
+std::vector<std::pair<int, double>> auto_weights(const std::vector<Joint>& joints, const std::vector<int>& parent,
+                                                 const Eigen::Vector3d& p, const AutoWeightOptions& opt,
+                                                 const std::vector<int>& bones) {
+  const int n = static_cast<int>(joints.size());
   auto origin = [&](int j) -> Eigen::Vector3d { return joints[j].bind.block<3, 1>(0, 3); };
   // The nearest bone (parent[c] -> c), or the nearest lone joint.
   int best_c = -1;
