@@ -32,14 +32,12 @@ int nearest_bone(const StarterContext& c, const Vec3& p, const std::vector<int>&
   return best;
 }
 
-} // namespace
-
 /// The skin's weights at each welded vertex of the mesh, by joint name,
 /// the mean over the file's vertices welded into it.
 class SkinSampler {
 public:
   SkinSampler(const SurfaceMesh& mesh, const SkinnedMesh& skin, const std::vector<Joint>& rig_joints)
-      : skin_(skin), mesh_(mesh) {
+      : skin_(skin) {
     for (const Joint& j : rig_joints)
       names_.insert(j.name);
     files_of_.resize(mesh.num_vertices());
@@ -78,10 +76,11 @@ private:
   /// Skin weights under this share of a node's are dropped.
   static constexpr double kSkinFloor = 0.01;
   const SkinnedMesh& skin_;
-  const SurfaceMesh& mesh_;
   std::set<std::string> names_;
   std::vector<std::vector<int>> files_of_;
 };
+
+} // namespace
 
 void node_weights(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
                   const Embedding& embedding, const std::vector<Joint>& rig_joints, NetResult& net) {
