@@ -36,8 +36,7 @@ int nearest_bone(const StarterContext& c, const Vec3& p, const std::vector<int>&
 /// the mean over the file's vertices welded into it.
 class SkinSampler {
 public:
-  SkinSampler(const SurfaceMesh& mesh, const SkinnedMesh& skin, const std::vector<Joint>& rig_joints)
-      : skin_(skin) {
+  SkinSampler(const SurfaceMesh& mesh, const SkinnedMesh& skin, const std::vector<Joint>& rig_joints) : skin_(skin) {
     for (const Joint& j : rig_joints)
       names_.insert(j.name);
     files_of_.resize(mesh.num_vertices());
