@@ -262,10 +262,7 @@ std::vector<char> deforming_joints(const SurfaceMesh& mesh, const Rig& rig, cons
     for (const auto& [name, x] : w)
       if (x > 0)
         named[joint_index.at(name)] = 1;
-  std::vector<int> parent(nj, -1);
-  for (int j = 0; j < nj; ++j)
-    if (joints[j].parent)
-      parent[j] = joint_index.at(*joints[j].parent);
+  const std::vector<int> parent = joint_parents(joints);
   auto origin = [&](int j) -> Eigen::Vector3d { return joints[j].bind.block<3, 1>(0, 3); };
   for (int j = 0; j < nj; ++j) { // parents come before children (the rig's rule)
     out[j] = named[j];
@@ -639,16 +636,6 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   for (int v = 0; v < nc; ++v)
     for (const auto& [j, w] : cw[v])
       joint_constraints[j].emplace_back(v, w);
-  for (int j = 0; j < nj; ++j)
-    if (has_heat(j)) {
-      std::vector<double> wv(nc, 0.0);
-      for (const auto& [v, w] : joint_constraints[j])
-        wv[v] = w;
-      joint_constraints[j].clear();
-      for (int v = 0; v < nc; ++v)
-        if (constrained[v] && (wv[v] != 0 || heat.weight[j][v] != 0))
-          joint_constraints[j].emplace_back(v, wv[v] - heat.weight[j][v]);
-    }
   std::vector<Eigen::VectorXd> sj(nj), yj[3];
   for (auto& y : yj)
     y.resize(nj);
@@ -662,6 +649,10 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
     std::vector<double> wv(nc, 0.0);
     for (const auto& [v, w] : joint_constraints[j])
       wv[v] = w;
+    if (has_heat(j))
+      for (int v = 0; v < nc; ++v)
+        if (constrained[v])
+          wv[v] -= heat.weight[j][v];
     for (int k = 0; k < nf; ++k)
       for (const auto& [u, l] : fc[k]) {
         if (wv[u] == 0)

@@ -47,9 +47,7 @@ BoneHeat bone_heat(const BoneHeatInput& in) {
   const CutMesh& cut = *in.cut;
   const std::vector<Joint>& joints = *in.joints;
   const int nc = cut.num_vertices(), nj = static_cast<int>(joints.size());
-  std::map<std::string, int> index;
-  for (int j = 0; j < nj; ++j)
-    index[joints[j].name] = j;
+  const std::vector<int> parent = joint_parents(joints);
   std::vector<Bone> bones;
   for (int j = 0; j < nj; ++j) {
     if (!in.deforming[j])
@@ -57,7 +55,7 @@ BoneHeat bone_heat(const BoneHeatInput& in) {
     const Eigen::Vector3d a = joints[j].bind.block<3, 1>(0, 3);
     bool child = false;
     for (int c = 0; c < nj; ++c)
-      if (joints[c].parent && index.count(*joints[c].parent) && index.at(*joints[c].parent) == j) {
+      if (parent[c] == j) {
         bones.push_back({j, c, a, joints[c].bind.block<3, 1>(0, 3)});
         child = true;
       }
@@ -152,14 +150,11 @@ BoneHeat bone_heat(const BoneHeatInput& in) {
   // weights on the bones it sees, shared between bones at one distance).
   std::vector<double> h(nc, 0.0);
   std::vector<std::vector<std::pair<int, double>>> p(nc);
-  const std::vector<int> parent = joint_parents(joints);
   std::vector<std::pair<int, double>> rule;
   for (int v = 0; v < nc; ++v) {
     const Source& src = seen[v];
-    if (src.bones.empty()) {
-      ++out.unseen;
-      continue;
-    }
+    if (src.bones.empty())
+      continue; // heat reaches it through the surface
     const double d = std::max(src.distance, nearest_floor);
     h[v] = area[v] / (d * d);
     const double share = 1.0 / static_cast<double>(src.bones.size());

@@ -48,8 +48,6 @@ struct BoneHeat {
   /// Per joint: its weight at every cut-mesh vertex, or empty for a joint
   /// that takes no part. At each vertex the weights sum to 1.
   std::vector<Eigen::VectorXd> weight;
-  /// Vertices that see no bone (heat reaches them through the surface).
-  int unseen = 0;
   /// Vertices of parts of the surface that see no bone at all: they take
   /// their nearest bone, seen or not.
   int blind = 0;
