@@ -1080,6 +1080,14 @@ TEST(BoneHeat, IsAPartitionOfUnityRigidInTheMiddleOfABoneAndHalvedAtItsJoint) {
       EXPECT_GT(h.weight[0][v], 0.9) << y;
     if (std::abs(y - 2.0) < 0.02) // at j1: half and half
       EXPECT_NEAR(h.weight[0][v], 0.5, 0.1) << y;
+    // The weight rule is the source: inside the blend zone about a joint
+    // (30 % of the bone each side) the next joint already has a third, and
+    // near the last joint it shares that bone (a bone's own joint alone, as
+    // Pinocchio's sources give it, leaves a fifth and a sixth there).
+    if (std::abs(y - 1.8) < 0.02)
+      EXPECT_GT(h.weight[1][v], 0.3) << y;
+    if (std::abs(y - 3.5) < 0.02)
+      EXPECT_GT(h.weight[2][v], 0.3) << y;
     if (y > 3.7) // past the last joint: j1's bone runs to it, j2 takes what lies beyond
       EXPECT_LT(h.weight[0][v], 0.05) << y;
   }
