@@ -354,25 +354,6 @@ layer_positions(const CurveLayer& l, const py::array_t<double, py::array::c_styl
   return points_array(out);
 }
 
-py::dict bind_report(const BindReport& r) {
-  py::dict d;
-  d["vertices"] = r.vertices;
-  d["constrained"] = r.constrained;
-  d["free"] = r.free;
-  d["rigid"] = r.rigid;
-  d["influences"] = r.influences;
-  d["mean_influences"] = r.mean_influences;
-  d["negative_weights_before"] = r.negative_weights_before;
-  d["negative_weights_after"] = r.negative_weights_after;
-  d["flips"] = r.flips;
-  py::dict t;
-  for (const auto& [k, v] : r.timings_ms)
-    t[py::str(k)] = v;
-  d["timings_ms"] = t;
-  d["notes"] = r.notes;
-  return d;
-}
-
 py::dict distance_dict(const SurfaceDistance& d) {
   auto one = [](const OneWayDistance& o) {
     py::dict x;
@@ -728,7 +709,7 @@ PYBIND11_MODULE(_curvenet, m) {
                                  names.push_back(j.name);
                                return names;
                              })
-      .def_property_readonly("report", [](const PyBinding& b) { return bind_report(b.binding.report()); })
+      .def_property_readonly("report", [](const PyBinding& b) { return from_json(report_to_json(b.binding.report())); })
       .def_property_readonly("node_weights", [](const PyBinding& b) { return b.binding.node_weights(); })
       .def_property_readonly("num_input_vertices", [](const PyBinding& b) { return b.binding.num_input_vertices(); })
       .def_property_readonly("has_embedding", [](const PyBinding& b) { return b.binding.has_embedding(); })

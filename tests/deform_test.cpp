@@ -20,6 +20,7 @@
 #include "trace/trace_mesh.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -180,6 +181,32 @@ TEST(Deform, RestPoseReturnsTheInput) {
     for (size_t i = 0; i < X.size(); ++i)
       ASSERT_LT((out[i] - X[i]).norm(), 1e-9 * diag) << i;
   }
+}
+
+TEST(Deform, TheReportAsJsonHasEveryCountTheStagesInOrderAndTheNotes) {
+  const SurfaceMesh m = test::tube(16, 16, 4, false);
+  const Binding b = bind(m, make_tube_net());
+  const BindReport& r = b.report();
+  const auto j = nlohmann::ordered_json::parse(report_to_json(r));
+  EXPECT_EQ(j.at("vertices"), r.vertices);
+  EXPECT_EQ(j.at("constrained"), r.constrained);
+  EXPECT_EQ(j.at("free"), r.free);
+  EXPECT_EQ(j.at("rigid"), r.rigid);
+  EXPECT_EQ(j.at("influences"), r.influences);
+  EXPECT_DOUBLE_EQ(j.at("mean_influences").get<double>(), r.mean_influences);
+  EXPECT_EQ(j.at("negative_weights_before"), r.negative_weights_before);
+  EXPECT_EQ(j.at("negative_weights_after"), r.negative_weights_after);
+  EXPECT_EQ(j.at("negative_weights_solved"), r.negative_weights_solved);
+  EXPECT_EQ(j.at("flips"), r.flips);
+  ASSERT_FALSE(r.timings_ms.empty());
+  ASSERT_EQ(j.at("timings_ms").size(), r.timings_ms.size());
+  size_t k = 0;
+  for (const auto& [stage, ms] : j.at("timings_ms").items()) {
+    EXPECT_EQ(stage, r.timings_ms[k].first);
+    EXPECT_DOUBLE_EQ(ms.get<double>(), r.timings_ms[k].second);
+    ++k;
+  }
+  EXPECT_EQ(j.at("notes").get<std::vector<std::string>>(), r.notes);
 }
 
 TEST(Deform, ARigidPoseMovesEveryVertexRigidly) {

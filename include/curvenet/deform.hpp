@@ -124,6 +124,10 @@ struct BindReport {
   std::vector<std::string> notes;
 };
 
+/// The report as JSON text: its counts, "timings_ms" (stage -> ms, in order)
+/// and "notes".
+std::string report_to_json(const BindReport& report);
+
 class Binding {
 public:
   struct Impl;

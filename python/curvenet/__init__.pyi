@@ -230,7 +230,9 @@ class Binding:
     @property
     def joint_names(self) -> list[str]: ...
     @property
-    def report(self) -> dict[str, Any]: ...
+    def report(self) -> dict[str, Any]:
+        """The library's report_to_json(BindReport): vertices, constrained, free, rigid, influences,
+        mean_influences, negative_weights_*, flips, timings_ms (stage -> ms, in order), notes."""
     @property
     def node_weights(self) -> dict[str, dict[str, float]]:
         """After completion: given, or automatic."""

@@ -17,6 +17,7 @@
 #include "embed/embedding_impl.hpp"
 #include "trace/trace_mesh.hpp"
 
+#include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_for.h>
@@ -278,6 +279,26 @@ std::vector<char> deforming_joints(const SurfaceMesh& mesh, const Rig& rig, cons
 }
 
 } // namespace
+
+std::string report_to_json(const BindReport& r) {
+  nlohmann::ordered_json j;
+  j["vertices"] = r.vertices;
+  j["constrained"] = r.constrained;
+  j["free"] = r.free;
+  j["rigid"] = r.rigid;
+  j["influences"] = r.influences;
+  j["mean_influences"] = r.mean_influences;
+  j["negative_weights_before"] = r.negative_weights_before;
+  j["negative_weights_after"] = r.negative_weights_after;
+  j["negative_weights_solved"] = r.negative_weights_solved;
+  j["flips"] = r.flips;
+  nlohmann::ordered_json t = nlohmann::ordered_json::object();
+  for (const auto& [stage, ms] : r.timings_ms)
+    t[stage] = ms;
+  j["timings_ms"] = t;
+  j["notes"] = r.notes;
+  return j.dump(2);
+}
 
 DeformMethod Binding::method() const {
   return impl_->method;
