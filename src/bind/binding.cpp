@@ -19,8 +19,8 @@
 
 #include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include <Eigen/SVD>
@@ -168,11 +168,15 @@ std::uint64_t fingerprint(const SurfaceMesh& mesh, const Rig& rig, const BindOpt
   eat(mesh.input_to_welded.data(), mesh.input_to_welded.size() * sizeof(int));
   const std::string text = rig_to_json(rig);
   eat(text.data(), text.size());
-  const int options[] = {
-      static_cast<int>(opt.laplacian), static_cast<int>(opt.rigid), static_cast<int>(opt.weights.rule),
-      static_cast<int>(opt.method),    opt.cut_aware ? 1 : 0,       static_cast<int>(opt.rotation_blend),
-      opt.curve_frames ? 1 : 0,        opt.sections ? 1 : 0,
-      opt.method == DeformMethod::DualQuaternion ? static_cast<int>(opt.interior) : 0};
+  const int options[] = {static_cast<int>(opt.laplacian),
+                         static_cast<int>(opt.rigid),
+                         static_cast<int>(opt.weights.rule),
+                         static_cast<int>(opt.method),
+                         opt.cut_aware ? 1 : 0,
+                         static_cast<int>(opt.rotation_blend),
+                         opt.curve_frames ? 1 : 0,
+                         opt.sections ? 1 : 0,
+                         opt.method == DeformMethod::DualQuaternion ? static_cast<int>(opt.interior) : 0};
   eat(options, sizeof(options));
   const double numbers[] = {opt.weights.blend, opt.horn_tolerance, opt.embed.density};
   eat(numbers, sizeof(numbers));
@@ -272,8 +276,8 @@ std::vector<char> deforming_joints(const SurfaceMesh& mesh, const Rig& rig, cons
     bool below_named = false;
     for (int a = parent[j]; a >= 0 && !below_named; a = parent[a])
       below_named = named[a] != 0;
-    out[j] = below_named && (mesh.winding_number(origin(j)) >= 0.5 ||
-                             mesh.winding_number((origin(j) + origin(parent[j])) / 2) >= 0.5);
+    out[j] = below_named &&
+             (mesh.winding_number(origin(j)) >= 0.5 || mesh.winding_number((origin(j) + origin(parent[j])) / 2) >= 0.5);
   }
   return out;
 }
@@ -493,10 +497,9 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
     const std::vector<char> deforming = deforming_joints(mesh, rig, impl->joints, joint_index);
     tbb::parallel_invoke([&] { impl->embedding = embed_on(mesh, surface, rig, opt.embed); },
                          [&] {
-                           const Eigen::SparseMatrix<double> Lb =
-                               cut_mesh_laplacian(base, opt.laplacian == LaplacianChoice::Uniform
-                                                            ? LaplacianKind::Uniform
-                                                            : LaplacianKind::IntrinsicDelaunay);
+                           const Eigen::SparseMatrix<double> Lb = cut_mesh_laplacian(
+                               base, opt.laplacian == LaplacianChoice::Uniform ? LaplacianKind::Uniform
+                                                                               : LaplacianKind::IntrinsicDelaunay);
                            BoneHeatInput bi;
                            bi.cut = &base;
                            bi.laplacian = &Lb;
@@ -726,7 +729,8 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
         if (sj[j].size() > 0 && sj[j][k] >= kInteriorFloor)
           sum += sj[j][k];
       for (int j = 0; j < nj; ++j)
-        if (sj[j].size() > 0 && (sum > 0 ? sj[j][k] >= kInteriorFloor : heat.weight[j].size() > 0 && heat.weight[j][v] > 0)) {
+        if (sj[j].size() > 0 &&
+            (sum > 0 ? sj[j][k] >= kInteriorFloor : heat.weight[j].size() > 0 && heat.weight[j][v] > 0)) {
           const double x = sum > 0 ? sj[j][k] / sum : heat.weight[j][v];
           impl->joint.push_back(j);
           impl->s.push_back(x);
