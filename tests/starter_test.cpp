@@ -659,7 +659,8 @@ TEST(Starter, ARingsNodesTakeTheirWeightsFromTheBoneTheRingIsAcross) {
       continue;
     ++tail1;
     for (const auto& [joint, x] : weights)
-      EXPECT_TRUE(joint == "Back" || joint == "Tail1" || joint == "Tail2") << node << " takes " << x << " from " << joint;
+      EXPECT_TRUE(joint == "Back" || joint == "Tail1" || joint == "Tail2")
+          << node << " takes " << x << " from " << joint;
   }
   EXPECT_EQ(tail1, 4);
 }
@@ -700,8 +701,8 @@ TEST(Starter, WithTheMeshsSkinEachNodeTakesTheSkinsWeightsWhereItLies) {
       for (int f = 0; f < mesh.num_faces(); ++f) {
         const auto c = mesh.face(f);
         for (size_t k = 1; k + 1 < c.size(); ++k) {
-          const double d = triangle_distance(n.position, mesh.positions[c[0]], mesh.positions[c[k]],
-                                             mesh.positions[c[k + 1]]);
+          const double d =
+              triangle_distance(n.position, mesh.positions[c[0]], mesh.positions[c[k]], mesh.positions[c[k + 1]]);
           if (d < best) {
             best = d;
             tri = {c[0], c[k], c[k + 1]};
@@ -756,16 +757,18 @@ namespace {
 struct TubeStages {
   SurfaceMesh mesh = tube();
   std::vector<Joint> joints = make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7});
-  StarterOptions options;
   std::vector<std::string> said;
-  detail::StarterContext c{mesh, joints, options, [this](const std::string& m) { said.push_back(m); }};
+  detail::StarterContext c{mesh, joints, [this](const std::string& m) { said.push_back(m); }};
+  detail::RingOptions rings;
+  detail::NetOptions net;
+  detail::NodeWeightOptions weights;
 };
 
 } // namespace
 
 TEST(StarterStages, RingsAreLoopsRoundTheTubeAtEachJoint) {
   TubeStages t;
-  const detail::RingsResult found = detail::candidate_rings(t.c);
+  const detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
   std::set<int> joints;
   for (const detail::Ring& r : found.rings) {
     joints.insert(r.joint);
@@ -784,15 +787,15 @@ TEST(StarterStages, RingsAreLoopsRoundTheTubeAtEachJoint) {
 
 TEST(StarterStages, ClearanceKeepsRingsApartAndChainsFollowTheSkeleton) {
   TubeStages t;
-  detail::RingsResult found = detail::candidate_rings(t.c);
-  detail::trunk_rings(t.c, found.shared_start, found.rings);
-  const std::vector<int> kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
+  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
+  detail::trunk_rings(t.c, t.rings, found.shared_start, found.rings);
+  const std::vector<int> kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
   ASSERT_EQ(kept.size(), 5u);
   for (int i : kept) {
     EXPECT_TRUE(found.rings[i].active);
-    EXPECT_LT(detail::ring_conflict(t.c, found.rings[i], found.rings, kept, i), 0) << found.rings[i].id;
+    EXPECT_LT(detail::ring_conflict(t.c, t.rings, found.rings[i], found.rings, kept, i), 0) << found.rings[i].id;
   }
-  const std::map<int, int> parent = detail::chain_rings(t.c, found.rings, kept);
+  const std::map<int, int> parent = detail::chain_rings(t.c, t.rings, found.rings, kept);
   int roots = 0;
   for (int i : kept) {
     const int p = parent.at(i);
@@ -808,14 +811,14 @@ TEST(StarterStages, ClearanceKeepsRingsApartAndChainsFollowTheSkeleton) {
 
 TEST(StarterStages, TheNetHasArcsOnEveryRingAndLongitudinalsAlongTheChain) {
   TubeStages t;
-  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
   detail::NetRepairs st;
-  st.kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
-  st.parent_ring = detail::chain_rings(t.c, found.rings, st.kept);
+  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
   const detail::NetResult net = detail::build_net(
-      t.c, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+      t.c, t.net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
   EXPECT_EQ(net.failure, "");
-  EXPECT_EQ(detail::check_net(t.c, net), "");
+  EXPECT_EQ(detail::check_net(t.c, t.net, net), "");
   std::map<char, int> kinds;
   for (const auto& [id, who] : net.owner)
     ++kinds[who.first];
@@ -828,16 +831,16 @@ TEST(StarterStages, TheNetHasArcsOnEveryRingAndLongitudinalsAlongTheChain) {
 
 TEST(StarterStages, NodeWeightsSumToOneOnTheBonesNearTheirRing) {
   TubeStages t;
-  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
   detail::NetRepairs st;
-  st.kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
-  st.parent_ring = detail::chain_rings(t.c, found.rings, st.kept);
+  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
   const std::vector<int> active = st.active();
   detail::NetResult net = detail::build_net(
-      t.c, found.rings, active, [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+      t.c, t.net, found.rings, active, [&](int i) { return st.effective_parent(i); }, st.join_attempt);
   net.rig.weights.clear();
   const Embedding e = embed(t.mesh, net.rig);
-  detail::node_weights(t.c, found.rings, active, e, t.joints, net);
+  detail::node_weights(t.c, t.weights, found.rings, active, e, t.joints, net);
   ASSERT_EQ(net.rig.weights.size(), net.rig.nodes.size());
   for (size_t k = 0; k < net.rig.nodes.size(); ++k) {
     const auto& w = net.rig.weights.at(net.rig.nodes[k].id);
@@ -858,12 +861,12 @@ TEST(StarterStages, NodeWeightsSumToOneOnTheBonesNearTheirRing) {
 
 TEST(StarterStages, ARepairGivesUpWhatTheFailureNamesAndStopsWhenNothingIsLeft) {
   TubeStages t;
-  detail::RingsResult found = detail::candidate_rings(t.c);
+  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
   detail::NetRepairs st;
-  st.kept = detail::keep_clear_rings(t.c, found.rings, found.ringless);
-  st.parent_ring = detail::chain_rings(t.c, found.rings, st.kept);
+  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
   const detail::NetResult net = detail::build_net(
-      t.c, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+      t.c, t.net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
   // A failure that names an arc of the middle ring: that ring, and only it,
   // is moved along its bone or dropped.
   int middle = -1;
@@ -875,7 +878,7 @@ TEST(StarterStages, ARepairGivesUpWhatTheFailureNamesAndStopsWhenNothingIsLeft) 
     }
   ASSERT_GE(middle, 0);
   const std::vector<detail::Ring> before = found.rings;
-  detail::repair_net(t.c, found.rings, found.ringless, net, "profile '" + arc + "' crosses another", st);
+  detail::repair_net(t.c, t.rings, found.rings, found.ringless, net, "profile '" + arc + "' crosses another", st);
   const bool moved = found.rings[middle].t != before[middle].t, dropped = st.dropped.count(middle) > 0;
   EXPECT_TRUE(moved != dropped) << "moved " << moved << ", dropped " << dropped;
   for (size_t i = 0; i < before.size(); ++i)
@@ -885,5 +888,94 @@ TEST(StarterStages, ARepairGivesUpWhatTheFailureNamesAndStopsWhenNothingIsLeft) 
   EXPECT_NE(t.said.back().find(found.rings[middle].id), std::string::npos) << t.said.back();
   // Repairs are bounded: past the limit, the starter gives up in one line.
   st.attempts = 1000;
-  EXPECT_THROW(detail::repair_net(t.c, found.rings, found.ringless, net, "not ok", st), EmbedError);
+  EXPECT_THROW(detail::repair_net(t.c, t.rings, found.rings, found.ringless, net, "not ok", st), EmbedError);
+}
+
+TEST(StarterStages, EachStageTakesItsOwnOptionsFromTheStartersOptions) {
+  StarterOptions o;
+  o.nodes_per_ring = 6;
+  o.rings_per_bone = 3;
+  o.first_angle_deg = 30;
+  o.ring_gap = 0.4;
+  o.weights.blend = 0.2;
+  o.weights.rule = WeightRule::Segment;
+  o.coverage = Coverage::Local;
+  o.deforming = {"j1", "j2"};
+  const detail::RingOptions r = detail::RingOptions::from(o);
+  EXPECT_EQ(r.nodes_per_ring, 6);
+  EXPECT_EQ(r.rings_per_bone, 3);
+  EXPECT_EQ(r.first_angle_deg, 30);
+  EXPECT_EQ(r.ring_gap, 0.4);
+  EXPECT_EQ(r.trunk_setback, 0.2);
+  EXPECT_EQ(r.deforming, o.deforming);
+  const detail::NetOptions n = detail::NetOptions::from(o);
+  EXPECT_EQ(n.nodes_per_ring, 6);
+  EXPECT_EQ(n.ring_gap, 0.4);
+  EXPECT_EQ(n.coverage, Coverage::Local);
+  const detail::NodeWeightOptions w = detail::NodeWeightOptions::from(o);
+  EXPECT_EQ(w.rule.rule, WeightRule::Segment);
+  EXPECT_EQ(w.rule.blend, 0.2);
+  EXPECT_EQ(w.skin, nullptr);
+  EXPECT_EQ(w.deforming, o.deforming);
+}
+
+TEST(StarterStages, TheRingStagesFollowTheirOptions) {
+  TubeStages t;
+  const size_t one_per_bone = detail::candidate_rings(t.c, t.rings).rings.size();
+  // More rings along each bone.
+  TubeStages more;
+  more.rings.rings_per_bone = 2;
+  EXPECT_GT(detail::candidate_rings(more.c, more.rings).rings.size(), one_per_bone);
+  // A wider gap keeps fewer rings where they stood: the tube's joints lie
+  // 0.9 apart at radius 1, so rings 2 radii apart cannot all stay.
+  TubeStages wide;
+  wide.rings.ring_gap = 2.0;
+  detail::RingsResult found = detail::candidate_rings(wide.c, wide.rings);
+  const auto before = found.rings;
+  const std::vector<int> kept = detail::keep_clear_rings(wide.c, wide.rings, found.rings, found.ringless);
+  int unmoved = 0;
+  for (int i : kept)
+    unmoved += found.rings[i].t == before[i].t;
+  EXPECT_LT(unmoved, 5);
+  for (size_t a = 0; a < kept.size(); ++a)
+    for (size_t b = a + 1; b < kept.size(); ++b)
+      EXPECT_GE(std::abs(found.rings[kept[a]].centre.y() - found.rings[kept[b]].centre.y()),
+                wide.rings.gap(found.rings[kept[a]], found.rings[kept[b]]) - 1e-9);
+  // Six nodes a ring: six arcs on each ring of the net.
+  TubeStages six;
+  six.rings.nodes_per_ring = six.net.nodes_per_ring = 6;
+  detail::RingsResult f6 = detail::candidate_rings(six.c, six.rings);
+  detail::NetRepairs st;
+  st.kept = detail::keep_clear_rings(six.c, six.rings, f6.rings, f6.ringless);
+  st.parent_ring = detail::chain_rings(six.c, six.rings, f6.rings, st.kept);
+  const detail::NetResult net = detail::build_net(
+      six.c, six.net, f6.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  ASSERT_EQ(net.failure, "");
+  std::map<int, int> arcs;
+  for (const auto& [id, who] : net.owner)
+    if (who.first == 'a')
+      ++arcs[who.second];
+  ASSERT_FALSE(arcs.empty());
+  for (const auto& [ring, count] : arcs)
+    EXPECT_EQ(count, 6) << f6.rings[ring].id;
+}
+
+TEST(StarterStages, NodeWeightsFollowTheirRule) {
+  // The same net weighted by the blend-zone rule and by the segment rule:
+  // the segment rule blends along the whole bone, so some node differs.
+  TubeStages t;
+  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
+  detail::NetRepairs st;
+  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
+  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
+  const std::vector<int> active = st.active();
+  detail::NetResult a = detail::build_net(
+      t.c, t.net, found.rings, active, [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  detail::NetResult b = a;
+  const Embedding e = embed(t.mesh, a.rig);
+  detail::NodeWeightOptions segment = t.weights;
+  segment.rule.rule = WeightRule::Segment;
+  detail::node_weights(t.c, t.weights, found.rings, active, e, t.joints, a);
+  detail::node_weights(t.c, segment, found.rings, active, e, t.joints, b);
+  EXPECT_NE(a.rig.weights, b.rig.weights);
 }

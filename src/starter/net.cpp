@@ -171,13 +171,13 @@ struct Join {
 /// to the parent ring, through vertices that keep the limb's clearance from
 /// every other ring (and from the child ring, away from `from`), then on to
 /// the parent ring's nearest point. Empty when there is none.
-std::vector<Vec3> edge_path_join(const StarterContext& c, const std::vector<Ring>& rings,
+std::vector<Vec3> edge_path_join(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
                                  const std::vector<int>& active, int child, int parent, const Vec3& from,
                                  const std::optional<Vec3>& node) {
   const auto& P = c.mesh.positions;
   const int nv = c.mesh.num_vertices();
   const Ring &pr = rings[parent], &cr = rings[child];
-  const double cl = c.profile_clearance(std::min(cr.radius(), pr.radius()));
+  const double cl = no.profile_clearance(c.diag, std::min(cr.radius(), pr.radius()));
   std::vector<Eigen::AlignedBox3d> box(rings.size());
   for (int o : active)
     for (const Vec3& q : rings[o].loop)
@@ -258,8 +258,8 @@ std::vector<Vec3> edge_path_join(const StarterContext& c, const std::vector<Ring
 /// meant to, keeps clear of every ring away from its ends, and leaves and
 /// meets its rings at a clear angle (or the squarest such). Sets jn.path
 /// and jn.to, and `landing` (the arc position on the parent) for a new node.
-void route_join(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active, Join& jn,
-                const Vec3& from, double& landing) {
+void route_join(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
+                const std::vector<int>& active, Join& jn, const Vec3& from, double& landing) {
   const Ring &pr = rings[jn.parent], &cr = rings[jn.child];
   // The plane holds the outward direction at the target, so the join meets
   // the parent ring square rather than glancing along it; the first plane
@@ -292,7 +292,7 @@ void route_join(const StarterContext& c, const std::vector<Ring>& rings, const s
     // away from its two ends.
     bool clear = true;
     for (int o : active) {
-      const double cl = c.profile_clearance(std::min(cr.radius(), rings[o].radius()));
+      const double cl = no.profile_clearance(c.diag, std::min(cr.radius(), rings[o].radius()));
       std::vector<Vec3> middle;
       for (const Vec3& q : path)
         if ((q - from).norm() > 2 * cl && (q - end).norm() > 2 * cl)
@@ -320,7 +320,7 @@ void route_join(const StarterContext& c, const std::vector<Ring>& rings, const s
       break;
   }
   if (!jn.path) { // no plane section joins them: along the mesh's edges
-    std::vector<Vec3> path = edge_path_join(c, rings, active, jn.child, jn.parent, from,
+    std::vector<Vec3> path = edge_path_join(c, no, rings, active, jn.child, jn.parent, from,
                                             jn.target.empty() ? std::nullopt : std::optional<Vec3>(jn.to));
     if (!path.empty()) {
       jn.to = path.back();
@@ -334,12 +334,12 @@ void route_join(const StarterContext& c, const std::vector<Ring>& rings, const s
 /// The joins of every branch child to its parent: two, from the child's
 /// nodes facing the two sides of the fork, each landing on a new node of
 /// the parent ring (or, on a retry, on the parent's nearest node).
-std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                               const std::function<int(int)>& parent_of, const Forks& forks,
-                               const JoinAttempts& attempts,
+std::vector<Join> branch_joins(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
+                               const std::vector<int>& active, const std::function<int(int)>& parent_of,
+                               const Forks& forks, const JoinAttempts& attempts,
                                std::map<int, std::vector<std::pair<double, std::string>>>& extra,
                                std::vector<int>& unjoined) {
-  const int N = c.N;
+  const int N = no.nodes_per_ring;
   std::vector<Join> joins;
   for (int ch : active) {
     const int p = parent_of(ch);
@@ -372,11 +372,10 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
       int near_node = -1;
       std::string near_extra;
       for (int k = 0; k < N; ++k)
-        if ((loop_point(pr, pr.base_nodes[k]) - loop_point(pr, best_s)).norm() < c.options.ring_gap * pr.radius())
+        if ((loop_point(pr, pr.base_nodes[k]) - loop_point(pr, best_s)).norm() < no.ring_gap * pr.radius())
           near_node = k;
       for (const auto& [s_extra, id] : extra[p])
-        if (near_node < 0 &&
-            (loop_point(pr, s_extra) - loop_point(pr, best_s)).norm() < c.options.ring_gap * pr.radius())
+        if (near_node < 0 && (loop_point(pr, s_extra) - loop_point(pr, best_s)).norm() < no.ring_gap * pr.radius())
           near_extra = id, best_s = s_extra;
       if (mode == 0 && !near_extra.empty()) {
         jn.target = near_extra;
@@ -401,7 +400,7 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
         jn.target = pr.id + "_" + std::to_string(nk);
         jn.to = loop_point(pr, pr.base_nodes[nk]);
       }
-      route_join(c, rings, active, jn, from, best_s);
+      route_join(c, no, rings, active, jn, from, best_s);
       if (jn.target.empty()) {
         jn.target = pr.id + "_" + cr.id + (slot == 0 ? "_a" : "_b"); // named by the child: the same on every mesh
         extra[p].emplace_back(best_s, jn.target);
@@ -417,10 +416,10 @@ std::vector<Join> branch_joins(const StarterContext& c, const std::vector<Ring>&
 /// N profiles from ring p to ring ch, node k to node k: the first path
 /// that meets both rings at a clear angle, or the squarest; where no plane
 /// section makes one, along the mesh's edges.
-void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active, int p,
-                    int ch, NetResult& net) {
+void chain_profiles(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
+                    const std::vector<int>& active, int p, int ch, NetResult& net) {
   const Vec3 mid = (rings[p].centre + rings[ch].centre) / 2;
-  for (int k = 0; k < c.N; ++k) {
+  for (int k = 0; k < no.nodes_per_ring; ++k) {
     const Vec3 a = loop_point(rings[p], rings[p].base_nodes[k]), b = loop_point(rings[ch], rings[ch].base_nodes[k]);
     Profile pr;
     pr.id = rings[p].id + "-" + rings[ch].id + "_" + std::to_string(k);
@@ -439,7 +438,7 @@ void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, con
         break;
     }
     if (!path) {
-      std::vector<Vec3> edges = edge_path_join(c, rings, active, ch, p, b, a);
+      std::vector<Vec3> edges = edge_path_join(c, no, rings, active, ch, p, b, a);
       if (!edges.empty()) {
         std::reverse(edges.begin(), edges.end());
         path = std::move(edges);
@@ -456,10 +455,11 @@ void chain_profiles(const StarterContext& c, const std::vector<Ring>& rings, con
 
 } // namespace
 
-NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                    const std::function<int(int)>& parent_of, const JoinAttempts& attempts) {
+NetResult build_net(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
+                    const std::vector<int>& active, const std::function<int(int)>& parent_of,
+                    const JoinAttempts& attempts) {
   NetResult net;
-  net.rig.coverage = c.options.coverage;
+  net.rig.coverage = no.coverage;
   net.rig.has_skeleton = true;
   net.rig.joints = c.joints;
   std::map<int, std::vector<int>> children;
@@ -468,13 +468,13 @@ NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, con
       children[parent_of(i)].push_back(i);
   const Forks forks = fork_layout(rings, children);
   std::map<int, std::vector<std::pair<double, std::string>>> extra; // ring -> (arc pos, node id) where joins land
-  const std::vector<Join> joins = branch_joins(c, rings, active, parent_of, forks, attempts, extra, net.unjoined);
+  const std::vector<Join> joins = branch_joins(c, no, rings, active, parent_of, forks, attempts, extra, net.unjoined);
   net.joins = static_cast<int>(joins.size());
   // Nodes and arcs of every ring.
   for (int i : active) {
     const Ring& r = rings[i];
     std::vector<std::pair<double, std::string>> nodes;
-    for (int k = 0; k < c.N; ++k)
+    for (int k = 0; k < no.nodes_per_ring; ++k)
       nodes.emplace_back(r.base_nodes[k], r.id + "_" + std::to_string(k));
     for (const auto& e : extra[i])
       nodes.push_back(e);
@@ -497,7 +497,7 @@ NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, con
     }
   }
   for (const auto& [p, ch] : forks.series_child)
-    chain_profiles(c, rings, active, p, ch, net);
+    chain_profiles(c, no, rings, active, p, ch, net);
   for (const Join& jn : joins) {
     Profile pr;
     pr.id = rings[jn.child].id + "-" + rings[jn.parent].id + (jn.slot == 0 ? "_join" : "_join1");
@@ -515,7 +515,7 @@ NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, con
   return net;
 }
 
-std::string check_net(const StarterContext& c, const NetResult& net) {
+std::string check_net(const StarterContext& c, const NetOptions& no, const NetResult& net) {
   const Rig& rig = net.rig;
   // Profiles that share no node keep a clearance that scales with the limbs they are on.
   std::map<std::string, Vec3> node_at;
@@ -539,7 +539,7 @@ std::string check_net(const StarterContext& c, const NetResult& net) {
   for (size_t a = 0; a < rig.profiles.size(); ++a) {
     owner[a] = net.owner.at(rig.profiles[a].id);
     scale[a] = net.scale.at(rig.profiles[a].id);
-    largest = std::max(largest, c.profile_clearance(scale[a]));
+    largest = std::max(largest, no.profile_clearance(c.diag, scale[a]));
   }
   for (size_t a = 0; a < rig.profiles.size(); ++a)
     for (size_t b = a + 1; b < rig.profiles.size(); ++b) {
@@ -549,7 +549,7 @@ std::string check_net(const StarterContext& c, const NetResult& net) {
       const auto oa = owner[a], ob = owner[b];
       if (oa.first == 'a' && ob.first == 'a' && oa.second == ob.second)
         continue; // pieces of one plane section: they cannot cross
-      const double cl = c.profile_clearance(std::min(scale[a], scale[b]));
+      const double cl = no.profile_clearance(c.diag, std::min(scale[a], scale[b]));
       if (box[a].exteriorDistance(box[b]) >= cl)
         continue;
       std::vector<Vec3> shared;

@@ -81,16 +81,17 @@ private:
 
 } // namespace
 
-void node_weights(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                  const Embedding& embedding, const std::vector<Joint>& rig_joints, NetResult& net) {
+void node_weights(const StarterContext& c, const NodeWeightOptions& wo, const std::vector<Ring>& rings,
+                  const std::vector<int>& active, const Embedding& embedding, const std::vector<Joint>& rig_joints,
+                  NetResult& net) {
   const std::vector<Joint>& joints = c.joints;
   const int nj = static_cast<int>(joints.size());
   std::optional<SkinSampler> skin;
-  if (c.options.skin)
-    skin.emplace(c.mesh, *c.options.skin, rig_joints);
+  if (wo.skin)
+    skin.emplace(c.mesh, *wo.skin, rig_joints);
   std::map<int, bool> end_of; // weighted joint ending its chain -> whether its end ring is in the net
   for (int j = 0; j < nj; ++j)
-    if (c.sk.kids[j].empty() && c.sk.parent[j] >= 0 && c.options.deforming.count(joints[j].name))
+    if (c.sk.kids[j].empty() && c.sk.parent[j] >= 0 && wo.deforming.count(joints[j].name))
       end_of[j] = false;
   for (int i : active)
     if (rings[i].frac > 1)
@@ -128,7 +129,7 @@ void node_weights(const StarterContext& c, const std::vector<Ring>& rings, const
     // happens to pass nearer to it.
     if (r.own.size() == 1 && bones.size() > 1)
       bones = {nearest_bone(c, r.centre, bones)};
-    for (const auto& [j, v] : auto_weights(joints, n.position, c.options.weights, bones))
+    for (const auto& [j, v] : auto_weights(joints, n.position, wo.rule, bones))
       w[joints[j].name] = v;
   }
 }

@@ -31,8 +31,8 @@ namespace {
 /// chain joins the nearest other ring up its chain or hanging from one (the
 /// trunk it hangs from, the limb beside it; never further down another
 /// limb), a few times over.
-void give_up_join(const StarterContext& c, const std::vector<Ring>& rings, int slot, const std::string& failure,
-                  NetRepairs& st) {
+void give_up_join(const StarterContext& c, const RingOptions& ro, const std::vector<Ring>& rings, int slot,
+                  const std::string& failure, NetRepairs& st) {
   const int m = ++st.join_attempt[slot];
   const int ch = slot / 2;
   c.say("join " + std::string(slot % 2 ? "1 " : "") + "of ring '" + rings[ch].id + "' " +
@@ -68,8 +68,8 @@ void give_up_join(const StarterContext& c, const std::vector<Ring>& rings, int s
 
 /// A ring moved along its bone where it keeps clear of the others, or
 /// dropped; rings it had displaced come back where they now keep clear.
-void move_or_drop(const StarterContext& c, std::vector<Ring>& rings, std::map<int, std::string>& ringless, int culprit,
-                  const std::string& failure, NetRepairs& st) {
+void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
+                  std::map<int, std::string>& ringless, int culprit, const std::string& failure, NetRepairs& st) {
   Ring& r = rings[culprit];
   std::vector<int> others;
   for (int i : st.active())
@@ -77,9 +77,9 @@ void move_or_drop(const StarterContext& c, std::vector<Ring>& rings, std::map<in
       others.push_back(i);
   const double t0 = r.t;
   const Ring before = r;
-  while (move_ring_on(c, r))
-    if (ring_conflict(c, r, rings, others, culprit) < 0) {
-      place_nodes(r, c.N, c.options.first_angle_deg);
+  while (move_ring_on(c, ro, r))
+    if (ring_conflict(c, ro, r, rings, others, culprit) < 0) {
+      place_nodes(r, ro.nodes_per_ring, ro.first_angle_deg);
       c.say("ring '" + r.id + "' moved along its bone (" + percent(t0) + " to " + percent(r.t) + "): " + failure);
       return;
     }
@@ -95,7 +95,7 @@ void move_or_drop(const StarterContext& c, std::vector<Ring>& rings, std::map<in
   bool back = false;
   for (size_t i = 0; i < rings.size(); ++i) {
     Ring& q = rings[i];
-    if (q.active || q.replaced_by != culprit || ring_conflict(c, q, rings, left, static_cast<int>(i)) >= 0)
+    if (q.active || q.replaced_by != culprit || ring_conflict(c, ro, q, rings, left, static_cast<int>(i)) >= 0)
       continue;
     q.active = true;
     q.replaced_by = -1;
@@ -110,7 +110,7 @@ void move_or_drop(const StarterContext& c, std::vector<Ring>& rings, std::map<in
       rings[i].active = false;
     st.kept = left;
     st.dropped.clear();
-    st.parent_ring = chain_rings(c, rings, st.kept);
+    st.parent_ring = chain_rings(c, ro, rings, st.kept);
     st.join_attempt.clear();
     st.parent_override.clear();
     st.tried.clear();
@@ -119,8 +119,9 @@ void move_or_drop(const StarterContext& c, std::vector<Ring>& rings, std::map<in
 
 } // namespace
 
-void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int, std::string>& ringless,
-                const NetResult& net, const std::string& failure, NetRepairs& st) {
+void repair_net(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
+                std::map<int, std::string>& ringless, const NetResult& net, const std::string& failure,
+                NetRepairs& st) {
   if (++st.attempts > 6 * static_cast<int>(rings.size()) + 9)
     throw EmbedError("starter: could not make a net that embeds: " + failure);
   // What the failure names: a join first, then the child ring of a
@@ -146,9 +147,9 @@ void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int,
     kind = 'a';
   }
   if (kind == 'j')
-    give_up_join(c, rings, culprit, failure, st);
+    give_up_join(c, ro, rings, culprit, failure, st);
   else
-    move_or_drop(c, rings, ringless, culprit, failure, st);
+    move_or_drop(c, ro, rings, ringless, culprit, failure, st);
 }
 
 } // namespace curvenet::detail

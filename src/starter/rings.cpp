@@ -32,10 +32,10 @@ Skeleton::Skeleton(const std::vector<Joint>& joints) {
       ++subtree[a];
 }
 
-StarterContext::StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, const StarterOptions& o,
+StarterContext::StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j,
                                std::function<void(const std::string&)> message)
-    : mesh(m), joints(j), options(o), sk(j), sm(m), diag(m.bbox_diagonal()), h(m.mean_edge_length()),
-      tol(1e-6 * m.bbox_diagonal()), N(o.nodes_per_ring), say(std::move(message)) {
+    : mesh(m), joints(j), sk(j), sm(m), diag(m.bbox_diagonal()), h(m.mean_edge_length()), tol(1e-6 * m.bbox_diagonal()),
+      say(std::move(message)) {
   std::vector<std::pair<int, int>> pairs;
   for (int f = 0; f < m.num_faces(); ++f) {
     const auto c = m.face(f);
@@ -59,11 +59,40 @@ StarterContext::StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j
 std::string StarterContext::bone_name(int c) const {
   return "'" + joints[sk.parent[c]].name + "'-'" + joints[c].name + "'";
 }
-double StarterContext::profile_clearance(double radius) const {
-  return std::min(options.ring_gap / 2 * radius, 0.0075 * diag);
+
+RingOptions RingOptions::from(const StarterOptions& o) {
+  RingOptions r;
+  r.nodes_per_ring = o.nodes_per_ring;
+  r.rings_per_bone = o.rings_per_bone;
+  r.first_angle_deg = o.first_angle_deg;
+  r.ring_gap = o.ring_gap;
+  r.trunk_setback = o.weights.blend;
+  r.deforming = o.deforming;
+  return r;
 }
-double StarterContext::gap(const Ring& a, const Ring& b) const {
-  return options.ring_gap * std::min(a.radius(), b.radius());
+
+double RingOptions::gap(const Ring& a, const Ring& b) const {
+  return ring_gap * std::min(a.radius(), b.radius());
+}
+
+NetOptions NetOptions::from(const StarterOptions& o) {
+  NetOptions n;
+  n.nodes_per_ring = o.nodes_per_ring;
+  n.ring_gap = o.ring_gap;
+  n.coverage = o.coverage;
+  return n;
+}
+
+double NetOptions::profile_clearance(double diagonal, double radius) const {
+  return std::min(ring_gap / 2 * radius, 0.0075 * diagonal);
+}
+
+NodeWeightOptions NodeWeightOptions::from(const StarterOptions& o) {
+  NodeWeightOptions w;
+  w.rule = o.weights;
+  w.skin = o.skin;
+  w.deforming = o.deforming;
+  return w;
 }
 
 std::string percent(double t) {
@@ -254,14 +283,14 @@ Probe probe(const StarterContext& c, const std::vector<int>& own, const Placemen
   return q;
 }
 
-bool is_local(const StarterContext& c, const Probe& q) {
-  return q.ring && q.foreign < 0 && static_cast<int>(q.ring->loop.size()) >= c.N;
+bool is_local(const StarterContext& c, const RingOptions& ro, const Probe& q) {
+  return q.ring && q.foreign < 0 && static_cast<int>(q.ring->loop.size()) >= ro.nodes_per_ring;
 }
 
 /// The first local ring in the placement's range, moved on past where the
 /// section first becomes local; `why` says why there is none.
-std::optional<Ring> first_local(const StarterContext& c, int j, const Placement& pl, std::string& why,
-                                std::vector<int> own = {}) {
+std::optional<Ring> first_local(const StarterContext& c, const RingOptions& ro, int j, const Placement& pl,
+                                std::string& why, std::vector<int> own = {}) {
   if (own.empty())
     own = {j};
   constexpr int steps = 10;
@@ -271,13 +300,13 @@ std::optional<Ring> first_local(const StarterContext& c, int j, const Placement&
   for (int k = 0; k <= (range ? steps : 0); ++k) {
     const double t = pl.t_min + (pl.t_max - pl.t_min) * k / steps;
     const Probe q = probe(c, own, pl, t);
-    if (is_local(c, q)) {
+    if (is_local(c, ro, q)) {
       if (k == 0)
         return q.ring;
       double lo = prev, hi = t;
       for (int it = 0; it < 6; ++it) {
         const double mid = (lo + hi) / 2;
-        (is_local(c, probe(c, own, pl, mid)) ? hi : lo) = mid;
+        (is_local(c, ro, probe(c, own, pl, mid)) ? hi : lo) = mid;
       }
       // Clear of a fork by a third of the radius, clear of the surface's
       // rounded end (no section before) by a whole radius; by at most a
@@ -286,7 +315,7 @@ std::optional<Ring> first_local(const StarterContext& c, int j, const Placement&
       const double clear = std::min(0.25, (foreign >= 0 ? 1.0 / 3 : 1.0) * q.ring->radius() / len);
       // The furthest of a few steps back from there that is local.
       for (const double back : {0.0, 0.25, 0.5, 0.75})
-        if (Probe m = probe(c, own, pl, std::min(pl.t_max, hi + (1 - back) * clear)); is_local(c, m))
+        if (Probe m = probe(c, own, pl, std::min(pl.t_max, hi + (1 - back) * clear)); is_local(c, ro, m))
           return m.ring;
       return q.ring;
     }
@@ -298,7 +327,7 @@ std::optional<Ring> first_local(const StarterContext& c, int j, const Placement&
   }
   why = foreign >= 0 ? "every section across its bone" + (range ? " up to " + percent(pl.t_max) + " along it" : "") +
                            " also encloses bone " + c.bone_name(foreign) + " (a shared trunk)"
-        : small ? "its section crosses fewer mesh edges than " + std::to_string(c.N) + " nodes need"
+        : small ? "its section crosses fewer mesh edges than " + std::to_string(ro.nodes_per_ring) + " nodes need"
                 : "no section there winds around its bone (outside the mesh)";
   return std::nullopt;
 }
@@ -306,7 +335,7 @@ std::optional<Ring> first_local(const StarterContext& c, int j, const Placement&
 /// Where no section across the bone is local (a thumb's metacarpal in the
 /// ball of the thumb), the narrowest local section through the bone's
 /// middle part whose plane is tilted from the bone by up to 45 degrees.
-std::optional<Ring> tilted_local(const StarterContext& c, int j, const Placement& pl) {
+std::optional<Ring> tilted_local(const StarterContext& c, const RingOptions& ro, int j, const Placement& pl) {
   std::optional<Ring> best;
   const auto [u, v] = plane_basis(pl.along);
   for (int it = 3; it <= 9; ++it)
@@ -315,7 +344,7 @@ std::optional<Ring> tilted_local(const StarterContext& c, int j, const Placement
         const double a = az * std::numbers::pi / 4, b = tilt * std::numbers::pi / 180;
         const Vec3 axis = std::cos(b) * pl.along + std::sin(b) * (std::cos(a) * u + std::sin(a) * v);
         Probe q = probe(c, {j}, {pl.base + pl.step * (it / 10.0), Vec3::Zero(), axis, axis, 0, 0}, 0);
-        if (is_local(c, q) && (!best || q.ring->perimeter < best->perimeter))
+        if (is_local(c, ro, q) && (!best || q.ring->perimeter < best->perimeter))
           best = std::move(q.ring);
       }
   return best;
@@ -324,9 +353,9 @@ std::optional<Ring> tilted_local(const StarterContext& c, int j, const Placement
 /// Where joint j's own ring may sit (docs/starter.md, step 1), or a
 /// placement with no step when its bone has no length. A leaf whose limb
 /// goes on past it gets its ring at the joint at once (`own`).
-Placement joint_placement(const StarterContext& c, int j, std::optional<Ring>& own) {
+Placement joint_placement(const StarterContext& c, const RingOptions& ro, int j, std::optional<Ring>& own) {
   const Skeleton& sk = c.sk;
-  const int p = sk.parent[j], R = c.options.rings_per_bone;
+  const int p = sk.parent[j], R = ro.rings_per_bone;
   const auto& kids = sk.kids[j];
   Placement pl;
   if (!kids.empty() && p >= 0 && kids.size() == 1) {
@@ -364,7 +393,7 @@ Placement joint_placement(const StarterContext& c, int j, std::optional<Ring>& o
     if (in.norm() > 0) {
       pl = {sk.origin[j], in, in.normalized(), in.normalized(), 0, 0.5};
       const Probe q = probe(c, {j}, pl, 0);
-      if (is_local(c, q) && section_ring(c.sm, sk.origin[j] + in / 2, in))
+      if (is_local(c, ro, q) && section_ring(c.sm, sk.origin[j] + in / 2, in))
         own = q.ring;
       else
         pl = {sk.origin[p], in, in.normalized(), in.normalized(), 1 - 0.5 / R, 1 - 0.2 / R};
@@ -381,7 +410,7 @@ constexpr double kSmallestCap = 0.01; ///< of the diagonal: the smallest ring a 
 /// joint to the cap's furthest point and square to that line; none when the
 /// ring is under 1 % of the diagonal across, the cap is short, or no local
 /// section crosses it.
-std::optional<Ring> cap_ring(const StarterContext& c, int j, const Ring& own) {
+std::optional<Ring> cap_ring(const StarterContext& c, const RingOptions& ro, int j, const Ring& own) {
   if (own.radius() < kSmallestCap * c.diag) // an ear's tip: too small to be worth a ring, and finer than a coarse LOD
     return std::nullopt;
   const auto& P = c.mesh.positions;
@@ -422,14 +451,14 @@ std::optional<Ring> cap_ring(const StarterContext& c, int j, const Ring& own) {
   if (step.norm() < 2 * own.radius()) // too short for a ring of its own
     return std::nullopt;
   std::string why;
-  return first_local(c, j, {o, step, step.normalized(), step.normalized(), 0.4, 0.7}, why);
+  return first_local(c, ro, j, {o, step, step.normalized(), step.normalized(), 0.4, 0.7}, why);
 }
 
 } // namespace
 
-RingsResult candidate_rings(const StarterContext& c) {
+RingsResult candidate_rings(const StarterContext& c, const RingOptions& ro) {
   const Skeleton& sk = c.sk;
-  const int R = c.options.rings_per_bone, nj = static_cast<int>(c.joints.size());
+  const int R = ro.rings_per_bone, nj = static_cast<int>(c.joints.size());
   auto suffix = [&](int i) { // appended, not "_" + ...: GCC 12 warns falsely on that (its bug 105329)
     std::string s;
     if (R > 1)
@@ -441,7 +470,7 @@ RingsResult candidate_rings(const StarterContext& c) {
     const int p = sk.parent[j];
     const std::string& name = c.joints[j].name;
     std::optional<Ring> own;
-    const Placement pl = joint_placement(c, j, own);
+    const Placement pl = joint_placement(c, ro, j, own);
     // Extra rings along the bone into the joint, at most part of the way to
     // the next ring spot (1 / rings_per_bone), so rings stay in order.
     if (p >= 0 && R > 1) {
@@ -449,8 +478,8 @@ RingsResult candidate_rings(const StarterContext& c) {
       for (int i = 1; i < R && bone.norm() > 0; ++i) {
         const double f = static_cast<double>(i) / R;
         std::string why;
-        if (auto r =
-                first_local(c, j, {sk.origin[p], bone, bone.normalized(), bone.normalized(), f, f + 0.5 / R}, why)) {
+        if (auto r = first_local(c, ro, j, {sk.origin[p], bone, bone.normalized(), bone.normalized(), f, f + 0.5 / R},
+                                 why)) {
           r->id = name + suffix(i);
           r->frac = f;
           out.rings.push_back(std::move(*r));
@@ -464,21 +493,21 @@ RingsResult candidate_rings(const StarterContext& c) {
         out.shared_start[j] = {pl.point(0), pl.axis(0), q.ring->radius(), bones_inside(*q.ring, pl.point(0), sk)};
     std::string why = "its bone has no length";
     if (!own && pl.step.norm() > 0)
-      own = first_local(c, j, pl, why);
+      own = first_local(c, ro, j, pl, why);
     if (!own && !sk.kids[j].empty() && pl.step.norm() > 0)
-      own = tilted_local(c, j, pl);
+      own = tilted_local(c, ro, j, pl);
     // A leaf whose siblings' bones start inside it (a head, and the ears
     // that hang from the neck's last joint): its ring may enclose them
     // where they leave the joint they share.
     if (!own && sk.kids[j].empty() && p >= 0 && pl.step.norm() > 0) {
       std::string shared_why;
-      own = first_local(c, j, pl, shared_why, {j, p});
+      own = first_local(c, ro, j, pl, shared_why, {j, p});
     }
     // A weighted joint that ends its chain (a foot, a head) gets a second
     // ring out in what lies beyond its own (step 8 gives it that joint's
     // weight alone).
-    if (own && p >= 0 && sk.kids[j].empty() && c.options.deforming.count(name))
-      if (auto end = cap_ring(c, j, *own)) {
+    if (own && p >= 0 && sk.kids[j].empty() && ro.deforming.count(name))
+      if (auto end = cap_ring(c, ro, j, *own)) {
         end->id = name + "_end";
         end->frac = 2;
         out.rings.push_back(std::move(*end));
@@ -495,9 +524,9 @@ RingsResult candidate_rings(const StarterContext& c) {
   return out;
 }
 
-bool place_ring_at(const StarterContext& c, Ring& r, double t) {
+bool place_ring_at(const StarterContext& c, const RingOptions& ro, Ring& r, double t) {
   Probe q = probe(c, r.own, r.place, t);
-  if (!is_local(c, q))
+  if (!is_local(c, ro, q))
     return false;
   r.t = t;
   r.centre = q.ring->centre;
@@ -510,14 +539,15 @@ bool place_ring_at(const StarterContext& c, Ring& r, double t) {
 
 // ---- stage 2: trunks ------------------------------------------------------
 
-void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shared_start, std::vector<Ring>& rings) {
+void trunk_rings(const StarterContext& c, const RingOptions& ro, const std::map<int, SharedStart>& shared_start,
+                 std::vector<Ring>& rings) {
   // Joints whose sections through the joint enclose each other's bones, and
   // lie near each other's planes (the knuckles of a palm, the hips of a
   // pelvis), get one ring between them, across the trunk at the fork:
   // through their mean position, normal to their mean axis, local to all
   // their bones. It comes before their own rings along each chain.
   const Skeleton& sk = c.sk;
-  const int R = c.options.rings_per_bone;
+  const int R = ro.rings_per_bone;
   std::map<int, int> group; // joint -> representative
   std::function<int(int)> find = [&](int j) { return group[j] == j ? j : group[j] = find(group[j]); };
   for (const auto& [j, st] : shared_start)
@@ -561,9 +591,9 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
       names += (names.empty() ? "'" : ", '") + c.joints[j].name + "'";
     if (axis.norm() == 0 || out.norm() == 0)
       continue;
-    const Placement pl{point - c.options.weights.blend * in, out, axis.normalized(), axis.normalized(), 0, 0.25 / R};
+    const Placement pl{point - ro.trunk_setback * in, out, axis.normalized(), axis.normalized(), 0, 0.25 / R};
     Probe q = probe(c, list, pl, 0);
-    if (!is_local(c, q)) {
+    if (!is_local(c, ro, q)) {
       c.say(
           "no trunk ring for " + names + ": " +
           (q.ring && q.foreign >= 0 ? "its section also encloses bone " + c.bone_name(q.foreign) : "no section there"));
@@ -577,7 +607,7 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
     if (common >= 0 && std::all_of(list.begin(), list.end(), [&](int j) { return sk.parent[j] == common; })) {
       const auto parents_ring = std::find_if(rings.begin(), rings.end(), [&](const Ring& r) {
         return r.joint == common && r.frac == 1 &&
-               polylines_within(r.loop, true, q.ring->loop, true, c.gap(r, *q.ring));
+               polylines_within(r.loop, true, q.ring->loop, true, ro.gap(r, *q.ring));
       });
       if (parents_ring != rings.end()) {
         c.say("no trunk ring for " + names + ": the ring of '" + c.joints[common].name + "' crosses it");
@@ -591,22 +621,22 @@ void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shar
 
 // ---- stage 3: clearance ---------------------------------------------------
 
-int ring_conflict(const StarterContext& c, const Ring& r, const std::vector<Ring>& rings, const std::vector<int>& among,
-                  int self) {
+int ring_conflict(const StarterContext& c, const RingOptions& ro, const Ring& r, const std::vector<Ring>& rings,
+                  const std::vector<int>& among, int self) {
   for (int k : among)
-    if (k != self && polylines_within(r.loop, true, rings[k].loop, true, c.gap(r, rings[k])))
+    if (k != self && polylines_within(r.loop, true, rings[k].loop, true, ro.gap(r, rings[k])))
       return k;
   return -1;
 }
 
-bool move_ring_on(const StarterContext& c, Ring& r) {
+bool move_ring_on(const StarterContext& c, const RingOptions& ro, Ring& r) {
   for (double t = r.t + 0.1; t <= r.place.t_max + 1e-9; t += 0.1)
-    if (place_ring_at(c, r, t))
+    if (place_ring_at(c, ro, r, t))
       return true;
   return false;
 }
 
-std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& rings,
+std::vector<int> keep_clear_rings(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
                                   std::map<int, std::string>& ringless) {
   std::vector<int> order(rings.size());
   for (size_t i = 0; i < order.size(); ++i)
@@ -616,27 +646,27 @@ std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& ri
   for (int i : order) {
     Ring& r = rings[i];
     const double t0 = r.t;
-    int conflict = ring_conflict(c, r, rings, kept, i);
+    int conflict = ring_conflict(c, ro, r, rings, kept, i);
     const int first_conflict = conflict;
     double last_close = r.t;
     while (conflict >= 0) {
       last_close = r.t;
-      if (!move_ring_on(c, r))
+      if (!move_ring_on(c, ro, r))
         break;
-      conflict = ring_conflict(c, r, rings, kept, i);
+      conflict = ring_conflict(c, ro, r, rings, kept, i);
     }
     if (first_conflict >= 0 && conflict < 0) { // the least move that clears it, found by bisection
       double lo = last_close, hi = r.t;
       for (int it = 0; it < 6; ++it) {
         const double mid = (lo + hi) / 2;
-        (place_ring_at(c, r, mid) && ring_conflict(c, r, rings, kept, i) < 0 ? hi : lo) = mid;
+        (place_ring_at(c, ro, r, mid) && ring_conflict(c, ro, r, rings, kept, i) < 0 ? hi : lo) = mid;
       }
-      place_ring_at(c, r, hi);
+      place_ring_at(c, ro, r, hi);
     }
     if (conflict >= 0) {
       r.replaced_by = conflict;
       const std::string m = "ring '" + r.id + "' dropped: it comes within " +
-                            std::to_string(c.gap(r, rings[conflict])) + " of ring '" + rings[conflict].id + "'" +
+                            std::to_string(ro.gap(r, rings[conflict])) + " of ring '" + rings[conflict].id + "'" +
                             (r.place.t_max > t0 ? ", moved as far along its bone as it goes" : "");
       c.say(m);
       if (r.frac == 1)
@@ -654,7 +684,8 @@ std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& ri
 
 // ---- stage 4: chains ------------------------------------------------------
 
-std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings, const std::vector<int>& kept) {
+std::map<int, int> chain_rings(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
+                               const std::vector<int>& kept) {
   const Skeleton& sk = c.sk;
   auto is_ancestor = [&](int a, int j) { // a is j or one of its ancestors
     for (int x = j, guard = 0; x >= 0 && guard <= static_cast<int>(sk.parent.size()); x = sk.parent[x], ++guard)
@@ -784,7 +815,7 @@ std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings
       }
     }
     r.ref = ref.norm() > 1e-9 ? Vec3(ref.normalized()) : plane_basis(r.axis)[0];
-    if (!place_nodes(r, c.N, c.options.first_angle_deg))
+    if (!place_nodes(r, ro.nodes_per_ring, ro.first_angle_deg))
       c.say("ring '" + r.id + "': nodes spread by arc length (the section is not star-shaped about its centre)");
   }
   return parent_ring;

@@ -10,8 +10,8 @@
 //   check     (net.cpp)       clearances and angles between profiles, and the embedding
 //   weights   (starter.cpp)   automatic weights on every node
 
-#include "curvenet/rig.hpp"
 #include "curvenet/embed.hpp"
+#include "curvenet/rig.hpp"
 #include "curvenet/starter.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "starter/plane_section.hpp"
@@ -66,29 +66,65 @@ struct Ring {
   [[nodiscard]] double radius() const { return perimeter / (2 * std::numbers::pi); }
 };
 
-/// What every stage reads: the mesh, its sections, the skeleton, the scale.
+/// What every stage reads: the mesh, its sections, the skeleton, the scale,
+/// and where to say what was moved or dropped. What a stage is asked to do
+/// comes in its own options (RingOptions, NetOptions, NodeWeightOptions).
 struct StarterContext {
   const SurfaceMesh& mesh;
   const std::vector<Joint>& joints;
-  const StarterOptions& options;
   Skeleton sk;
   SectionMesh sm;
   double diag = 1, h = 1, tol = 1e-6;
-  int N = 4;
   std::function<void(const std::string&)> say;
   /// The mesh's vertex neighbours (compressed rows), for paths along edges.
   std::vector<int> next_offset, next_vertex;
   /// Paths along the surface found so far, by their ends and third points:
   /// the net is built again after each repair, mostly between the same nodes.
   mutable std::map<std::vector<double>, std::vector<std::vector<Vec3>>> path_cache;
-  StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, const StarterOptions& o,
-                 std::function<void(const std::string&)> message);
+  StarterContext(const SurfaceMesh& m, const std::vector<Joint>& j, std::function<void(const std::string&)> message);
   [[nodiscard]] std::string bone_name(int c) const;
-  /// Profiles that share no node keep half the ring gap of the limb they are
-  /// on, and at most 0.75 % of the diagonal on a thick body.
-  [[nodiscard]] double profile_clearance(double radius) const;
-  /// Rings closer than this are too close.
+};
+
+/// The ring stages (1 to 4) and the repairs that move rings.
+struct RingOptions {
+  /// Nodes on each ring; a section that crosses fewer mesh edges is no ring.
+  int nodes_per_ring = 4;
+  /// One ring at each bone's end joint, and rings_per_bone - 1 more along it.
+  int rings_per_bone = 1;
+  /// Node 0's angle from its ring's reference direction, in degrees.
+  double first_angle_deg = 0;
+  /// Rings closer than this fraction of the smaller one's radius are too close.
+  double ring_gap = 0.25;
+  /// A shared trunk's ring sits back from the fork by this fraction of the
+  /// bones (the weight rule's blend zone, so that it blends as they do).
+  double trunk_setback = 0.3;
+  /// The joints that carry skin weight (empty: every joint may): a leaf that
+  /// carries weight and ends its limb gets a ring out beyond it too.
+  std::set<std::string> deforming;
+  [[nodiscard]] static RingOptions from(const StarterOptions& o);
+  /// How close rings a and b may come.
   [[nodiscard]] double gap(const Ring& a, const Ring& b) const;
+};
+
+/// The net and its check (stages 5 and 6).
+struct NetOptions {
+  int nodes_per_ring = 4;
+  /// A join's new node keeps this fraction of its ring's radius from the
+  /// ring's own nodes; profiles that share no node keep half of it.
+  double ring_gap = 0.25;
+  Coverage coverage = Coverage::Full;
+  [[nodiscard]] static NetOptions from(const StarterOptions& o);
+  /// Profiles that share no node keep half the ring gap of the limb they are
+  /// on (radius), and at most 0.75 % of the diagonal on a thick body.
+  [[nodiscard]] double profile_clearance(double diagonal, double radius) const;
+};
+
+/// The node weights (stage 8).
+struct NodeWeightOptions {
+  AutoWeightOptions rule;            ///< where there is no skin, or it names no joint of the skeleton
+  const SkinnedMesh* skin = nullptr; ///< the mesh's own skin (StarterOptions::skin)
+  std::set<std::string> deforming;   ///< as RingOptions::deforming
+  [[nodiscard]] static NodeWeightOptions from(const StarterOptions& o);
 };
 
 // ---- loops --------------------------------------------------------------
@@ -125,37 +161,39 @@ struct RingsResult {
 
 /// A candidate ring local to each joint's bone (and rings_per_bone - 1
 /// more along each bone).
-RingsResult candidate_rings(const StarterContext& c);
+RingsResult candidate_rings(const StarterContext& c, const RingOptions& ro);
 
 /// Whether a ring at t of its placement is local, and if so, the ring there.
-bool place_ring_at(const StarterContext& c, Ring& r, double t);
+bool place_ring_at(const StarterContext& c, const RingOptions& ro, Ring& r, double t);
 
 // ---- stage 2: trunks ------------------------------------------------------
 
 /// Rings across trunks that several joints share (the knuckles of a palm):
 /// appended to `rings`.
-void trunk_rings(const StarterContext& c, const std::map<int, SharedStart>& shared_start, std::vector<Ring>& rings);
+void trunk_rings(const StarterContext& c, const RingOptions& ro, const std::map<int, SharedStart>& shared_start,
+                 std::vector<Ring>& rings);
 
 // ---- stage 3: clearance ---------------------------------------------------
 
 /// Keeps rings greedily, smallest first; a ring too close to one already
 /// kept is moved along its bone, and dropped only when that does not clear
 /// it. Sets `active` and `replaced_by`; returns the kept rings.
-std::vector<int> keep_clear_rings(const StarterContext& c, std::vector<Ring>& rings,
+std::vector<int> keep_clear_rings(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
                                   std::map<int, std::string>& ringless);
 
 /// The first ring of `among` (but `self`) that `r` comes too close to, or -1.
-int ring_conflict(const StarterContext& c, const Ring& r, const std::vector<Ring>& rings, const std::vector<int>& among,
-                  int self);
+int ring_conflict(const StarterContext& c, const RingOptions& ro, const Ring& r, const std::vector<Ring>& rings,
+                  const std::vector<int>& among, int self);
 
 /// Moves a ring a tenth of its range's bone further along, to the next local section.
-bool move_ring_on(const StarterContext& c, Ring& r);
+bool move_ring_on(const StarterContext& c, const RingOptions& ro, Ring& r);
 
 // ---- stage 4: chains ------------------------------------------------------
 
 /// Each kept ring's parent ring (the ring at the nearest position up the
 /// skeleton), and its nodes, node 0 carried from the parent.
-std::map<int, int> chain_rings(const StarterContext& c, std::vector<Ring>& rings, const std::vector<int>& kept);
+std::map<int, int> chain_rings(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
+                               const std::vector<int>& kept);
 
 // ---- stages 5 and 6: the net and its check -------------------------------
 
@@ -179,12 +217,13 @@ struct NetResult {
 
 /// The net of the active rings: their arcs, N profiles along each chain,
 /// and joins on both sides of each fork.
-NetResult build_net(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                    const std::function<int(int)>& parent_of, const JoinAttempts& attempts);
+NetResult build_net(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
+                    const std::vector<int>& active, const std::function<int(int)>& parent_of,
+                    const JoinAttempts& attempts);
 
 /// Profiles that share no node keep their clearance, profiles leaving one
 /// node part at a clear angle. The first fault, or empty.
-std::string check_net(const StarterContext& c, const NetResult& net);
+std::string check_net(const StarterContext& c, const NetOptions& no, const NetResult& net);
 
 // ---- stage 7: repairs ----------------------------------------------------
 
@@ -212,8 +251,9 @@ struct NetRepairs {
 /// moved along its bone where it keeps clear, dropped otherwise, and rings
 /// it had displaced come back.
 /// \throw EmbedError when nothing is left to give up.
-void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int, std::string>& ringless,
-                const NetResult& net, const std::string& failure, NetRepairs& state);
+void repair_net(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
+                std::map<int, std::string>& ringless, const NetResult& net, const std::string& failure,
+                NetRepairs& state);
 
 // ---- stage 8: weights -----------------------------------------------------
 
@@ -226,7 +266,8 @@ void repair_net(const StarterContext& c, std::vector<Ring>& rings, std::map<int,
 /// near it. A ring out beyond a weighted joint that ends its chain (a
 /// foot, a head) is that joint's alone, as is the joint's own ring when
 /// that ring is the last.
-void node_weights(const StarterContext& c, const std::vector<Ring>& rings, const std::vector<int>& active,
-                  const Embedding& embedding, const std::vector<Joint>& rig_joints, NetResult& net);
+void node_weights(const StarterContext& c, const NodeWeightOptions& wo, const std::vector<Ring>& rings,
+                  const std::vector<int>& active, const Embedding& embedding, const std::vector<Joint>& rig_joints,
+                  NetResult& net);
 
 } // namespace curvenet::detail

@@ -237,24 +237,26 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
       opt.message(result.messages.back());
   }
   const std::vector<Joint>& joints = work;
-  const StarterContext c(mesh, joints, opt, [&](const std::string& m) {
+  const RingOptions ring_options = RingOptions::from(opt);
+  const NetOptions net_options = NetOptions::from(opt);
+  const StarterContext c(mesh, joints, [&](const std::string& m) {
     result.messages.push_back(m);
     if (opt.message)
       opt.message(m);
   });
 
   // 1 to 4: rings, trunks, clearance, chains.
-  RingsResult found = candidate_rings(c);
+  RingsResult found = candidate_rings(c, ring_options);
   std::vector<Ring>& rings = found.rings;
   std::map<int, std::string>& ringless = found.ringless;
-  trunk_rings(c, found.shared_start, rings);
+  trunk_rings(c, ring_options, found.shared_start, rings);
   if (rings.empty())
     throw InputError(
         mesh.source, "skeleton",
         "lies outside the mesh: no plane through a joint cuts a loop around it (check the skeleton's space and units)");
   NetRepairs st;
-  st.kept = keep_clear_rings(c, rings, ringless);
-  st.parent_ring = chain_rings(c, rings, st.kept);
+  st.kept = keep_clear_rings(c, ring_options, rings, ringless);
+  st.parent_ring = chain_rings(c, ring_options, rings, st.kept);
 
   // 5 to 8: build the net, check it, embed it; on a failure give up what
   // failed (7), and repeat; then the weights.
@@ -268,12 +270,12 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
                            joints[ringless.empty() ? 0 : ringless.begin()->first].name + "': " + why + ")");
     }
     const auto parent_of = [&](int i) { return st.effective_parent(i); };
-    NetResult net = build_net(c, rings, active, parent_of, st.join_attempt);
-    std::string failure = net.failure.empty() ? check_net(c, net) : net.failure;
+    NetResult net = build_net(c, net_options, rings, active, parent_of, st.join_attempt);
+    std::string failure = net.failure.empty() ? check_net(c, net_options, net) : net.failure;
     try {
       const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
       if (failure.empty() && e.report().ok) {
-        node_weights(c, rings, active, e, all_joints, net);
+        node_weights(c, NodeWeightOptions::from(opt), rings, active, e, all_joints, net);
         finish(c, rings, active, net, st, ringless, skipped, e.report().components, all_joints, result);
         return result;
       }
@@ -282,7 +284,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     } catch (const EmbedError& e) {
       failure = e.what();
     }
-    repair_net(c, rings, ringless, net, failure, st);
+    repair_net(c, ring_options, rings, ringless, net, failure, st);
   }
 }
 
