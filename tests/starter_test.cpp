@@ -762,6 +762,14 @@ struct TubeStages {
   detail::RingOptions rings;
   detail::NetOptions net;
   detail::NodeWeightOptions weights;
+  /// Stages 1 to 5 with these options: the rings found, what clearance kept, the net.
+  detail::NetResult net_of(detail::RingsResult& found, detail::NetRepairs& st) const {
+    found = detail::candidate_rings(c, rings);
+    st.kept = detail::keep_clear_rings(c, rings, found.rings, found.ringless);
+    st.parent_ring = detail::chain_rings(c, rings, found.rings, st.kept);
+    return detail::build_net(
+        c, net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  }
 };
 
 } // namespace
@@ -831,13 +839,10 @@ TEST(StarterStages, TheNetHasArcsOnEveryRingAndLongitudinalsAlongTheChain) {
 
 TEST(StarterStages, NodeWeightsSumToOneOnTheBonesNearTheirRing) {
   TubeStages t;
-  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
+  detail::RingsResult found;
   detail::NetRepairs st;
-  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
-  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
+  detail::NetResult net = t.net_of(found, st);
   const std::vector<int> active = st.active();
-  detail::NetResult net = detail::build_net(
-      t.c, t.net, found.rings, active, [&](int i) { return st.effective_parent(i); }, st.join_attempt);
   net.rig.weights.clear();
   const Embedding e = embed(t.mesh, net.rig);
   detail::node_weights(t.c, t.weights, found.rings, active, e, t.joints, net);
@@ -944,12 +949,9 @@ TEST(StarterStages, TheRingStagesFollowTheirOptions) {
   // Six nodes a ring: six arcs on each ring of the net.
   TubeStages six;
   six.rings.nodes_per_ring = six.net.nodes_per_ring = 6;
-  detail::RingsResult f6 = detail::candidate_rings(six.c, six.rings);
+  detail::RingsResult f6;
   detail::NetRepairs st;
-  st.kept = detail::keep_clear_rings(six.c, six.rings, f6.rings, f6.ringless);
-  st.parent_ring = detail::chain_rings(six.c, six.rings, f6.rings, st.kept);
-  const detail::NetResult net = detail::build_net(
-      six.c, six.net, f6.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  const detail::NetResult net = six.net_of(f6, st);
   ASSERT_EQ(net.failure, "");
   std::map<int, int> arcs;
   for (const auto& [id, who] : net.owner)
@@ -964,13 +966,10 @@ TEST(StarterStages, NodeWeightsFollowTheirRule) {
   // The same net weighted by the blend-zone rule and by the segment rule:
   // the segment rule blends along the whole bone, so some node differs.
   TubeStages t;
-  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
+  detail::RingsResult found;
   detail::NetRepairs st;
-  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
-  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
+  detail::NetResult a = t.net_of(found, st);
   const std::vector<int> active = st.active();
-  detail::NetResult a = detail::build_net(
-      t.c, t.net, found.rings, active, [&](int i) { return st.effective_parent(i); }, st.join_attempt);
   detail::NetResult b = a;
   const Embedding e = embed(t.mesh, a.rig);
   detail::NodeWeightOptions segment = t.weights;
