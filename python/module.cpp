@@ -897,8 +897,14 @@ PYBIND11_MODULE(_curvenet, m) {
       "transfer",
       [](const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target, const py::object& source_frame,
          const py::object& target_frame, double max_offset, int source_cage_levels, int target_cage_levels,
-         long long max_faces, double density) {
+         long long max_faces, double density, const std::string& align, const py::object& source_skeleton,
+         const py::object& target_skeleton) {
         TransferOptions o;
+        o.alignment = parse_alignment(align, "align");
+        if (!source_skeleton.is_none())
+          o.source_skeleton = joints_from(source_skeleton);
+        if (!target_skeleton.is_none())
+          o.target_skeleton = joints_from(target_skeleton);
         if (!source_frame.is_none())
           o.source_frame = matrix_from(source_frame, "source_frame");
         if (!target_frame.is_none())
@@ -916,7 +922,8 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("rig"), py::arg("source"), py::arg("target"), py::kw_only(), py::arg("source_frame") = py::none(),
       py::arg("target_frame") = py::none(), py::arg("max_offset") = 0.05, py::arg("source_cage_levels") = 0,
-      py::arg("target_cage_levels") = 0, py::arg("max_faces") = 4'000'000LL, py::arg("density") = 5.0);
+      py::arg("target_cage_levels") = 0, py::arg("max_faces") = 4'000'000LL, py::arg("density") = 5.0,
+      py::arg("align") = "auto", py::arg("source_skeleton") = py::none(), py::arg("target_skeleton") = py::none());
   m.def(
       "compare",
       [](const SurfaceMesh& a, const SurfaceMesh& b, int samples_per_edge) {

@@ -465,6 +465,44 @@ TEST(Cli, SubdivideACageThenTransferToItsRemesh) {
   EXPECT_FALSE(fs::exists(dir / "posed.cnrig.json"));
 }
 
+TEST(Cli, TransferToAGameLODLinesUpByTheSkeletonsOfBothFiles) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // Blender's decimation of the horse is in Y up and a scale of 100: by
+  // default (--align auto) the skins' skeletons line the meshes up.
+  const auto dir = test::temp_dir("transfer_lod");
+  const std::string horse = test::data("quaternius/Horse.glb"),
+                    lod = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Horse_decimated.glb";
+  const fs::path rig = dir / "horse.cnrig.json", out = dir / "lod.cnrig.json", report = dir / "report.json";
+  ASSERT_EQ(run("starter " + horse + " --skeleton " + horse + " -o " + rig.string(), dir).code, 0);
+  CliRun r = run("transfer " + rig.string() + " --from " + horse + " --to " + lod + " -o " + out.string() +
+                     " --report " + report.string(),
+                 dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("lined up by: skeletons: 50 joints matched, scale 100"), std::string::npos) << r.out;
+  std::ifstream in(report);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["skeleton_fit"]["joints"], 50);
+  EXPECT_EQ(j["skeleton_fit"]["source_to_target"].size(), 16u);
+  // The frames alone (none) leave the LOD far off: refused, nothing written.
+  r = run("transfer " + rig.string() + " --from " + horse + " --to " + lod + " --align frames -o " +
+              (dir / "frames.cnrig.json").string(),
+          dir);
+  EXPECT_EQ(r.code, 2) << r.out << r.err; // bad input
+  EXPECT_NE(r.err.find("the frames do not line the meshes up"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "frames.cnrig.json"));
+  // Asked for skeletons where the source (an OBJ) has none: one line, naming it.
+  ASSERT_EQ(run("demo --out " + (dir / "demo").string(), dir).code, 0);
+  const fs::path obj = dir / "demo" / "tube_quads.obj";
+  r = run("transfer " + rig.string() + " --from " + obj.string() + " --to " + lod + " --align skeletons -o " +
+              (dir / "none.cnrig.json").string(),
+          dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("has no skeleton"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "none.cnrig.json"));
+}
+
 TEST(Cli, TransferToACageThroughItsLimitSurface) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

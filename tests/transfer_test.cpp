@@ -16,7 +16,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
 #include <numbers>
+#include <tuple>
 
 using namespace curvenet;
 
@@ -141,6 +144,157 @@ TEST(Transfer, ATargetMovedInItsSceneWorksThroughItsFrame) {
     FAIL() << "accepted a target that does not line up";
   } catch (const EmbedError& e) {
     EXPECT_NE(std::string(e.what()).find("node '"), std::string::npos) << e.what();
+  }
+}
+
+namespace {
+/// A small branching skeleton: a chain up the y axis and an arm to the side.
+std::vector<Joint> branching_skeleton() {
+  std::vector<Joint> joints;
+  for (const auto& [name, parent, at] :
+       std::vector<std::tuple<std::string, std::string, Vec3>>{{"root", "", Vec3(0, 0, 0)},
+                                                               {"spine", "root", Vec3(0, 2, 0)},
+                                                               {"head", "spine", Vec3(0, 4, 0)},
+                                                               {"arm", "spine", Vec3(1.5, 2.5, 0.2)},
+                                                               {"hand", "arm", Vec3(3, 2.2, 0.5)}}) {
+    Joint j{name, parent.empty() ? std::nullopt : std::optional<std::string>(parent), Mat4::Identity()};
+    j.bind.block<3, 1>(0, 3) = at;
+    joints.push_back(j);
+  }
+  return joints;
+}
+/// The joints with their bind matrices carried by `m`.
+std::vector<Joint> carried(std::vector<Joint> joints, const Mat4& m) {
+  for (Joint& j : joints)
+    j.bind = m * j.bind;
+  return joints;
+}
+/// A Blender export: Y up (a quarter turn about x), a scale of 100, moved.
+Mat4 other_axes_and_units() {
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Vec3(30, -7, 12));
+  t.rotate(Eigen::AngleAxisd(-std::numbers::pi / 2, Vec3::UnitX()));
+  t.scale(100);
+  return t.matrix();
+}
+} // namespace
+
+TEST(SkeletonFit, RecoversTheSimilarityBetweenTwoExportsOfOneSkeleton) {
+  const Mat4 m = other_axes_and_units();
+  std::vector<Joint> target = carried(branching_skeleton(), m);
+  std::reverse(target.begin(), target.end());                           // matched by name, not by order
+  target.push_back(Joint{"ik_target", std::nullopt, Mat4::Identity()}); // only in one of them
+  std::string why;
+  const auto fit = fit_skeletons(branching_skeleton(), target, 500.0, &why);
+  ASSERT_TRUE(fit) << why;
+  EXPECT_EQ(fit->joints, 5);
+  EXPECT_NEAR(fit->scale, 100, 1e-9);
+  EXPECT_LT((fit->source_to_target - m).norm(), 1e-9 * m.norm());
+  EXPECT_LT(fit->worst, 1e-12);
+}
+
+TEST(SkeletonFit, RefusesTooFewJointsJointsOnALineAndAnotherBindPose) {
+  const Mat4 m = other_axes_and_units();
+  std::string why;
+  // Two joints in common: no rotation is determined.
+  std::vector<Joint> two = branching_skeleton();
+  two.resize(2);
+  EXPECT_FALSE(fit_skeletons(two, carried(branching_skeleton(), m), 500, &why));
+  EXPECT_NE(why.find("2 joints match by name"), std::string::npos) << why;
+  // The chain up the y axis alone: a turn about it is not determined.
+  std::vector<Joint> chain = branching_skeleton();
+  chain.resize(3);
+  EXPECT_FALSE(fit_skeletons(chain, carried(chain, m), 500, &why));
+  EXPECT_NE(why.find("lie on one line"), std::string::npos) << why;
+  // The hand raised in the target: another bind pose, which no similarity explains.
+  std::vector<Joint> raised = carried(branching_skeleton(), m);
+  raised[4].bind.block<3, 1>(0, 3) += Vec3(0, 0, 60); // 0.6 units before the scale of 100
+  EXPECT_FALSE(fit_skeletons(branching_skeleton(), raised, 500, &why));
+  EXPECT_NE(why.find("another bind pose"), std::string::npos) << why;
+  // A joint that is not a number.
+  std::vector<Joint> broken = branching_skeleton();
+  broken[1].bind(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(fit_skeletons(broken, carried(branching_skeleton(), m), 500, &why));
+  EXPECT_NE(why.find("not finite"), std::string::npos) << why;
+}
+
+TEST(Transfer, ATargetInOtherAxesAndUnitsLinesUpByItsSkeleton) {
+  const Mat4 m = other_axes_and_units();
+  const SurfaceMesh quads = test::tube(16, 16, 4, false), exported = test::tube(24, 20, 6, true, m);
+  TransferOptions opt;
+  opt.alignment = Alignment::Auto;
+  opt.source_skeleton = branching_skeleton();
+  opt.target_skeleton = carried(branching_skeleton(), m);
+  const TransferResult r = transfer(make_tube_net(), quads, exported, opt);
+  EXPECT_TRUE(r.report.ok);
+  EXPECT_EQ(r.report.target.regions, 16);
+  EXPECT_GT(r.report.agreement, 0.99);
+  ASSERT_TRUE(r.report.skeleton_fit);
+  EXPECT_EQ(r.report.alignment.rfind("skeletons: 5 joints matched, scale 100", 0), 0u) << r.report.alignment;
+  EXPECT_NE(transfer_report_json(r.report).find("\"skeleton_fit\""), std::string::npos);
+  // The rig's skeleton lands on the target's.
+  const Vec3 tip = r.rig.joints[2].bind.block<3, 1>(0, 3);
+  EXPECT_LT((tip - (m * Vec3(0, 4, 0).homogeneous()).head<3>()).norm(), 1e-9 * 100);
+  // Frames given win under auto, and here they are wrong: the refusal names a node.
+  TransferOptions framed = opt;
+  framed.target_frame = Mat4::Identity();
+  framed.target_frame(0, 3) = 1;
+  EXPECT_THROW(transfer(make_tube_net(), quads, exported, framed), EmbedError);
+  // Asked for skeletons that do not fit, it refuses, naming both meshes.
+  TransferOptions off = opt;
+  off.alignment = Alignment::Skeletons;
+  off.target_skeleton.resize(2);
+  try {
+    transfer(make_tube_net(), quads, exported, off);
+    FAIL() << "lined up by two joints";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot line the meshes up: 2 joints match"), std::string::npos) << e.what();
+  }
+  // Under auto, skeletons that do not fit leave the frames, and the report says why.
+  off.alignment = Alignment::Auto;
+  off.target_skeleton = carried(branching_skeleton(), Mat4::Identity());
+  off.target_skeleton[4].bind(2, 3) += 1;
+  const TransferResult same = transfer(make_tube_net(), quads, quads, off);
+  EXPECT_FALSE(same.report.skeleton_fit);
+  EXPECT_EQ(same.report.alignment.rfind("frames (not the skeletons: after the best fit", 0), 0u)
+      << same.report.alignment;
+  // With no skeleton at all, auto is the frames, with nothing to say.
+  EXPECT_EQ(transfer(make_tube_net(), quads, quads).report.alignment, "frames");
+  EXPECT_EQ(parse_alignment("skeletons", "--align"), Alignment::Skeletons);
+  EXPECT_THROW(parse_alignment("bones", "--align"), InputError);
+}
+
+TEST(Transfer, GameAnimalsGoToTheirLODsExportedInOtherAxesAndUnits) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // Blender's decimations (tests/data/quaternius): half the faces, Y up, the
+  // armature's scale of 100. Lined up by the frames (none) they lie far off.
+  for (const std::string name : {"Horse", "Wolf", "Apatosaurus"}) {
+    SCOPED_TRACE(name);
+    const std::string from = test::data("quaternius/" + name + ".glb"),
+                      to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + name + "_decimated.glb";
+    const SurfaceMesh source_mesh = load_mesh(from), target_mesh = load_mesh(to);
+    const SkinnedMesh source = load_skinned_mesh(from), target = load_skinned_mesh(to);
+    const Rig rig = make_starter(source_mesh, source.joints).rig;
+    TransferOptions opt;
+    opt.alignment = Alignment::Auto;
+    opt.source_skeleton = source.joints;
+    opt.target_skeleton = target.joints;
+    const TransferResult r = transfer(rig, source_mesh, target_mesh, opt);
+    EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
+    EXPECT_EQ(r.report.target.regions, r.report.source.regions);
+    EXPECT_GT(r.report.agreement, 0.99);
+    ASSERT_TRUE(r.report.skeleton_fit) << r.report.alignment;
+    EXPECT_NEAR(r.report.skeleton_fit->scale, 100, 1e-3);
+    // The rig's joints land on the target skin's own.
+    std::map<std::string, Vec3> at;
+    for (const Joint& j : target.joints)
+      at[j.name] = j.bind.block<3, 1>(0, 3);
+    const double diagonal = target_mesh.bbox_diagonal();
+    for (const Joint& j : r.rig.joints)
+      EXPECT_LT((j.bind.block<3, 1>(0, 3) - at.at(j.name)).norm(), 1e-5 * diagonal) << j.name;
+    opt.alignment = Alignment::Frames;
+    EXPECT_THROW(transfer(rig, source_mesh, target_mesh, opt), Error);
   }
 }
 

@@ -247,6 +247,9 @@ int run_transfer(const TransferArgs& a) {
     opt.source_frame = parse_matrix(a.source_frame, "--source-frame");
   if (!a.target_frame.empty())
     opt.target_frame = parse_matrix(a.target_frame, "--target-frame");
+  if ((opt.alignment = parse_alignment(a.align, "--align")) != Alignment::Frames) // skins' joints, in mesh space
+    std::tie(opt.source_skeleton, opt.target_skeleton) =
+        std::pair(skin_joints_if_any(a.from), skin_joints_if_any(a.to));
   opt.source_cage_levels = a.from_cage;
   opt.target_cage_levels = a.to_cage;
   opt.max_faces = a.max_faces;

@@ -77,6 +77,7 @@ int run_bake(const BakeArgs& args);
 
 struct TransferArgs {
   std::string rig, from, to, out, report, source_frame, target_frame;
+  std::string align = "auto"; ///< frames, skeletons or auto (Alignment)
   int from_cage = 0, to_cage = 0; ///< Catmull-Clark levels when a mesh is a control cage
   long long max_faces = 4'000'000;
 };

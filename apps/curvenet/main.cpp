@@ -244,6 +244,13 @@ int main(int argc, char** argv) {
   transfer->add_option("--source-frame", transfer_args.source_frame,
                        "4x4 matrix (16 numbers, row by row) from the source mesh's space to the world");
   transfer
+      ->add_option("--align", transfer_args.align,
+                   "How the meshes line up: skeletons (the similarity that carries the source skin's joints onto "
+                   "the target's, by name), frames (the frame options, or none), or auto: skeletons when both files "
+                   "have skins that fit and no frame is given, else frames")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "skeletons", "frames"}));
+  transfer
       ->add_option("--from-cage", transfer_args.from_cage,
                    "The source is a Catmull-Clark cage: carry the rig through its limit surface (refinement levels)")
       ->check(CLI::Range(1, 6));

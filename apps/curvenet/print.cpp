@@ -105,6 +105,7 @@ void print_transfer(std::ostream& out, const std::string& from, int from_faces, 
       << (rep.target.expected_regions ? std::to_string(*rep.target.expected_regions) : "not determined") << "\n";
   out << "logical nodes: " << rep.target.logical_nodes << "\nprofiles: " << rep.target.profiles << "\n";
   out << "unmapped faces: " << rep.target.unmapped_faces << "\n";
+  out << "lined up by: " << rep.alignment << "\n";
   out << std::fixed << std::setprecision(2) << "region agreement: " << 100 * rep.agreement << "% of the area\n";
   const RegionAgreement* worst = nullptr;
   for (const auto& g : rep.regions)
@@ -139,8 +140,8 @@ void print_starter(std::ostream& out, const std::string& mesh_path, const Surfac
   const std::string rule = weights.rule == WeightRule::Segment
                                ? std::string("segment")
                                : "blend-zone " + std::to_string(weights.blend).substr(0, 4);
-  out << "weights: " << (options.skin ? "skin (the mesh's own, where each node lies; " + rule + " where it has none)" : rule)
-      << "\n";
+  out << "weights: "
+      << (options.skin ? "skin (the mesh's own, where each node lies; " + rule + " where it has none)" : rule) << "\n";
   out << "joints without a ring: " << r.ringless.size() << "\n";
   for (const auto& [joint, why] : r.ringless)
     out << "  " << joint << ": " << why << "\n";

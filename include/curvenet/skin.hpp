@@ -87,6 +87,12 @@ SkeletonFile read_skeleton_file(const std::string& path);
 /// Whether a path names a file with skins (glTF, GLB or FBX), by its extension.
 bool is_skinned_file(const std::string& path);
 
+/// The joints of a file's skin in its mesh's space (SkinnedMesh::joints), or
+/// none for a file without one: an OBJ, PLY or OFF, or a glTF, GLB or FBX
+/// with no skinned mesh.
+/// \throw InputError for a skin that cannot be read.
+std::vector<Joint> skin_joints_if_any(const std::string& path);
+
 /// The rig with its skeleton replaced by `joints`, which its weights name by joint name.
 /// \throw InputError naming `source` and the joint when a weight names a joint the skeleton lacks.
 Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source);

@@ -344,10 +344,17 @@ def transfer(
     target_cage_levels: int = 0,
     max_faces: int = 20_000_000,
     density: float = 5.0,
+    align: str = "auto",
+    source_skeleton: Optional[Skeleton] = None,
+    target_skeleton: Optional[Skeleton] = None,
 ) -> TransferResult:
     """Transfers the rig to another mesh of the same character, by logical ids only.
 
-    The frames (4, 4) map each mesh's space to a common world (Blender: the objects' matrix_world)."""
+    The frames (4, 4) map each mesh's space to a common world (Blender: the objects' matrix_world).
+    Or the meshes line up by their skins' skeletons (each a skinned file path, a SkinnedMesh or joints, in its
+    mesh's space): align 'skeletons' fits the similarity that carries the source's joints onto the target's, by
+    name, and refuses when they do not fit; 'auto' does so when both skeletons are given, no frame is, and they
+    fit, else uses the frames (report['alignment'] says which and why); 'frames' ignores the skeletons."""
 
 def compare(a: Mesh, b: Mesh, *, samples_per_edge: int = 4) -> dict[str, Any]:
     """Symmetric surface distance: the keys of `curvenet compare --json`."""

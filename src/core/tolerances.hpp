@@ -68,6 +68,12 @@ struct Tolerances {
   /// stretch, which leaves out the triangles the vertex itself lies on.
   static constexpr double visibility_skip_rel = 1e-4;
 
+  /// Two skeletons line up their meshes (transfer's Alignment::Skeletons)
+  /// when, after the best similarity, no joint lies farther than this from
+  /// its match: exports of one rig agree to float precision; another rig,
+  /// or a skeleton posed away from its bind, is refused.
+  static constexpr double skeleton_fit_rel = 1e-3;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
   [[nodiscard]] double fidelity() const { return fidelity_rel * diagonal; }

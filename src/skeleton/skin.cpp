@@ -35,6 +35,16 @@ SkinnedMesh load_skinned_mesh_assimp(const std::string& path) {
   return out; // no clips: animation comes from glTF files
 }
 
+std::vector<Joint> skin_joints_if_any(const std::string& path) {
+  if (!is_skinned_file(path))
+    return {};
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".fbx" ? detail::read_assimp_scene(path).joints.empty() : detail::read_gltf_scene(path).skin < 0)
+    return {};
+  return load_skinned_mesh(path).joints;
+}
+
 SkinnedMesh load_skinned_mesh(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });

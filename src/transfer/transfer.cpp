@@ -16,6 +16,8 @@
 #include "trace/trace_mesh.hpp"
 #include "transfer/cage_map.hpp"
 
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
@@ -473,10 +475,122 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
 
 } // namespace
 
+const char* to_string(Alignment a) {
+  switch (a) {
+  case Alignment::Frames:
+    return "frames";
+  case Alignment::Skeletons:
+    return "skeletons";
+  case Alignment::Auto:
+    return "auto";
+  }
+  return "?";
+}
+
+Alignment parse_alignment(const std::string& text, const std::string& option) {
+  for (const Alignment a : {Alignment::Frames, Alignment::Skeletons, Alignment::Auto})
+    if (text == to_string(a))
+      return a;
+  throw InputError(option, text, "expected frames, skeletons or auto");
+}
+
+std::optional<SkeletonFit> fit_skeletons(const std::vector<Joint>& source, const std::vector<Joint>& target,
+                                         double diagonal, std::string* why) {
+  auto refuse = [&](const std::string& reason) {
+    if (why)
+      *why = reason;
+    return std::optional<SkeletonFit>();
+  };
+  std::map<std::string, Vec3> at_target;
+  for (const Joint& j : target)
+    at_target[j.name] = j.bind.block<3, 1>(0, 3);
+  std::vector<Vec3> from, to;
+  for (const Joint& j : source)
+    if (auto it = at_target.find(j.name); it != at_target.end()) {
+      from.push_back(j.bind.block<3, 1>(0, 3));
+      to.push_back(it->second);
+    }
+  const int n = static_cast<int>(from.size());
+  if (n < 3)
+    return refuse(std::to_string(n) + " joints match by name (3 are needed)");
+  Eigen::Matrix3Xd P(3, n), Q(3, n);
+  for (int k = 0; k < n; ++k) {
+    P.col(k) = from[k];
+    Q.col(k) = to[k];
+  }
+  if (!P.allFinite() || !Q.allFinite())
+    return refuse("a joint's position is not finite");
+  // On one line (or one point), no rotation about it is determined.
+  const Eigen::Matrix3Xd centred = P.colwise() - P.rowwise().mean();
+  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+  const Eigen::Vector3d sv = svd.singularValues();
+  if (!(sv[1] > 1e-6 * sv[0]))
+    return refuse("the " + std::to_string(n) + " matched joints lie on one line");
+  SkeletonFit fit;
+  fit.source_to_target = Eigen::umeyama(P, Q, true);
+  fit.joints = n;
+  fit.scale = std::cbrt(std::abs(fit.source_to_target.topLeftCorner<3, 3>().determinant()));
+  for (int k = 0; k < n; ++k) {
+    const double d = (apply(fit.source_to_target, from[k]) - to[k]).norm() / diagonal;
+    if (!(d <= fit.worst)) // the larger, or not a number
+      fit.worst = d;
+  }
+  if (!fit.source_to_target.allFinite() || !detail::invertible(fit.source_to_target))
+    return refuse("the fit is singular");
+  if (!(fit.worst <= detail::Tolerances::skeleton_fit_rel)) {
+    std::ostringstream s;
+    s << "after the best fit a joint lies " << percent(fit.worst) << " of the diagonal from its match (more than "
+      << percent(detail::Tolerances::skeleton_fit_rel) << ": another rig, or another bind pose)";
+    return refuse(s.str());
+  }
+  return fit;
+}
+
+namespace {
+
+/// The options with their frames set as `options.alignment` asks, and the
+/// report saying how.
+TransferOptions aligned(const TransferOptions& options, const SurfaceMesh& source, const SurfaceMesh& target,
+                        TransferReport& rep) {
+  TransferOptions o = options;
+  rep.alignment = "frames";
+  if (o.alignment == Alignment::Frames)
+    return o;
+  const bool frames_given = !o.source_frame.isIdentity(0) || !o.target_frame.isIdentity(0);
+  if (o.alignment == Alignment::Auto && o.source_skeleton.empty() && o.target_skeleton.empty())
+    return o; // nothing to line up by: the frames, with nothing to say
+  std::string why;
+  if (o.source_skeleton.empty() || o.target_skeleton.empty())
+    why = std::string("the ") + (o.source_skeleton.empty() ? "source " + source.source : "target " + target.source) +
+          " has no skeleton";
+  else if (frames_given && o.alignment == Alignment::Auto)
+    why = "frames were given";
+  std::optional<SkeletonFit> fit;
+  if (why.empty())
+    fit = fit_skeletons(o.source_skeleton, o.target_skeleton, target.bbox_diagonal(), &why);
+  if (!fit) {
+    if (o.alignment == Alignment::Skeletons)
+      throw InputError(source.source + " and " + target.source, "skeletons", "cannot line the meshes up: " + why);
+    rep.alignment = "frames (not the skeletons: " + why + ")";
+    return o;
+  }
+  o.source_frame = fit->source_to_target;
+  o.target_frame = Mat4::Identity();
+  std::ostringstream s;
+  s << "skeletons: " << fit->joints << " joints matched, scale " << fit->scale << ", worst joint "
+    << percent(fit->worst) << " of the diagonal off";
+  rep.alignment = s.str();
+  rep.skeleton_fit = fit;
+  return o;
+}
+
+} // namespace
+
 TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const SurfaceMesh& target,
-                        const TransferOptions& opt) {
+                        const TransferOptions& options) {
   TransferResult result;
   TransferReport& rep = result.report;
+  const TransferOptions opt = aligned(options, source, target, rep);
   if (!detail::invertible(opt.source_frame))
     throw InputError("source frame", "", "the matrix is singular or not finite");
   if (!detail::invertible(opt.target_frame))
@@ -635,6 +749,17 @@ std::string transfer_report_json(const TransferReport& r) {
   j["max_node_offset_percent"] = r.max_node_offset;
   j["shape_distance"] = {{"mean_percent", r.shape.percent(r.shape.mean)},
                          {"max_percent", r.shape.percent(r.shape.max)}};
+  j["alignment"] = r.alignment;
+  if (r.skeleton_fit) {
+    nlohmann::ordered_json m = nlohmann::ordered_json::array();
+    for (int row = 0; row < 4; ++row)
+      for (int col = 0; col < 4; ++col)
+        m.push_back(r.skeleton_fit->source_to_target(row, col));
+    j["skeleton_fit"] = {{"joints", r.skeleton_fit->joints},
+                         {"scale", r.skeleton_fit->scale},
+                         {"worst", r.skeleton_fit->worst},
+                         {"source_to_target", m}};
+  }
   auto counts = [](const EmbedReport& e) {
     return nlohmann::ordered_json{{"ok", e.ok},
                                   {"logical_nodes", e.logical_nodes},

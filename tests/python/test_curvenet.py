@@ -406,6 +406,29 @@ def test_starter_transfer_and_compare_on_the_hand():
     assert 0 < d["mean_percent"] < 1
 
 
+@needs_data
+def test_transfer_to_a_game_lod_lines_up_by_the_skeletons():
+    # Blender's decimation of the wolf: Y up, the armature's scale of 100
+    wolf = os.path.join(DATA, "quaternius", "Wolf.glb")
+    lod = os.path.join(os.path.dirname(__file__), "..", "data", "quaternius", "Wolf_decimated.glb")
+    m, low = curvenet.load_mesh(wolf), curvenet.load_mesh(lod)
+    s = curvenet.starter(m, wolf)
+    t = curvenet.transfer(s.rig, m, low, source_skeleton=wolf, target_skeleton=curvenet.load_skinned_mesh(lod))
+    assert t.ok and t.agreement > 0.99
+    assert t.report["alignment"].startswith("skeletons: 51 joints matched, scale 100")
+    assert t.report["skeleton_fit"]["joints"] == 51
+    # without the skeletons, or told to use the frames, the LOD lies far off
+    with pytest.raises(curvenet.Error):
+        curvenet.transfer(s.rig, m, low)
+    with pytest.raises(curvenet.Error):
+        curvenet.transfer(s.rig, m, low, align="frames", source_skeleton=wolf, target_skeleton=lod)
+    with pytest.raises(curvenet.InputError) as e:
+        curvenet.transfer(s.rig, m, low, align="skeletons", target_skeleton=lod)
+    assert "has no skeleton" in str(e.value)
+    with pytest.raises(curvenet.InputError):
+        curvenet.transfer(s.rig, m, low, align="bones")
+
+
 def test_subdivide_refines_a_cage():
     cube_v = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
     quads = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]])
