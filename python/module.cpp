@@ -1091,36 +1091,55 @@ PYBIND11_MODULE(_curvenet, m) {
 
   m.def(
       "animate_poses",
-      [](const PyBinding& b, const py::function& pose, int first, int last, const std::string& path, double fps) {
+      [](const py::object& deformer, const py::function& pose, int first, int last, const std::string& path,
+         double fps) {
         if (last < first)
           throw InputError("frames", std::to_string(first) + ":" + std::to_string(last),
                            "the last frame comes before the first");
         const FrameRange range{first, last, fps};
-        const size_t nj = b.binding.joints().size();
+        const bool is_layer = py::isinstance<CurveLayer>(deformer);
+        if (!is_layer && !py::isinstance<PyBinding>(deformer))
+          throw py::type_error("animate_poses: expected a Binding or a CurveLayer");
+        const Binding* binding = is_layer ? nullptr : &deformer.cast<const PyBinding&>().binding;
+        const CurveLayer* layer = is_layer ? &deformer.cast<const CurveLayer&>() : nullptr;
+        const size_t nj = is_layer ? layer->joints().size() : binding->joints().size();
+        // pose(frame): matrices; for a layer, or (matrices, envelope, offsets).
+        auto frame_pose = [&](int frame) {
+          py::gil_scoped_acquire acquire; // the caller's function runs with the interpreter
+          const std::string name = "pose(" + std::to_string(frame) + ")";
+          LayerFrame f;
+          py::object m = pose(frame);
+          if (is_layer && py::isinstance<py::tuple>(m)) {
+            const auto t = m.cast<py::tuple>();
+            if (t.size() != 3)
+              throw py::value_error(name + ": expected matrices, or (matrices, envelope, offsets)");
+            f.envelope = t[1].cast<double>();
+            if (!t[2].is_none())
+              f.offsets = t[2].cast<NodeOffsets>();
+            m = t[0];
+          }
+          const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(m);
+          if (!a || a.ndim() != 3 || static_cast<size_t>(a.shape(0)) != nj || a.shape(1) != 4 || a.shape(2) != 4)
+            throw py::value_error(name + ": expected a (" + std::to_string(nj) + ", 4, 4) array");
+          matrices_into(a, f.skinning);
+          return f;
+        };
         py::gil_scoped_release release;
         OutputFiles files;
-        Pc2Sink pc2(files, path, b.binding.num_input_vertices(), range);
+        Pc2Sink pc2(files, path, is_layer ? layer->num_input_vertices() : binding->num_input_vertices(), range);
         FrameSink* sinks[] = {&pc2};
-        animate(
-            b.binding,
-            [&](int frame) {
-              py::gil_scoped_acquire acquire; // the caller's function runs with the interpreter
-              const py::object m = pose(frame);
-              const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(m);
-              if (!a || a.ndim() != 3 || static_cast<size_t>(a.shape(0)) != nj || a.shape(1) != 4 || a.shape(2) != 4)
-                throw py::value_error("pose(" + std::to_string(frame) + "): expected a (" + std::to_string(nj) +
-                                      ", 4, 4) array");
-              std::vector<Mat4> M;
-              matrices_into(a, M);
-              return M;
-            },
-            range, sinks, "pose");
+        if (is_layer)
+          animate(*layer, frame_pose, range, sinks, "pose");
+        else
+          animate(
+              *binding, [&](int frame) { return frame_pose(frame).skinning; }, range, sinks, "pose");
         files.commit();
       },
-      py::arg("binding"), py::arg("pose"), py::arg("first"), py::arg("last"), py::arg("path"), py::kw_only(),
+      py::arg("deformer"), py::arg("pose"), py::arg("first"), py::arg("last"), py::arg("path"), py::kw_only(),
       py::arg("fps") = 24.0,
       "Writes frames first..last as a PC2 cache at `path`, `pose(frame)` giving each frame's (J, 4, 4) skinning "
-      "matrices: the frame job `animate` runs, in blocks of bounded memory, all or nothing");
+      "matrices: the frame job `animate` runs, in blocks of bounded memory, all or nothing. The deformer is a "
+      "Binding, or a CurveLayer, whose pose(frame) may give (matrices, envelope, offsets) instead");
 
   // The layer (layer.hpp): over the mesh's own skin, node offsets.
   py::class_<CurveLayer>(m, "CurveLayer",
@@ -1135,6 +1154,20 @@ PYBIND11_MODULE(_curvenet, m) {
       .def_property_readonly("joints", &CurveLayer::joints)
       .def_property_readonly("num_input_vertices", &CurveLayer::num_input_vertices)
       .def_property_readonly("over_skin", &CurveLayer::over_skin)
+      .def(
+          "with_mask",
+          [](const CurveLayer& l, const std::optional<std::vector<double>>& mask) {
+            return l.with_mask(mask ? *mask : std::vector<double>());
+          },
+          py::arg("mask"),
+          "The same layer (its binding shared, nothing solved again) with another mask: one value from 0 to 1 per "
+          "input vertex, or None for all of the correction")
+      .def_property_readonly(
+          "mask",
+          [](const CurveLayer& l) {
+            return py::array_t<double>(static_cast<py::ssize_t>(l.mask().size()), l.mask().data());
+          },
+          "(n,) per input vertex, or empty: all of the correction")
       .def_property_readonly(
           "binding",
           [](const CurveLayer& l) {

@@ -3,6 +3,7 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/jobs.hpp"
+#include "curvenet/layer.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/starter.hpp"
 #include "helpers.hpp"
@@ -80,6 +81,56 @@ TEST(Jobs, FramesReachEverySinkInOrderExactlyAsDeformGivesThem) {
     std::vector<Vec3> want(s.binding.num_input_vertices());
     s.binding.deform(clip_skinning_matrices(s.binding.joints(), s.clips, 0, range.time(range.first + k)), want);
     EXPECT_EQ(got[k], want) << "frame " << range.first + k; // bit for bit
+  }
+}
+
+TEST(Jobs, ALayersFramesCarryTheirOwnEnvelopeAndNodeOffsetsExactlyAsDeformGivesThem) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string path = test::data("rigged_simple/RiggedSimple.gltf");
+  const SurfaceMesh mesh = load_mesh(path);
+  const SkinnedMesh skin = load_skinned_mesh(path);
+  const Rig rig = make_starter(mesh, skin.joints).rig;
+  const CurveLayer layer = bind_layer(mesh, rig, &skin);
+  const FrameRange range = frame_range(skin, 0, 24, "0:9");
+  // Per frame: an envelope rising from 0 to 1, and every other frame a node pulled.
+  auto frame = [&](int f) {
+    LayerFrame out;
+    out.skinning = clip_skinning_matrices(layer.joints(), skin, 0, range.time(f));
+    out.envelope = f / 9.0;
+    if (f % 2)
+      out.offsets[rig.nodes[0].id] = Vec3(0, 0, 0.05 * mesh.bbox_diagonal());
+    return out;
+  };
+  std::vector<std::vector<Vec3>> got;
+  FunctionSink sink([&](int, std::span<const Vec3> p) { got.emplace_back(p.begin(), p.end()); });
+  FrameSink* sinks[] = {&sink};
+  animate(layer, frame, range, sinks, "clip");
+  ASSERT_EQ(static_cast<int>(got.size()), range.count());
+  for (int f = range.first; f <= range.last; ++f) {
+    const LayerFrame want_frame = frame(f);
+    std::vector<Vec3> want(layer.num_input_vertices());
+    layer.deform(want_frame.skinning, want, want_frame.envelope, &want_frame.offsets);
+    EXPECT_EQ(got[f - range.first], want) << "frame " << f; // bit for bit
+  }
+  // The layer corrects the skin: frame 8 (envelope 8/9) is not the skin alone.
+  std::vector<Vec3> skin_only(layer.num_input_vertices());
+  layer.deform(frame(8).skinning, skin_only, 0);
+  EXPECT_EQ(got[0].size(), skin_only.size());
+  EXPECT_NE(got[8], skin_only);
+  // An envelope out of range is refused, naming the frame.
+  try {
+    animate(
+        layer,
+        [&](int f) {
+          LayerFrame out = frame(f);
+          out.envelope = f == 4 ? 1.5 : 1.0;
+          return out;
+        },
+        range, sinks, "clip");
+    ADD_FAILURE() << "an envelope of 1.5 was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 4"), std::string::npos) << e.what();
   }
 }
 

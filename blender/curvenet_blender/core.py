@@ -801,7 +801,10 @@ def set_deformation(obj, kind, arm=None):
     if kind not in DEFORMATIONS:
         raise ValueError("deformation: expected one of " + ", ".join(DEFORMATIONS))
     if kind in ("live", "layer"):
-        _ensure_shape_key(obj)
+        key = _ensure_shape_key(obj)
+        if kind == "live":  # the net alone: the whole of it, everywhere
+            key.value = 1.0
+            key.vertex_group = ""
     else:
         _remove_shape_key(obj)
     if kind != "cache":
@@ -839,15 +842,43 @@ def set_deformation(obj, kind, arm=None):
 
 
 def _ensure_shape_key(obj):
+    """The shape key `curvenet`, made at value 1 when missing; an existing
+    one keeps its value and vertex group (a layer's envelope and mask)."""
     me = obj.data
     if me.shape_keys is None:
         obj.shape_key_add(name="Basis", from_mix=False)
     key = me.shape_keys.key_blocks.get(SHAPE_KEY)
     if key is None:
         key = obj.shape_key_add(name=SHAPE_KEY, from_mix=False)
-    key.value = 1.0
+        key.value = 1.0
+    key.slider_min = 0.0
     key.slider_max = 1.0
     key.mute = False
+    return key
+
+
+def layer_key(obj):
+    """The shape key that holds a layered mesh's correction, or None when the
+    mesh is not layered. Its value is the layer's envelope (keyable on the
+    timeline) and its vertex group the mask: Blender scales the correction
+    by both, and the Armature modifier then moves it (docs/blender.md)."""
+    if deformation(obj) != "layer" or obj.data.shape_keys is None:
+        return None
+    return obj.data.shape_keys.key_blocks.get(SHAPE_KEY)
+
+
+def group_weights(obj, name):
+    """Per vertex, its weight in the vertex group `name` (0 outside it)."""
+    group = obj.vertex_groups.get(name)
+    w = np.zeros(len(obj.data.vertices))
+    if group is None:
+        return w
+    gi = group.index
+    for v in obj.data.vertices:
+        for g in v.groups:
+            if g.group == gi:
+                w[v.index] = g.weight
+    return w
 
 
 def _remove_shape_key(obj):
@@ -1258,16 +1289,33 @@ def bake_cache(obj, path, frame_start=None, frame_end=None, scene=None):
     if binding is None or arm is None:
         raise Refused("Bind %s to an armature first." % obj.name)
     st = state(obj)
-    M = np.empty((len(st.bone_names), 4, 4))
+    M = st.matrices  # the pose's matrices, which node_offsets reads too
     current = scene.frame_current
+    # What plays is what is baked: a layer with its keyed envelope, its mask
+    # and its pulled nodes; the net with its pulled nodes; or the net.
+    key = layer_key(obj)
+    handles = bool(node_handles(obj))
+    if st.layer is not None and key is not None:
+        deformer = st.layer.with_mask(group_weights(obj, key.vertex_group) if key.vertex_group else None)
+    elif handles:
+        if st.net_layer is None:
+            st.net_layer = curvenet.bind_layer(engine_mesh(obj), get_rig(obj), method=obj.get(METHOD_KEY, "dq"))
+        deformer = st.net_layer
+    else:
+        deformer = binding
 
     def pose(f):
         scene.frame_set(f)
-        return skinning_matrices(obj, arm, M, bpy.context.evaluated_depsgraph_get())
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        skinning_matrices(obj, arm, M, depsgraph)
+        if deformer is binding:
+            return M
+        envelope = 0.0 if key is not None and key.mute else 1.0 if key is None else min(max(key.value, 0.0), 1.0)
+        return M, envelope, node_offsets(obj, depsgraph)
 
     try:
         # The library's frame job: blocks of bounded memory, streamed to the cache.
-        curvenet.animate_poses(binding, pose, frame_start, frame_end, path, fps=scene.render.fps)
+        curvenet.animate_poses(deformer, pose, frame_start, frame_end, path, fps=scene.render.fps)
     finally:
         scene.frame_set(current)
     set_deformation(obj, "cache", arm)

@@ -125,6 +125,12 @@ class CURVENET_PT_panel(bpy.types.Panel):
         playing = _wrap("Playing: " + core.describe_deformation(obj), 34)
         for i, line in enumerate(playing):
             box.label(text=line, icon="PLAY" if i == 0 else "BLANK1")
+        key = core.layer_key(obj)
+        if key is not None:  # the layer's envelope (keyable) and mask: the shape key's own
+            col = box.column()
+            col.use_property_split = True
+            col.prop(key, "value", text="Envelope")
+            col.prop_search(key, "vertex_group", obj, "vertex_groups", text="Mask")
         box.label(text="Node weights")
         row = box.row(align=True)
         row.operator("curvenet.pick_node", text="Pick")

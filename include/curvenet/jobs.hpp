@@ -111,6 +111,23 @@ void animate(int vertices, const std::function<void(int, std::span<const Mat4>, 
 void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
              std::span<FrameSink* const> sinks, const std::string& source);
 
+class CurveLayer;
+/// A layer's frame: its skinning matrices (one per joint of the layer), its
+/// envelope (0 to 1) and its nodes' offsets.
+struct LayerFrame {
+  std::vector<Mat4> skinning;
+  double envelope = 1;
+  NodeOffsets offsets;
+};
+/// The same through a layer (layer.hpp), `pose` giving each frame's
+/// matrices, envelope and node offsets (a tool's keyed envelope and pulled
+/// nodes: the Blender add-on's bake of a layer). Each frame is exactly what
+/// CurveLayer::deform gives for it.
+/// \throw InputError naming `source` and the frame for an envelope
+///   outside [0, 1], or for a position that is not finite.
+void animate(const CurveLayer& layer, const std::function<LayerFrame(int frame)>& pose, const FrameRange& range,
+             std::span<FrameSink* const> sinks, const std::string& source);
+
 /// Node offsets keyed over frames (docs/rig-format.md): per node, keys of
 /// (frame, offset), interpolated linearly and held past the first and last.
 struct NodeKeys {
@@ -226,7 +243,7 @@ struct BakeSummary : JobSummary {
   int joints = 0, influences = 0;
   double mean_joints = 0; ///< joints of non-zero weight per vertex
   int most_joints = 0;
-  int clips = 0; ///< clips carried into the GLB
+  int clips = 0;          ///< clips carried into the GLB
   int training_poses = 0; ///< poses of the skeleton the weights were fitted over
   /// Per clip carried into the GLB, the skin against the rig, worst first.
   std::vector<BakeClipFidelity> fidelity;

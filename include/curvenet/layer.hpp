@@ -49,6 +49,15 @@ public:
   /// skin's (over a skin), or the net's harmonic weights.
   void base_weights(int input_vertex, std::vector<std::pair<int, double>>& out) const;
 
+  /// The same layer (sharing its binding and solver) with another mask:
+  /// one value from 0 to 1 per input vertex, or none (all of the
+  /// correction). Cheap: a vertex group edited in a tool is a new mask, not
+  /// a new binding.
+  /// \throw InputError as bind_layer() does for a bad mask.
+  [[nodiscard]] CurveLayer with_mask(std::vector<double> mask) const;
+  /// The mask, per input vertex (empty: 1 everywhere).
+  [[nodiscard]] std::span<const double> mask() const;
+
   /// The base moved by `skinning` (one matrix per joint, as Binding::deform
   /// takes them), plus `envelope` times the masked correction. Output in
   /// the input file's vertex order. Thread-safe.
@@ -78,6 +87,7 @@ private:
   void deform_impl(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope, const NodeOffsets* offsets,
                    std::vector<Vec3>* cut) const;
   std::shared_ptr<const Impl> impl_;
+  std::shared_ptr<const std::vector<double>> mask_; ///< per input vertex; null: 1
 };
 
 /// Binds `rig` to `mesh` as a layer over `skin` (the mesh file's own skin,

@@ -422,11 +422,14 @@ def animate(
     writes. `frames` is "A:B" or "" for the clip's range. Returns (first, last). Raises InputError for a bad range
     or a non-finite position, writing nothing."""
 def animate_poses(
-    binding: Binding, pose: Callable[[int], npt.ArrayLike], first: int, last: int, path: str, *, fps: float = 24.0
+    deformer: Union[Binding, CurveLayer], pose: Callable[[int], Any], first: int, last: int, path: str, *,
+    fps: float = 24.0
 ) -> None:
     """Writes frames first..last as a PC2 cache, `pose(frame)` giving each frame's (J, 4, 4) skinning matrices, in
     frame order: the frame job of `animate`, in blocks of bounded memory, all or nothing (the Blender add-on's bake).
-    Raises what `pose` raises, or InputError for a non-finite position, writing nothing."""
+    Through a CurveLayer, `pose(frame)` may instead give (matrices, envelope, offsets or None): a keyed envelope and
+    pulled nodes, each frame exactly what `CurveLayer.deform` gives. Raises what `pose` raises, or InputError for an
+    envelope outside [0, 1] or a non-finite position, writing nothing."""
 class CurveLayer:
     """The net as a layer over the mesh's own skin, or over its own deformation (docs/deform.md)."""
 
@@ -436,6 +439,11 @@ class CurveLayer:
     over_skin: bool
     binding: Binding
     """The net's own binding (its report, weights, embedding)."""
+    mask: FloatArray
+    """(n,): how much of the correction each input vertex takes; empty for all of it."""
+    def with_mask(self, mask: Optional[Sequence[float]]) -> CurveLayer:
+        """The same layer with another mask (one value from 0 to 1 per input vertex, or None), sharing its binding:
+        nothing is solved again (a vertex group edited in Blender). Raises InputError naming a bad vertex."""
     def deform(
         self, skinning: npt.ArrayLike, *, envelope: float = 1.0, offsets: Optional[Mapping[str, npt.ArrayLike]] = None
     ) -> FloatArray:

@@ -5,13 +5,17 @@
 
 #include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
+#include "curvenet/layer.hpp"
 #include "curvenet/pose.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <map>
 #include <sstream>
+
+#include <tbb/parallel_for.h>
 
 namespace curvenet {
 
@@ -112,6 +116,31 @@ void animate(int vertices, const std::function<void(int, std::span<const Mat4>, 
         s->write(range.first + f, positions);
     }
   }
+}
+
+void animate(const CurveLayer& layer, const std::function<LayerFrame(int frame)>& pose, const FrameRange& range,
+             std::span<FrameSink* const> sinks, const std::string& source) {
+  const size_t nj = layer.joints().size();
+  const int nv = layer.num_input_vertices();
+  // The envelope and the offsets of each frame of a block, kept until the
+  // block is deformed (the frame job asks for a block's poses first).
+  std::map<int, std::pair<double, NodeOffsets>> block;
+  auto matrices = [&](int frame) {
+    LayerFrame f = pose(frame);
+    if (!(f.envelope >= 0 && f.envelope <= 1))
+      throw InputError(source, "frame " + std::to_string(frame), "the envelope is not a number from 0 to 1");
+    block[frame] = {f.envelope, std::move(f.offsets)};
+    return std::move(f.skinning);
+  };
+  auto deform_block = [&](int first, std::span<const Mat4> M, std::span<Vec3> out) {
+    const size_t frames = nj ? M.size() / nj : 0;
+    tbb::parallel_for(size_t{0}, frames, [&](size_t f) {
+      const auto& [envelope, offsets] = block.at(first + static_cast<int>(f));
+      layer.deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv), envelope, &offsets);
+    });
+    block.clear();
+  };
+  animate(nv, deform_block, matrices, range, sinks, source);
 }
 
 } // namespace curvenet

@@ -34,7 +34,6 @@ struct CurveLayer::Impl {
   std::vector<Vec3> input_rest; ///< per input vertex
   std::vector<int> input_to_welded;
   std::vector<int> welded_input; ///< per welded vertex, one of its input vertices
-  std::vector<double> mask;      ///< per input vertex (empty: 1)
   // The chains: per constrained cut vertex.
   struct Chain {
     int vertex; ///< cut-mesh vertex
@@ -56,6 +55,32 @@ struct CurveLayer::Impl {
 };
 
 CurveLayer::CurveLayer(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+
+namespace {
+/// The mask checked against the mesh file's `vertices`: one number from 0 to 1 each.
+std::shared_ptr<const std::vector<double>> checked_mask(std::vector<double> mask, size_t vertices) {
+  if (mask.empty())
+    return nullptr;
+  if (mask.size() != vertices)
+    throw InputError("mask", "",
+                     std::to_string(mask.size()) + " values for " + std::to_string(vertices) +
+                         " vertices: give one per vertex of the mesh file");
+  for (size_t i = 0; i < vertices; ++i)
+    if (!(mask[i] >= 0 && mask[i] <= 1))
+      throw InputError("mask", "vertex " + std::to_string(i), "expected a number from 0 to 1");
+  return std::make_shared<const std::vector<double>>(std::move(mask));
+}
+} // namespace
+
+CurveLayer CurveLayer::with_mask(std::vector<double> mask) const {
+  CurveLayer out(impl_);
+  out.mask_ = checked_mask(std::move(mask), impl_->input_to_welded.size());
+  return out;
+}
+
+std::span<const double> CurveLayer::mask() const {
+  return mask_ ? std::span<const double>(*mask_) : std::span<const double>();
+}
 const std::vector<Joint>& CurveLayer::joints() const {
   return impl_->binding.joints();
 }
@@ -137,16 +162,6 @@ CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh
       L.welded_input[mesh.input_to_welded[i]] = static_cast<int>(i);
   }
   const int ni = static_cast<int>(L.input_to_welded.size());
-  if (!opt.mask.empty()) {
-    if (static_cast<int>(opt.mask.size()) != ni)
-      throw InputError("mask", "",
-                       std::to_string(opt.mask.size()) + " values for " + std::to_string(ni) +
-                           " vertices: give one per vertex of the mesh file");
-    for (int i = 0; i < ni; ++i)
-      if (!(opt.mask[i] >= 0 && opt.mask[i] <= 1))
-        throw InputError("mask", "vertex " + std::to_string(i), "expected a number from 0 to 1");
-    L.mask = opt.mask;
-  }
   L.dual = opt.bind.method != DeformMethod::Harmonic;
   L.skinning = opt.skinning;
   if (skin) {
@@ -230,7 +245,7 @@ CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh
     if (L.solver.info() != Eigen::Success)
       throw EmbedError("layer: the harmonic system could not be factored on " + mesh.source);
   }
-  return CurveLayer(impl);
+  return CurveLayer(impl).with_mask(opt.mask);
 }
 
 void CurveLayer::deform(std::span<const Mat4> M, std::span<Vec3> out, double envelope,
@@ -332,7 +347,7 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
   }
   for (size_t i = 0; i < ni; ++i) {
     const int v = L.input_to_welded[i];
-    const double s = envelope * (L.mask.empty() ? 1.0 : L.mask[i]);
+    const double s = envelope * (mask_ ? (*mask_)[i] : 1.0);
     if (s == 0)
       continue;
     Vec3 d = Vec3::Zero();

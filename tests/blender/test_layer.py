@@ -124,4 +124,52 @@ st = core.state(obj)
 plain = st.layer.deform(core.skinning_matrices(obj, arm))
 kept = np.abs(t.evaluated_positions(obj) - plain).max() / diag
 t.check(kept > 5e-3, "after reloading, the handle's key still pulls the node at frame 10 (%.2f%%)" % (100 * kept))
+
+# The envelope and the mask are the shape key's value and vertex group: the
+# panel shows them while the mesh is layered, and Blender scales the
+# correction by both before the Armature modifier moves it.
+key = core.layer_key(obj)
+t.check(key is not None and key.value == 1.0, "a layered mesh has the envelope at 1")
+group = obj.vertex_groups.new(name="curvenet_mask")
+n = len(obj.data.vertices)
+inside = [i for i in range(n) if obj.data.vertices[i].co.x > np.median([v.co.x for v in obj.data.vertices])]
+group.add(inside, 0.5, "REPLACE")
+key.vertex_group = group.name
+weights = core.group_weights(obj, group.name)
+t.check(np.count_nonzero(weights) == len(inside) and weights.max() == 0.5, "the mask's weights, per vertex")
+scene.frame_set(10)
+core.update_live(obj, force=True)
+M = core.skinning_matrices(obj, arm)
+got = t.evaluated_positions(obj)
+skin_only = st.layer.deform(M, envelope=0.0, offsets=core.node_offsets(obj))
+masked = st.layer.with_mask(weights).deform(M, offsets=core.node_offsets(obj))
+outside = weights == 0
+err_out = np.abs(got[outside] - skin_only[outside]).max() / diag
+err_in = np.abs(got - masked).max() / diag
+t.check(err_out < 1e-5, "masked out, the mesh is the skin (max %.2e of the diagonal)" % err_out)
+t.check(err_in < 1e-5, "masked at 0.5, the mesh is the layer with that mask (max %.2e)" % err_in)
+t.check(np.abs(masked - skin_only)[~outside].max() > 1e-4 * diag, "inside the mask the layer still corrects")
+# Keyed: the envelope 0 at frame 1 and 1 at frame 10; then the bake holds
+# what played, frame by frame (the envelope, the mask and the pulled node).
+key.value = 0.0
+key.keyframe_insert("value", frame=1)
+key.value = 1.0
+key.keyframe_insert("value", frame=10)
+cache = os.path.join(t.OUT, "layer_bake.pc2")
+played = []
+for f in range(1, 11):
+    scene.frame_set(f)
+    core.update_live(obj, force=True)
+    played.append(t.evaluated_positions(obj))
+t.check(abs(key.value - 1.0) < 1e-9, "the keyed envelope plays (1 at frame 10)")
+scene.frame_set(1)
+t.check(np.abs(t.evaluated_positions(obj) - st.layer.deform(core.skinning_matrices(obj, arm), envelope=0.0)).max()
+        < 1e-5 * diag, "the envelope keyed at 0 on frame 1: the skin")
+core.bake_cache(obj, cache, 1, 10)
+with open(cache, "rb") as f:
+    head = f.read(32)
+    baked = np.frombuffer(f.read(), dtype="<f4").reshape(10, n, 3).astype(np.float64)
+worst = max(np.abs(baked[k] - played[k]).max() for k in range(10)) / diag
+t.check(worst < 1e-5, "the bake of a layer is what played, frame by frame (max %.2e of the diagonal)" % worst)
+t.check(np.abs(played[4] - played[0]).max() > 1e-3 * diag, "and what played changed over the frames")
 print("CURVENET_TEST all passed")

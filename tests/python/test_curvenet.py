@@ -629,6 +629,52 @@ def test_a_layer_over_the_skin_gives_what_the_cli_gives_and_a_pulled_node_moves_
     assert np.array_equal(over_net.deform(M), b.deform(M))
 
 
+def test_a_layer_takes_another_mask_without_binding_again_and_bakes_its_keyed_envelope_and_offsets(tmp_path):
+    mesh_file, rig_file = hand(), example("hand_l.cnrig.json")
+    pull = os.path.join(os.path.dirname(__file__), "..", "data", "hand", "fist_pull.pose.json")
+    mesh, rig = curvenet.load_mesh(mesh_file), curvenet.read_rig(rig_file)
+    layer = curvenet.bind_layer(mesh, rig, skin=curvenet.load_skinned_mesh(mesh_file))
+    M = curvenet.skinning_matrices(layer.joints, pull)
+    offsets = curvenet.read_pose_nodes(pull)
+    n = layer.num_input_vertices
+    assert layer.mask.size == 0
+    # a mask of 0 on the first half: that half is the skin exactly, the rest the whole layer
+    mask = np.ones(n)
+    mask[: n // 2] = 0
+    masked = layer.with_mask(mask)
+    assert np.array_equal(masked.mask, mask) and layer.mask.size == 0  # the original keeps its own
+    base, full, part = layer.deform(M, envelope=0.0), layer.deform(M), masked.deform(M)
+    assert np.array_equal(part[: n // 2], base[: n // 2])
+    assert np.array_equal(part[n // 2 :], full[n // 2 :])
+    assert np.abs(full - base).max() > 0  # the mask hides something
+    assert np.array_equal(masked.with_mask(None).deform(M), full)
+    with pytest.raises(curvenet.InputError, match="vertex 3"):
+        layer.with_mask(np.where(np.arange(n) == 3, 2.0, 1.0))
+    with pytest.raises(curvenet.InputError):
+        layer.with_mask(np.ones(n - 1))
+
+    # the frame job through a layer: each frame's envelope and offsets, as deform gives them
+    def pose(f):
+        return (M, (f - 1) / 4, offsets if f % 2 else None)
+
+    path = tmp_path / "layer.pc2"
+    curvenet.animate_poses(masked, pose, 1, 5, str(path))
+    frames, start = read_pc2(path)
+    assert frames.shape == (5, n, 3) and start == 1
+    for k, f in enumerate(range(1, 6)):
+        _, envelope, o = pose(f)
+        want = masked.deform(M, envelope=envelope, offsets=o).astype(np.float32)
+        assert np.array_equal(frames[k], want)
+    # plain matrices are envelope 1 without offsets
+    curvenet.animate_poses(layer, lambda f: M, 1, 2, str(path))
+    assert np.array_equal(read_pc2(path)[0][1], full.astype(np.float32))
+    with pytest.raises(curvenet.InputError, match="envelope"):
+        curvenet.animate_poses(layer, lambda f: (M, 2.0, None), 1, 2, str(tmp_path / "bad.pc2"))
+    assert not (tmp_path / "bad.pc2").exists()
+    with pytest.raises(TypeError):
+        curvenet.animate_poses(mesh, lambda f: M, 1, 2, str(tmp_path / "bad.pc2"))
+
+
 # --- the net editor ---------------------------------------------------------
 
 
