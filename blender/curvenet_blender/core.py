@@ -961,11 +961,17 @@ def _heaviest_bone(obj, node):
 def add_node_handle(obj, node):
     """An empty that pulls `node`: it rides on the node's heaviest bone, and
     moving it (or keying it on the timeline) gives the node an offset, which
-    the curves through the node and the regions they bound follow."""
+    the curves through the node and the regions they bound follow. A node
+    that has a handle keeps it: that handle is returned."""
+    for e in node_handles(obj):
+        if e[HANDLE_KEY] == node:
+            return e
     arm = bound_armature(obj)
     if arm is None or ensure_binding(obj) is None:
         raise Refused("Bind %s to an armature first." % obj.name)
     rig = get_rig(obj)
+    if rig.node_index(node) < 0:
+        raise Refused("%s's net has no node %s." % (obj.name, node))
     rest = rig.node(node).position
     bone = _heaviest_bone(obj, node)
     st = state(obj)

@@ -404,6 +404,29 @@ class CURVENET_OT_set_node_weight(_MeshOperator, bpy.types.Operator):
         return _done(self, context, "Weight of %s set to %.3f on %s" % (bone, self.weight, ", ".join(nodes)))
 
 
+class CURVENET_OT_pull_node(_MeshOperator, bpy.types.Operator):
+    """Add a handle to each selected node: an empty on the node's bone; move it, or key its location, to pull the node"""
+
+    bl_idname = "curvenet.pull_node"
+    bl_label = "Pull"
+    bl_options = {"REGISTER", "UNDO"}
+
+    nodes: StringProperty(name="Nodes", description="Comma-separated node ids; empty: the selected nodes")
+
+    def execute(self, context):
+        obj = _mesh(context)
+        props = context.scene.curvenet
+        nodes = [s.strip() for s in (self.nodes or props.selected_nodes).split(",") if s.strip()]
+        if not nodes:
+            self.report({"ERROR"}, "Pick nodes first")
+            return {"CANCELLED"}
+        ok, handles = _attempt(self, context, "Pull", lambda: [core.add_node_handle(obj, n) for n in nodes])
+        if not ok:
+            return {"CANCELLED"}
+        return _done(self, context, "Handles %s: select one and move it (G), or key its location (I)" % (
+            ", ".join(e.name for e in handles)))
+
+
 class CURVENET_OT_transfer(_MeshOperator, bpy.types.Operator):
     """Transfer the net to the selected (or the panel's) target mesh of the same character"""
 
@@ -539,6 +562,7 @@ CLASSES = (
     CURVENET_OT_unbind,
     CURVENET_OT_pick_node,
     CURVENET_OT_set_node_weight,
+    CURVENET_OT_pull_node,
     CURVENET_OT_transfer,
     CURVENET_OT_export_rig,
     CURVENET_OT_import_rig,

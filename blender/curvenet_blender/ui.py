@@ -135,6 +135,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         row = box.row(align=True)
         row.operator("curvenet.pick_node", text="Pick")
         row.prop(props, "selected_nodes", text="")
+        row.operator("curvenet.pull_node", text="Pull")
         arm = props.armature or core.bound_armature(obj)
         if arm is not None and arm.data.bones.active is not None:
             box.label(text="bone: " + arm.data.bones.active.name, icon="BONE_DATA")

@@ -81,7 +81,23 @@ pose(0.6)
 st = core.state(obj)
 rig = core.get_rig(obj)
 node = next(n.id for n in rig.nodes if core._heaviest_bone(obj, n.id) == "Index_Intermediate_L")
-handle = core.add_node_handle(obj, node)
+# Through the panel: Pick gives the selection, Pull adds its handle (once).
+bpy.context.scene.curvenet.selected_nodes = node
+t.select(obj)
+t.check(bpy.ops.curvenet.pull_node() == {"FINISHED"}, "Pull: " + bpy.context.scene.curvenet.status)
+t.check(len(core.node_handles(obj)) == 1, "Pull adds one handle")
+handle = core.node_handles(obj)[0]
+t.check(handle[core.HANDLE_KEY] == node and node in bpy.context.scene.curvenet.status, "for the picked node")
+t.check(bpy.ops.curvenet.pull_node() == {"FINISHED"} and len(core.node_handles(obj)) == 1,
+        "pulling a node that has a handle keeps its one handle")
+t.check(core.add_node_handle(obj, node) == handle, "and gives it back")
+bpy.context.scene.curvenet.selected_nodes = "no_such_node"
+try:
+    refused = bpy.ops.curvenet.pull_node() == {"CANCELLED"}
+except RuntimeError:  # headless, an operator's error report raises
+    refused = True
+t.check(refused and len(core.node_handles(obj)) == 1, "a node the net lacks is refused")
+t.check("no node no_such_node" in bpy.context.scene.curvenet.status, bpy.context.scene.curvenet.status)
 t.check(handle.parent_bone == "Index_Intermediate_L", "the handle rides on the node's bone")
 t.check(abs(sum(core.node_weights(obj, node).values()) - 1) < 1e-9, "the node's weights, from the binding, sum to 1")
 for f in (1, 20):
