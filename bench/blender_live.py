@@ -8,8 +8,10 @@ For each shared mesh it prints one row: vertices, the median milliseconds per
 frame (frame_set plus the evaluation of the deformed mesh, which is what the
 viewport waits for), frames per second, and the part spent in the add-on's
 handler (skinning matrices from the pose bones, Binding.deform into a
-preallocated buffer, foreach_set into the shape key). All rows come from one
-run on one machine; only ratios within a run compare.
+preallocated buffer, foreach_set into the shape key). Then the same with a
+node pulled by a keyed handle: over the net's own deformation (live), and
+layered over the Armature modifier (layer), each with its handler's time.
+All rows come from one run on one machine; only ratios within a run compare.
 """
 
 import os
@@ -72,8 +74,30 @@ def timed_update(obj, depsgraph=None, force=False):
 
 core.update_live = timed_update
 
-print("| mesh | vertices | Armature modifier ms/frame | curvenet ms/frame | curvenet fps | handler ms | ratio |")
-print("|---|---:|---:|---:|---:|---:|---:|")
+def pull(c2, obj, frames):
+    """A handle on a node of the middle bone, keyed at rest at the ends and
+    pulled by 2 % of the diagonal half way."""
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    rig = c2.get_rig(obj)
+    node = rig.nodes[len(rig.nodes) // 2].id
+    h = c2.add_node_handle(obj, node)
+    for f in (1, frames):
+        h.keyframe_insert("location", frame=f)
+    h.location.x += 0.02 * c2.state(obj).diagonal
+    h.keyframe_insert("location", frame=frames // 2)
+
+
+def timed_scrub(obj, frames):
+    scrub(obj, 5)
+    handler_times.clear()
+    ms = scrub(obj, frames)
+    return ms, statistics.median(handler_times) * 1000 if handler_times else float("nan")
+
+
+print("| mesh | vertices | Armature modifier ms/frame | curvenet ms/frame | curvenet fps | handler ms | ratio "
+      "| live + handle ms (handler) | layer + handle ms (handler) | layer + handle fps |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for name, folder in CASES:
     path = os.path.join(folder, name)
     if not os.path.exists(path):
@@ -97,10 +121,12 @@ for name, folder in CASES:
     lbs = scrub(obj, FRAMES)
     c2.starter(obj, arm)
     c2.bind(obj, arm)
-    scrub(obj, 5)
-    handler_times.clear()
-    ours = scrub(obj, FRAMES)
-    handler = statistics.median(handler_times) * 1000 if handler_times else float("nan")
-    print("| %s | %d | %.2f | %.2f | %.0f | %.2f | %.2f |" % (
-        name, len(obj.data.vertices), lbs, ours, 1000.0 / ours, handler, ours / lbs))
+    ours, handler = timed_scrub(obj, FRAMES)
+    pull(c2, obj, FRAMES)
+    live_pulled, live_handler = timed_scrub(obj, FRAMES)
+    c2.bind(obj, arm, layer=True)
+    layer_pulled, layer_handler = timed_scrub(obj, FRAMES)
+    print("| %s | %d | %.2f | %.2f | %.0f | %.2f | %.2f | %.2f (%.2f) | %.2f (%.2f) | %.0f |" % (
+        name, len(obj.data.vertices), lbs, ours, 1000.0 / ours, handler, ours / lbs, live_pulled, live_handler,
+        layer_pulled, layer_handler, 1000.0 / layer_pulled))
 live.unregister()

@@ -65,6 +65,7 @@ class ObjectState:
         self.rest = None  # (n, 3) rest positions, for the layer's corrective shape key
         self.net_layer = None  # curvenet.CurveLayer over the net itself, for pulled nodes without a skin
         self.bone_names = []  # per binding joint, the armature bone that drives it
+        self.node_rest = {}  # node id -> (3,) rest position in the bound rig (read per frame by node_offsets)
         self.matrices = None  # (J, 4, 4) scratch, filled per frame
         self.positions = None  # (n, 3) float32 scratch
         self.last_pose = None  # the matrices of the last update, to skip unchanged poses
@@ -719,6 +720,7 @@ def _make_binding(obj, arm, method, layer):
     st.net_layer = None
     names = {b.name for b in arm.data.bones}
     st.bone_names = [n if n in names else None for n in st.binding.joint_names]
+    st.node_rest = {n.id: np.array(n.position) for n in rig.nodes}
     st.matrices = np.empty((len(st.bone_names), 4, 4), dtype=np.float64)
     st.positions = np.empty((st.binding.num_input_vertices, 3), dtype=np.float32)
     st.last_pose = None
@@ -999,12 +1001,11 @@ def node_offsets(obj, depsgraph=None):
     if not handles:
         return {}
     st = state(obj)
-    rig = get_rig(obj)
     to_obj = obj.matrix_world.inverted()
     out = {}
     for e in handles:
         node = e[HANDLE_KEY]
-        if rig.node_index(node) < 0:
+        if node not in st.node_rest:  # the bound rig's nodes, not parsed again each frame
             continue
         source = e.evaluated_get(depsgraph) if depsgraph is not None else e
         p = to_obj @ source.matrix_world.translation
@@ -1012,7 +1013,7 @@ def node_offsets(obj, depsgraph=None):
         if j < 0:
             continue
         rest = np.linalg.solve(st.matrices[j], np.append(np.array(p), 1.0))[:3]
-        offset = rest - rig.node(node).position
+        offset = rest - st.node_rest[node]
         if np.linalg.norm(offset) > 1e-9 * st.diagonal:
             out[node] = offset
     return out
