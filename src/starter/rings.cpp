@@ -283,7 +283,7 @@ Probe probe(const StarterContext& c, const std::vector<int>& own, const Placemen
   return q;
 }
 
-bool is_local(const StarterContext& c, const RingOptions& ro, const Probe& q) {
+bool is_local(const StarterContext& /*c*/, const RingOptions& ro, const Probe& q) {
   return q.ring && q.foreign < 0 && static_cast<int>(q.ring->loop.size()) >= ro.nodes_per_ring;
 }
 
@@ -621,7 +621,7 @@ void trunk_rings(const StarterContext& c, const RingOptions& ro, const std::map<
 
 // ---- stage 3: clearance ---------------------------------------------------
 
-int ring_conflict(const StarterContext& c, const RingOptions& ro, const Ring& r, const std::vector<Ring>& rings,
+int ring_conflict(const StarterContext& /*c*/, const RingOptions& ro, const Ring& r, const std::vector<Ring>& rings,
                   const std::vector<int>& among, int self) {
   for (int k : among)
     if (k != self && polylines_within(r.loop, true, rings[k].loop, true, ro.gap(r, rings[k])))
