@@ -85,7 +85,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
                 op = col.operator("curvenet.select_bone", text=joint, emboss=False, icon="BONE_DATA")
                 op.bone = joint
                 if props.show_starter_notes:
-                    for line in _wrap(reason, 44):
+                    for line in _wrap(reason, 28):
                         col.label(text="    " + line)
             if len(notes) > 12:
                 sub.label(text="and %d more" % (len(notes) - 12))
@@ -122,7 +122,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         row = box.row(align=True)
         row.operator("curvenet.bind")
         row.operator("curvenet.unbind")
-        playing = _wrap("Playing: " + core.describe_deformation(obj), 34)
+        playing = _wrap("Playing: " + core.describe_deformation(obj), 26)
         for i, line in enumerate(playing):
             box.label(text=line, icon="PLAY" if i == 0 else "BLANK1")
         key = core.layer_key(obj)
@@ -151,7 +151,7 @@ class CURVENET_PT_panel(bpy.types.Panel):
         box.operator("curvenet.bake_cache")
         box.operator("curvenet.bake_vertex_groups")
         if props.status:
-            for line in _wrap(props.status, 40):
+            for line in _wrap(props.status, 30):
                 layout.label(text=line)
         err = core.state(obj).error
         if err:
