@@ -31,8 +31,8 @@ namespace {
 /// chain joins the nearest other ring up its chain or hanging from one (the
 /// trunk it hangs from, the limb beside it; never further down another
 /// limb), a few times over.
-void give_up_join(const StarterContext& c, const RingOptions& ro, const std::vector<Ring>& rings, int slot,
-                  const std::string& failure, NetRepairs& st) {
+void give_up_join(const StarterContext& c, const std::vector<Ring>& rings, int slot, const std::string& failure,
+                  NetRepairs& st) {
   const int m = ++st.join_attempt[slot];
   const int ch = slot / 2;
   c.say("join " + std::string(slot % 2 ? "1 " : "") + "of ring '" + rings[ch].id + "' " +
@@ -147,7 +147,7 @@ void repair_net(const StarterContext& c, const RingOptions& ro, std::vector<Ring
     kind = 'a';
   }
   if (kind == 'j')
-    give_up_join(c, ro, rings, culprit, failure, st);
+    give_up_join(c, rings, culprit, failure, st);
   else
     move_or_drop(c, ro, rings, ringless, culprit, failure, st);
 }
