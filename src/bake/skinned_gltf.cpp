@@ -6,6 +6,7 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
+#include "io/file_bytes.hpp"
 #include "io/gltf_scene.hpp"
 
 #include <tiny_gltf.h>
@@ -47,8 +48,8 @@ struct BinaryWriter {
   }
 
   template <class T>
-  int accessor(const std::vector<T>& data, int component, int type, size_t count, int target,
-               bool with_bounds = false, int ncomp = 1) {
+  int accessor(const std::vector<T>& data, int component, int type, size_t count, int target, bool with_bounds = false,
+               int ncomp = 1) {
     tinygltf::Accessor a;
     a.bufferView = view(data.data(), data.size() * sizeof(T), target);
     a.componentType = component;
@@ -102,8 +103,7 @@ Mat4 compose(const Trs& x) {
 }
 
 std::string mime_of(const std::string& uri) {
-  std::string ext = std::filesystem::path(uri).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = detail::lower_extension(uri);
   if (ext == ".png")
     return "image/png";
   if (ext == ".jpg" || ext == ".jpeg")
@@ -175,11 +175,13 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   const int nv = static_cast<int>(faces.positions.size());
   const int k = weights.influences;
   if (weights.num_vertices() != nv)
-    throw InputError(mesh_path, "", "the weights are for " + std::to_string(weights.num_vertices()) +
-                                        " vertices, the file has " + std::to_string(nv));
+    throw InputError(mesh_path, "",
+                     "the weights are for " + std::to_string(weights.num_vertices()) + " vertices, the file has " +
+                         std::to_string(nv));
   if (joints.size() != weights.joints.size() || joints.empty())
-    throw InputError(mesh_path, "skeleton", "the weights name " + std::to_string(weights.joints.size()) +
-                                                " joints, the skeleton has " + std::to_string(joints.size()));
+    throw InputError(mesh_path, "skeleton",
+                     "the weights name " + std::to_string(weights.joints.size()) + " joints, the skeleton has " +
+                         std::to_string(joints.size()));
   std::map<std::string, int> joint_index;
   for (size_t j = 0; j < joints.size(); ++j) {
     if (joints[j].name != weights.joints[j])
@@ -219,7 +221,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     int uv, normal;
   };
   std::vector<std::vector<std::pair<Key, int>>> combos(nv); // per file vertex: (attributes, output vertex)
-  std::vector<int> out_vertex_of(nv);                         // output vertex -> file vertex
+  std::vector<int> out_vertex_of(nv);                       // output vertex -> file vertex
   std::iota(out_vertex_of.begin(), out_vertex_of.end(), 0);
   std::vector<Key> out_key(nv, Key{-1, -1}); // output vertex -> its corners' attributes
   std::vector<int> corner_out(faces.face_vertices.size());
@@ -262,8 +264,8 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       nrm.push_back(static_cast<float>(n[c]));
     }
     if (has_uv) {
-      const Eigen::Vector2d t = key.uv >= 0 && key.uv < static_cast<int>(topo.uv.size()) ? topo.uv[key.uv]
-                                                                                        : Eigen::Vector2d::Zero();
+      const Eigen::Vector2d t =
+          key.uv >= 0 && key.uv < static_cast<int>(topo.uv.size()) ? topo.uv[key.uv] : Eigen::Vector2d::Zero();
       uv.push_back(static_cast<float>(t.x()));
       uv.push_back(static_cast<float>(1.0 - t.y())); // glTF's v runs down
     }
@@ -314,11 +316,10 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
         w.push_back(wall[o * slots + i]);
       }
     const std::string suffix = "_" + std::to_string(set);
-    base.attributes["JOINTS" + suffix] =
-        wide ? bin.accessor(j16, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4, no,
-                            TINYGLTF_TARGET_ARRAY_BUFFER)
-             : bin.accessor(j8, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_TYPE_VEC4, no,
-                            TINYGLTF_TARGET_ARRAY_BUFFER);
+    base.attributes["JOINTS" + suffix] = wide ? bin.accessor(j16, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                                             TINYGLTF_TYPE_VEC4, no, TINYGLTF_TARGET_ARRAY_BUFFER)
+                                              : bin.accessor(j8, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                                             TINYGLTF_TYPE_VEC4, no, TINYGLTF_TARGET_ARRAY_BUFFER);
     base.attributes["WEIGHTS" + suffix] =
         bin.accessor(w, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC4, no, TINYGLTF_TARGET_ARRAY_BUFFER);
   }
@@ -340,12 +341,8 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
 
   // Materials, textures and images of a glTF source.
   std::shared_ptr<const tinygltf::Model> src;
-  {
-    std::string ext = std::filesystem::path(mesh_path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (ext == ".gltf" || ext == ".glb")
-      src = detail::read_gltf_scene(mesh_path).model;
-  }
+  if (const std::string ext = detail::lower_extension(mesh_path); ext == ".gltf" || ext == ".glb")
+    src = detail::read_gltf_scene(mesh_path).model;
   if (src) {
     model.materials = src->materials;
     model.textures = src->textures;

@@ -1,5 +1,7 @@
 #include "io/file_bytes.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -62,6 +64,13 @@ std::optional<FileStamp> settled_stamp(const std::string& path) {
   if (now - std::max(s.mtime_ns, s.ctime_ns) < 2'000'000'000LL)
     return std::nullopt;
   return s;
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
 }
 
 } // namespace curvenet::detail

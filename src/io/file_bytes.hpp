@@ -13,6 +13,9 @@ namespace curvenet::detail {
 /// \throw InputError naming the file when it cannot be opened.
 std::string file_bytes(const std::string& path);
 
+/// A path's extension in lower case, with its dot (".glb"), or "" for none.
+std::string lower_extension(const std::string& path);
+
 /// How many times file_bytes() has read `path` in this process (the tests
 /// count a command's reads).
 long file_reads(const std::string& path);

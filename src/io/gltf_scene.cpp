@@ -571,8 +571,7 @@ GltfScene read_gltf_scene(const std::string& path) {
 namespace {
 
 GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = detail::lower_extension(path);
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&skip_image, nullptr);
   auto model = std::make_shared<tinygltf::Model>();

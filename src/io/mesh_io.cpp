@@ -107,8 +107,7 @@ std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path) {
 namespace {
 
 std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = detail::lower_extension(path);
   return ext;
 }
 

@@ -2,6 +2,7 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "io/file_bytes.hpp"
 #include "io/gltf_scene.hpp"
 #include "io/obj_check.hpp"
 
@@ -17,8 +18,7 @@
 namespace curvenet {
 
 InputTopology read_input_topology(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = detail::lower_extension(path);
   InputTopology out;
   if (ext == ".obj") {
     const auto parsed = detail::parse_obj(path); // the parse load_mesh made, if it read this file

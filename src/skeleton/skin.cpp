@@ -3,6 +3,7 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "io/assimp_scene.hpp"
+#include "io/file_bytes.hpp"
 #include "io/gltf_scene.hpp"
 
 #include <tiny_gltf.h>
@@ -36,18 +37,16 @@ SkinnedMesh load_skinned_mesh_assimp(const std::string& path) {
 }
 
 std::vector<Joint> skin_joints_if_any(const std::string& path) {
-  if (!is_skinned_file(path))
-    return {};
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (ext == ".fbx" ? detail::read_assimp_scene(path).joints.empty() : detail::read_gltf_scene(path).skin < 0)
-    return {};
-  return load_skinned_mesh(path).joints;
+  const std::string ext = detail::lower_extension(path);
+  if (ext == ".fbx")
+    return detail::read_assimp_scene(path).joints; // parsed once; no bones, no joints
+  if ((ext == ".gltf" || ext == ".glb") && detail::read_gltf_scene(path).skin >= 0)
+    return load_skinned_mesh(path).joints; // the parse above is kept, not repeated
+  return {};
 }
 
 SkinnedMesh load_skinned_mesh(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = detail::lower_extension(path);
   if (ext == ".fbx")
     return load_skinned_mesh_assimp(path);
   if (ext != ".gltf" && ext != ".glb")
@@ -238,8 +237,7 @@ std::set<std::string> weighted_joints(const SkinnedMesh& skin) {
 }
 
 bool is_skinned_file(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = detail::lower_extension(path);
   return ext == ".gltf" || ext == ".glb" || ext == ".fbx";
 }
 
