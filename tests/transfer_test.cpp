@@ -258,6 +258,17 @@ TEST(Transfer, ATargetInOtherAxesAndUnitsLinesUpByItsSkeleton) {
   EXPECT_FALSE(same.report.skeleton_fit);
   EXPECT_EQ(same.report.alignment.rfind("frames (not the skeletons: after the best fit", 0), 0u)
       << same.report.alignment;
+  // And where the frames then fail, the refusal says why the skeletons were not used.
+  off.target_skeleton = opt.target_skeleton;
+  off.target_skeleton[4].bind(2, 3) += 60; // the hand raised: another bind pose
+  try {
+    transfer(make_tube_net(), quads, exported, off);
+    FAIL() << "a target in other axes was taken by the frames";
+  } catch (const EmbedError& e) {
+    EXPECT_NE(std::string(e.what()).find("lined up by frames (not the skeletons: after the best fit"),
+              std::string::npos)
+        << e.what();
+  }
   // With no skeleton at all, auto is the frames, with nothing to say.
   EXPECT_EQ(transfer(make_tube_net(), quads, quads).report.alignment, "frames");
   EXPECT_EQ(parse_alignment("skeletons", "--align"), Alignment::Skeletons);

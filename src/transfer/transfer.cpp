@@ -633,8 +633,12 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const std::unique_ptr<TraceMesh> mapped_trace = same_space ? nullptr : trace_of(mapped);
   rep.shape =
       detail::surface_distance(mapped, same_space ? source_placed : *mapped_trace, target_surface, target_placed, 1);
-  const std::string apart = " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) +
-                            " of the diagonal apart, " + percent(rep.shape.mean / rep.shape.diagonal) + " on average)";
+  // A refusal says how far apart the surfaces lie, and, where the
+  // skeletons were asked for and not used, why not.
+  const std::string apart =
+      " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) + " of the diagonal apart, " +
+      percent(rep.shape.mean / rep.shape.diagonal) + " on average" +
+      (rep.alignment.rfind("frames (", 0) == 0 ? "; lined up by " + rep.alignment : std::string()) + ")";
 
   // Placed along the source's normals; where the target's embedding then
   // finds two profiles crossing or a profile straying (a thin limb of a
