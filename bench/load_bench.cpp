@@ -13,7 +13,7 @@
 #include "curvenet/starter.hpp"
 #include "curvenet/subdivide.hpp"
 #include "generate/tube.hpp"
-#include "io/obj_check.hpp"
+#include "io/obj_read.hpp"
 
 #include <algorithm>
 #include <chrono>

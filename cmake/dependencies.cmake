@@ -6,7 +6,6 @@ find_package(nlohmann_json 3.10 REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(TBB REQUIRED)
 find_package(TinyGLTF REQUIRED)
-find_package(tinyobjloader REQUIRED)
 find_package(assimp REQUIRED)
 find_package(embree 3 REQUIRED)
 

@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libtbb-dev
-  libtinygltf-dev libtinyobjloader-dev libassimp-dev libembree-dev
+  libtinygltf-dev libassimp-dev libembree-dev
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev libosd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   blender pybind11-dev python3-dev python3-numpy python3-pytest

@@ -8,7 +8,7 @@
 #include "curvenet/skin.hpp"
 #include "helpers.hpp"
 #include "io/gltf_scene.hpp"
-#include "io/obj_check.hpp"
+#include "io/obj_read.hpp"
 
 #include <gtest/gtest.h>
 

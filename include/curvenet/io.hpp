@@ -14,7 +14,7 @@
 
 namespace curvenet {
 
-/// Reads OBJ (tinyobjloader), glTF/GLB (tinygltf), and PLY, OFF or FBX
+/// Reads OBJ and PLY or OFF (readers of our own), glTF/GLB (tinygltf), or FBX
 /// (assimp), then validates and welds it (make_surface_mesh).
 /// \throw InputError for an unreadable file or an invalid mesh.
 SurfaceMesh load_mesh(const std::string& path);

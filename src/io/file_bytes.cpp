@@ -37,9 +37,23 @@ std::string file_bytes(const std::string& path) {
     std::lock_guard lock(r.mutex);
     ++r.count[key_of(path)];
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+  // Read straight into a string of the file's size (a string stream grows
+  // by copies, and copies again to hand its text over); a pipe, or a file
+  // that grows meanwhile, is read on to its end.
+  std::string text;
+  std::error_code ec;
+  const auto size = std::filesystem::is_regular_file(path, ec) ? std::filesystem::file_size(path, ec) : 0;
+  if (!ec && size > 0) {
+    text.resize(static_cast<size_t>(size));
+    in.read(text.data(), static_cast<std::streamsize>(size));
+    text.resize(static_cast<size_t>(in.gcount()));
+  }
+  char chunk[1 << 16];
+  while (in && (in.read(chunk, sizeof chunk), in.gcount() > 0))
+    text.append(chunk, static_cast<size_t>(in.gcount()));
+  if (in.bad())
+    throw InputError(path, "", "read error");
+  return text;
 }
 
 long file_reads(const std::string& path) {

@@ -1,5 +1,5 @@
-// Mesh readers. OBJ goes through tinyobjloader (it keeps the file's vertex
-// order) after a strict check of its own, glTF/GLB through tinygltf (exact
+// Mesh readers. OBJ through a strict reader of our own (obj_read.cpp; it
+// keeps the file's vertex order), glTF/GLB through tinygltf (exact
 // accessors), PLY and OFF through readers of our own (ply_off.cpp), and FBX
 // through assimp. Validation and welding happen in make_surface_mesh.
 
@@ -9,10 +9,8 @@
 #include "io/assimp_scene.hpp"
 #include "io/file_bytes.hpp"
 #include "io/gltf_scene.hpp"
-#include "io/obj_check.hpp"
+#include "io/obj_read.hpp"
 #include "io/ply_off.hpp"
-
-#include <tiny_obj_loader.h>
 
 #include <mutex>
 #include <optional>
@@ -32,106 +30,14 @@
 
 namespace curvenet {
 
-namespace detail {
-
 namespace {
-struct ObjCache {
-  std::mutex mutex;
-  std::string path;
-  size_t size = 0, hash = 0;      ///< of the bytes: a file rewritten within the clock's tick keeps its mtime
-  std::optional<FileStamp> stamp; ///< settled when read: then an unchanged stamp needs no second read
-  std::shared_ptr<const tinyobj::ObjReader> reader;
-  long parses = 0;
-};
-ObjCache& obj_cache() {
-  static ObjCache cache;
-  return cache;
-}
-} // namespace
-
-void forget_obj_parse() {
-  ObjCache& c = obj_cache();
-  std::lock_guard lock(c.mutex);
-  c.reader.reset();
-  c.stamp.reset();
-}
-
-long obj_parses() {
-  ObjCache& c = obj_cache();
-  std::lock_guard lock(c.mutex);
-  return c.parses;
-}
-
-std::shared_ptr<const tinyobj::ObjReader> parse_obj(const std::string& path) {
-  std::error_code ec;
-  const std::string key = std::filesystem::absolute(path, ec).lexically_normal().string();
-  const std::optional<FileStamp> stamp = settled_stamp(path);
-  ObjCache& c = obj_cache();
-  {
-    std::lock_guard lock(c.mutex);
-    if (c.reader && c.path == key && stamp && c.stamp == stamp)
-      return c.reader; // a settled file, unchanged: not read again
-  }
-  const std::string bytes = file_bytes(path);
-  const size_t hash = std::hash<std::string_view>{}(bytes);
-  {
-    std::lock_guard lock(c.mutex);
-    if (c.reader && c.path == key && c.size == bytes.size() && c.hash == hash) {
-      c.stamp = stamp;
-      return c.reader;
-    }
-  }
-  check_obj(path, bytes);
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = false;
-  config.vertex_color = false;
-  auto reader = std::make_shared<tinyobj::ObjReader>();
-  if (!reader->ParseFromString(bytes, "", config)) {
-    std::string msg = reader->Error();
-    while (!msg.empty() && std::isspace(static_cast<unsigned char>(msg.back())))
-      msg.pop_back();
-    std::replace(msg.begin(), msg.end(), '\n', ';');
-    throw InputError(path, "", "cannot read OBJ: " + (msg.empty() ? std::string("unknown error") : msg));
-  }
-  std::lock_guard lock(c.mutex);
-  ++c.parses;
-  c.path = key;
-  c.size = bytes.size();
-  c.hash = hash;
-  c.stamp = stamp;
-  c.reader = reader;
-  return reader;
-}
-
-} // namespace detail
-namespace {
-
-std::string lower_extension(const std::string& path) {
-  const std::string ext = detail::lower_extension(path);
-  return ext;
-}
 
 RawMesh read_obj(const std::string& path) {
-  const auto parsed = detail::parse_obj(path);
-  const tinyobj::ObjReader& reader = *parsed;
-  const auto& attrib = reader.GetAttrib();
+  const auto data = detail::parse_obj(path);
   RawMesh raw;
-  const size_t nv = attrib.vertices.size() / 3;
-  raw.positions.reserve(nv);
-  for (size_t v = 0; v < nv; ++v)
-    raw.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
-  std::vector<int> corners;
-  for (const auto& shape : reader.GetShapes()) {
-    size_t k = 0;
-    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
-      const int n = shape.mesh.num_face_vertices[f];
-      corners.clear();
-      for (int i = 0; i < n; ++i)
-        corners.push_back(shape.mesh.indices[k + i].vertex_index);
-      k += n;
-      raw.add_face(corners);
-    }
-  }
+  raw.positions = data->positions;
+  raw.face_offsets = data->face_offsets;
+  raw.face_vertices = data->corner_vertex;
   return raw;
 }
 
@@ -186,7 +92,7 @@ RawMesh read_raw_mesh(const std::string& path) {
     throw InputError(path, "", "no such file");
   if (::access(path.c_str(), R_OK) != 0) // checked without opening: a cached parse needs no read
     throw InputError(path, "", "cannot open the file for reading");
-  const std::string ext = lower_extension(path);
+  const std::string ext = detail::lower_extension(path);
   if (ext == ".obj")
     return read_obj(path);
   if (ext == ".gltf" || ext == ".glb")

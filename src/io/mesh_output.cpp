@@ -4,9 +4,7 @@
 #include "curvenet/io.hpp"
 #include "io/file_bytes.hpp"
 #include "io/gltf_scene.hpp"
-#include "io/obj_check.hpp"
-
-#include <tiny_obj_loader.h>
+#include "io/obj_read.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -21,39 +19,26 @@ InputTopology read_input_topology(const std::string& path) {
   const std::string ext = detail::lower_extension(path);
   InputTopology out;
   if (ext == ".obj") {
-    const auto parsed = detail::parse_obj(path); // the parse load_mesh made, if it read this file
-    const tinyobj::ObjReader& reader = *parsed;
-    const auto& a = reader.GetAttrib();
-    for (size_t v = 0; v < a.vertices.size() / 3; ++v)
-      out.faces.positions.emplace_back(a.vertices[3 * v], a.vertices[3 * v + 1], a.vertices[3 * v + 2]);
-    for (size_t t = 0; t < a.texcoords.size() / 2; ++t)
-      out.uv.emplace_back(a.texcoords[2 * t], a.texcoords[2 * t + 1]);
+    const auto obj = detail::parse_obj(path); // the parse load_mesh made, if it read this file
+    out.faces.positions = obj->positions;
+    out.faces.face_offsets = obj->face_offsets;
+    out.faces.face_vertices = obj->corner_vertex;
+    out.uv = obj->texcoords;
+    out.corner_uv = obj->corner_texcoord;
     // Corners with a normal keep its slot; corners without one share a slot
     // per vertex, after the file's own normals.
-    const int file_normals = static_cast<int>(a.normals.size() / 3);
-    out.num_normals = file_normals;
-    for (int n = 0; n < file_normals; ++n)
-      out.normals.emplace_back(a.normals[3 * n], a.normals[3 * n + 1], a.normals[3 * n + 2]);
-    std::vector<int> vertex_slot(out.faces.positions.size(), -1);
-    std::vector<int> corners;
-    for (const auto& shape : reader.GetShapes()) {
-      size_t k = 0;
-      for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
-        corners.clear();
-        for (int i = 0; i < shape.mesh.num_face_vertices[f]; ++i, ++k) {
-          const auto& idx = shape.mesh.indices[k];
-          corners.push_back(idx.vertex_index);
-          out.corner_uv.push_back(idx.texcoord_index);
-          if (idx.normal_index >= 0 && idx.normal_index < file_normals) {
-            out.corner_normal.push_back(idx.normal_index);
-          } else {
-            int& slot = vertex_slot[idx.vertex_index];
-            if (slot < 0)
-              slot = out.num_normals++;
-            out.corner_normal.push_back(slot);
-          }
-        }
-        out.faces.add_face(corners);
+    out.normals = obj->normals;
+    out.num_normals = static_cast<int>(obj->normals.size());
+    std::vector<int> vertex_slot(obj->positions.size(), -1);
+    out.corner_normal.reserve(obj->corner_normal.size());
+    for (size_t k = 0; k < obj->corner_normal.size(); ++k) {
+      if (obj->corner_normal[k] >= 0) {
+        out.corner_normal.push_back(obj->corner_normal[k]);
+      } else {
+        int& slot = vertex_slot[obj->corner_vertex[k]];
+        if (slot < 0)
+          slot = out.num_normals++;
+        out.corner_normal.push_back(slot);
       }
     }
     return out;

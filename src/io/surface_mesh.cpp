@@ -7,12 +7,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <map>
 #include <numbers>
 #include <numeric>
-#include <queue>
 #include <sstream>
-#include <unordered_map>
+#include <cstring>
 
 namespace curvenet {
 
@@ -234,16 +232,35 @@ std::string vec_str(const Vec3& p) {
   return s.str();
 }
 
-struct VecHash {
-  size_t operator()(const Vec3& p) const {
-    size_t h = 0;
+/// For each position, the first vertex at exactly the same point (-0 and +0
+/// are one point): a flat hash table with linear probing (no node per entry).
+std::vector<int> first_at_same_position(const std::vector<Vec3>& positions) {
+  const int n = static_cast<int>(positions.size());
+  auto hash = [](const Vec3& p) {
+    std::uint64_t h = 0x9e3779b97f4a7c15ULL;
     for (int i = 0; i < 3; ++i) {
-      double d = p[i] == 0.0 ? 0.0 : p[i]; // -0 and +0 weld
-      h ^= std::hash<double>{}(d) + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+      const double d = p[i] == 0.0 ? 0.0 : p[i]; // -0 and +0 weld
+      std::uint64_t bits = 0;
+      std::memcpy(&bits, &d, sizeof bits);
+      h = (h ^ bits) * 0xff51afd7ed558ccdULL;
+      h ^= h >> 32;
     }
     return h;
+  };
+  size_t size = 16;
+  while (size < 2 * static_cast<size_t>(n))
+    size *= 2;
+  std::vector<int> slot(size, -1), first(n);
+  for (int v = 0; v < n; ++v) {
+    size_t i = hash(positions[v]) & (size - 1);
+    while (slot[i] >= 0 && positions[slot[i]] != positions[v])
+      i = (i + 1) & (size - 1);
+    if (slot[i] < 0)
+      slot[i] = v;
+    first[v] = slot[i];
   }
-};
+  return first;
+}
 
 } // namespace
 
@@ -365,22 +382,14 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   // Non-manifold edges in the input as given (no weld) are refused. A vertex
   // that is non-manifold as given may be mended by welding (a glTF seam can
   // split a fan); that is judged after the weld.
-  {
-    const EdgeTable edges = edge_table(offsets, verts);
-    for (int e = 0; e < edges.num_edges(); ++e)
-      if (edges.uses(e) > 2)
-        throw InputError(source, "edge " + std::to_string(edges.lo(e)) + "-" + std::to_string(edges.hi(e)),
-                         "non-manifold: shared by " + std::to_string(edges.uses(e)) + " faces");
-  }
+  EdgeTable edges = edge_table(offsets, verts); // as given; then as welded
+  for (int e = 0; e < edges.num_edges(); ++e)
+    if (edges.uses(e) > 2)
+      throw InputError(source, "edge " + std::to_string(edges.lo(e)) + "-" + std::to_string(edges.hi(e)),
+                       "non-manifold: shared by " + std::to_string(edges.uses(e)) + " faces");
 
   // Weld by exact position, then undo welds that break manifoldness.
-  std::vector<int> group(nin);
-  {
-    std::unordered_map<Vec3, int, VecHash> first;
-    first.reserve(static_cast<size_t>(nin));
-    for (int v = 0; v < nin; ++v)
-      group[v] = first.emplace(raw.positions[v], v).first->second;
-  }
+  std::vector<int> group = first_at_same_position(raw.positions);
   std::vector<int> to_welded;
   std::vector<int> fverts;
   int refused_welds = 0;
@@ -396,9 +405,11 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
       to_welded[v] = id_of_rep[r];
     }
     fverts.resize(verts.size());
+    bool same = next == nin; // nothing welded: ids in order of first occurrence are the input's
     for (size_t k = 0; k < fverts.size(); ++k)
       fverts[k] = to_welded[verts[k]];
-    const EdgeTable edges = edge_table(offsets, fverts);
+    if (!same || round > 0)
+      edges = edge_table(offsets, fverts);
     std::vector<char> unweld(next, 0);
     bool any = false;
     for (int e = 0; e < edges.num_edges(); ++e)
@@ -466,8 +477,11 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   }
   for (int v = 0; v < nin; ++v)
     to_welded[v] = to_welded[v] <= -2 ? -2 - to_welded[v] : compact[to_welded[v]];
-  for (auto& w : fverts)
+  bool renumbered = false;
+  for (auto& w : fverts) {
+    renumbered |= compact[w] != w;
     w = compact[w];
+  }
 
   SurfaceMesh mesh;
   mesh.source = source;
@@ -488,33 +502,45 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
                          " coincident vertices apart, where welding would break manifoldness");
 
   // Orientation: make every component consistent with its lowest face.
-  const EdgeTable edges = edge_table(mesh.face_offsets, mesh.face_vertices);
-  std::vector<std::vector<std::pair<int, bool>>> adj(nf); // neighbour, same-direction use
+  if (renumbered)
+    edges = edge_table(mesh.face_offsets, mesh.face_vertices);
+  // Each face's neighbours across its manifold edges, with whether the two
+  // run the edge the same way (compressed rows).
+  std::vector<int> adj_start(static_cast<size_t>(nf) + 1, 0);
   for (int e = 0; e < edges.num_edges(); ++e)
     if (edges.uses(e) == 2) {
-      const int k = edges.start[e];
-      const bool conflict = edges.use_forward[k] == edges.use_forward[k + 1];
-      adj[edges.use_face[k]].push_back({edges.use_face[k + 1], conflict});
-      adj[edges.use_face[k + 1]].push_back({edges.use_face[k], conflict});
+      ++adj_start[edges.use_face[edges.start[e]] + 1];
+      ++adj_start[edges.use_face[edges.start[e] + 1] + 1];
     }
+  for (int f = 0; f < nf; ++f)
+    adj_start[f + 1] += adj_start[f];
+  std::vector<std::pair<int, bool>> adj(static_cast<size_t>(adj_start[nf])); // neighbour, same-direction use
+  {
+    std::vector<int> fill(adj_start.begin(), adj_start.end() - 1);
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) == 2) {
+        const int k = edges.start[e], f = edges.use_face[k], g = edges.use_face[k + 1];
+        const bool conflict = edges.use_forward[k] == edges.use_forward[k + 1];
+        adj[fill[f]++] = {g, conflict};
+        adj[fill[g]++] = {f, conflict};
+      }
+  }
   std::vector<int> flip(nf, -1);
   int flipped = 0;
+  std::vector<int> members; // of one component, in the order reached
   for (int s = 0; s < nf; ++s) {
     if (flip[s] >= 0)
       continue;
     flip[s] = 0;
-    std::queue<int> q;
-    q.push(s);
-    std::vector<int> members;
-    while (!q.empty()) {
-      int f = q.front();
-      q.pop();
-      members.push_back(f);
-      for (auto [g, conflict] : adj[f]) {
+    members.assign(1, s);
+    for (size_t next = 0; next < members.size(); ++next) {
+      const int f = members[next];
+      for (int a = adj_start[f]; a < adj_start[f + 1]; ++a) {
+        const auto [g, conflict] = adj[a];
         const int want = flip[f] ^ static_cast<int>(conflict);
         if (flip[g] < 0) {
           flip[g] = want;
-          q.push(g);
+          members.push_back(g);
         } else if (flip[g] != want) {
           throw InputError(source, "face " + std::to_string(g),
                            "the surface is not orientable (a Moebius-like component)");
