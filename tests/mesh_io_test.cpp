@@ -75,6 +75,48 @@ TEST(MeshIo, ObjWithRelativeIndicesCommentsAndColoursReads) {
   EXPECT_EQ(m.num_faces(), 4);
 }
 
+TEST(MeshIo, ObjReadsEveryElementWithItsIndicesInFileOrder) {
+  // Windows line ends, tabs, comments after data, groups, materials, a
+  // vertex with colours, a texture coordinate with u alone, every corner
+  // form, negative indices that count back from the face, and a positive
+  // index that refers further down the file.
+  const std::string text = "# a comment\r\n"
+                           "mtllib m.mtl\r\n"
+                           "o first\r\n"
+                           "v 0 0 0 1 0.5 0.25\r\n"
+                           "v\t1 0 0 # a comment after data\r\n"
+                           "v +1 1 0\r\n"
+                           "vt 0.5\r\n"
+                           "vt 0 1 0\r\n"
+                           "vn 0 0 1\r\n"
+                           "usemtl red\r\n"
+                           "f 1/1/1 2/2/1 3//1\r\n"
+                           "g second\r\n"
+                           "s 1\r\n"
+                           "f -3 -1 4\r\n"
+                           "v 0 1e0 0\r\n"
+                           "l 1 2\r\n";
+  const detail::ObjData d = detail::read_obj_bytes("inline.obj", text);
+  ASSERT_EQ(d.positions.size(), 4u);
+  EXPECT_EQ(d.positions[0], Vec3(0, 0, 0));
+  EXPECT_EQ(d.positions[2], Vec3(1, 1, 0));
+  EXPECT_EQ(d.positions[3], Vec3(0, 1, 0));
+  ASSERT_EQ(d.texcoords.size(), 2u);
+  EXPECT_EQ(d.texcoords[0], Eigen::Vector2d(0.5, 0));
+  EXPECT_EQ(d.texcoords[1], Eigen::Vector2d(0, 1));
+  ASSERT_EQ(d.normals.size(), 1u);
+  EXPECT_EQ(d.face_offsets, (std::vector<int>{0, 3, 6}));
+  EXPECT_EQ(d.corner_vertex, (std::vector<int>{0, 1, 2, 0, 2, 3}));
+  EXPECT_EQ(d.corner_texcoord, (std::vector<int>{0, 1, -1, -1, -1, -1}));
+  EXPECT_EQ(d.corner_normal, (std::vector<int>{0, 0, 0, -1, -1, -1}));
+  // Each number as written, to the last bit (17 significant digits).
+  const double x = 0.1234567890123456789, y = -9.87654321e-30, z = 1e300;
+  std::ostringstream exact;
+  exact.precision(17);
+  exact << "v " << x << ' ' << y << ' ' << z << "\nv 0 0 0\nv 1 0 0\nf 1 2 3";
+  EXPECT_EQ(detail::read_obj_bytes("exact.obj", exact.str()).positions[0], Vec3(x, y, z));
+}
+
 TEST(MeshIo, ObjNormalsThatSomeFacesDoNotUseGiveEveryCornerAnExistingSlot) {
   // Two faces use the file's two normals; the other two have none, so their
   // four vertices get slots of their own after the file's.

@@ -77,3 +77,34 @@ TEST(Predicates, Orient3dIsExactNearThePlaneWhereTheQuickDeterminantIsNot) {
   }
   EXPECT_EQ(checked, 20000);
 }
+
+TEST(Predicates, Orient2dAndCollinear3dAreExactNearTheLineWhereTheQuickDeterminantIsNot) {
+  // As above, in the plane: integer points up to 2^30 (products past 53
+  // bits), the third on the line of the first two or one unit off it, and
+  // the exact sign from 128-bit integers. collinear3d gets the same points
+  // lifted into space along a second line, so that each coordinate plane
+  // sees a near-degenerate triple and the quick filter rarely settles it.
+  std::uint64_t state = 7;
+  auto next = [&]() {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<std::int64_t>((state >> 33) % (1LL << 30)) - (1LL << 29);
+  };
+  int off_line = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const std::int64_t a[2] = {next(), next()}, u[2] = {next() / 64, next() / 64};
+    const std::int64_t s = next() % 7, e = next() % 3 - 1;
+    const std::int64_t b[2] = {a[0] + u[0], a[1] + u[1]}, c[2] = {a[0] + s * u[0], a[1] + s * u[1] + e};
+    const __int128 det = static_cast<__int128>(b[0] - a[0]) * (c[1] - a[1]) -
+                         static_cast<__int128>(b[1] - a[1]) * (c[0] - a[0]);
+    const int exact = det > 0 ? 1 : det < 0 ? -1 : 0;
+    auto d = [](std::int64_t x) { return static_cast<double>(x); };
+    ASSERT_EQ(orient2d({d(a[0]), d(a[1])}, {d(b[0]), d(b[1])}, {d(c[0]), d(c[1])}), exact) << trial;
+    // In space: z follows x along the line, so the triple is collinear
+    // exactly when it is in the plane.
+    const Eigen::Vector3d a3(d(a[0]), d(a[1]), d(a[0])), b3(d(b[0]), d(b[1]), d(b[0])), c3(d(c[0]), d(c[1]), d(c[0]));
+    ASSERT_EQ(collinear3d(a3, b3, c3), exact == 0) << trial;
+    off_line += exact != 0;
+  }
+  EXPECT_GT(off_line, 2000); // both kinds were tried
+  EXPECT_GT(20000 - off_line, 2000);
+}

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 
 using namespace curvenet;
@@ -44,6 +45,35 @@ TEST(SurfaceMesh, DoesNotWeldWhereTheResultWouldBeNonManifold) {
   const SurfaceMesh m = make_surface_mesh(r, "touch");
   EXPECT_EQ(m.num_vertices(), 6);
   EXPECT_FALSE(m.notes.empty());
+}
+
+TEST(SurfaceMesh, VerticesNoFaceUsesFollowTheNearestSurfaceVertex) {
+  // A grid with loose points around it (a file may hold a point cloud
+  // beside its mesh): each follows the nearest vertex of the surface, the
+  // lowest-numbered one where several are equally near, as a search of
+  // every vertex finds. Points on grid lines and at cell centres make ties.
+  RawMesh r = test::grid(40, 30);
+  const int grid_vertices = static_cast<int>(r.positions.size());
+  std::uint64_t state = 3;
+  auto unit = [&]() {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  for (int k = 0; k < 3000; ++k) {
+    Vec3 p(unit() * 50 - 5, unit() * 40 - 5, unit() * 2 - 1);
+    if (k % 3 == 0)
+      p = Vec3(std::round(p.x() * 2) / 2, std::round(p.y() * 2) / 2, 0);
+    r.positions.push_back(p);
+  }
+  const SurfaceMesh m = make_surface_mesh(r, "cloud");
+  ASSERT_EQ(m.num_vertices(), grid_vertices);
+  for (int v = grid_vertices; v < static_cast<int>(r.positions.size()); ++v) {
+    int best = 0;
+    for (int w = 1; w < m.num_vertices(); ++w)
+      if ((m.positions[w] - r.positions[v]).squaredNorm() < (m.positions[best] - r.positions[v]).squaredNorm())
+        best = w;
+    ASSERT_EQ(m.input_to_welded[v], best) << "input vertex " << v;
+  }
 }
 
 TEST(SurfaceMesh, RefusesNonFiniteCoordinates) {

@@ -16,9 +16,24 @@ Kernel::Point_3 p3(const Eigen::Vector3d& p) {
 int sign_of(CGAL::Orientation o) {
   return o == CGAL::POSITIVE ? 1 : (o == CGAL::NEGATIVE ? -1 : 0);
 }
+/// The sign of the planar orientation of (a, b, c) where floating point
+/// alone is certain of it, 0 where it is not: Shewchuk's static error bound
+/// for the 2x2 determinant (ccwerrboundA, Robust Adaptive Floating-Point
+/// Geometric Predicates, 1997). Products near the bottom of the double range
+/// could underflow, which the bound does not cover: those are left uncertain.
+int filtered_orient2d(double ax, double ay, double bx, double by, double cx, double cy) {
+  const double left = (ax - cx) * (by - cy), right = (ay - cy) * (bx - cx);
+  const double det = left - right;
+  const double bound = 3.3306690738754716e-16 * (std::abs(left) + std::abs(right));
+  if (!(bound > 1e-280))
+    return 0;
+  return det > bound ? 1 : (-det > bound ? -1 : 0);
+}
 } // namespace
 
 int orient2d(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+  if (const int s = filtered_orient2d(a.x(), a.y(), b.x(), b.y(), c.x(), c.y()))
+    return s;
   return sign_of(CGAL::orientation(p2(a), p2(b), p2(c)));
 }
 
@@ -45,6 +60,13 @@ int orient3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Ve
 }
 
 bool collinear3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  // Collinear in space is collinear in each coordinate plane: one plane
+  // where the points certainly turn settles it without CGAL.
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3;
+    if (filtered_orient2d(a[i], a[j], b[i], b[j], c[i], c[j]) != 0)
+      return false;
+  }
   return CGAL::collinear(p3(a), p3(b), p3(c));
 }
 

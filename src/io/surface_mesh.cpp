@@ -4,13 +4,18 @@
 #include "core/predicates.hpp"
 #include "curvenet/errors.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <sstream>
-#include <cstring>
 
 namespace curvenet {
 
@@ -114,6 +119,7 @@ struct EdgeTable {
   std::vector<std::uint64_t> key; ///< per edge: (smaller vertex << 32) | larger
   std::vector<int> start;         ///< per edge + 1
   std::vector<int> use_face;
+  std::vector<int> use_corner;   ///< the corner the face's side starts at (an index into the face vertices)
   std::vector<char> use_forward; ///< the face runs smaller -> larger
   [[nodiscard]] int num_edges() const { return static_cast<int>(key.size()); }
   [[nodiscard]] int uses(int e) const { return start[e + 1] - start[e]; }
@@ -135,6 +141,7 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
   struct Use {
     int hi;
     int face;
+    int corner;
     char forward;
   };
   int nv = 0;
@@ -155,11 +162,12 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
     const int n = offsets[f + 1] - offsets[f];
     for (int i = 0; i < n; ++i) {
       const int a = verts[offsets[f] + i], b = verts[offsets[f] + (i + 1) % n];
-      all[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<int>(f), static_cast<char>(a < b)};
+      all[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<int>(f), offsets[f] + i, static_cast<char>(a < b)};
     }
   }
   EdgeTable t;
   t.use_face.reserve(all.size());
+  t.use_corner.reserve(all.size());
   t.use_forward.reserve(all.size());
   for (int v = 0; v < nv; ++v) {
     const int b = bucket[v], e = bucket[v + 1];
@@ -172,6 +180,7 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
         t.start.push_back(static_cast<int>(t.use_face.size()));
       }
       t.use_face.push_back(all[i].face);
+      t.use_corner.push_back(all[i].corner);
       t.use_forward.push_back(all[i].forward);
     }
   }
@@ -180,48 +189,35 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
 }
 
 /// Vertices whose incident faces form more than one fan (non-manifold
-/// vertices), given manifold edges: a union-find over the (vertex, face)
-/// corners, joined across every edge two faces share.
+/// vertices), given manifold edges and no face that repeats a vertex: a
+/// union-find over the corners (a corner is one vertex of one face), joined
+/// across every edge two faces share.
 std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, const std::vector<int>& verts,
                                        const EdgeTable& edges) {
-  // Each vertex's faces, sorted (compressed rows).
-  std::vector<int> vstart(static_cast<size_t>(nv) + 1, 0);
-  for (int v : verts)
-    ++vstart[v + 1];
-  for (int v = 0; v < nv; ++v)
-    vstart[v + 1] += vstart[v];
-  std::vector<int> vface(verts.size()), fill(vstart.begin(), vstart.end() - 1);
-  for (size_t f = 0; f + 1 < offsets.size(); ++f)
-    for (int k = offsets[f]; k < offsets[f + 1]; ++k)
-      vface[fill[verts[k]]++] = static_cast<int>(f);
-  for (int v = 0; v < nv; ++v)
-    std::sort(vface.begin() + vstart[v], vface.begin() + vstart[v + 1]);
-  std::vector<int> parent(vface.size());
+  std::vector<int> parent(verts.size());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
     while (parent[x] != x)
       x = parent[x] = parent[parent[x]];
     return x;
   };
-  auto node = [&](int v, int f) {
-    return static_cast<int>(std::lower_bound(vface.begin() + vstart[v], vface.begin() + vstart[v + 1], f) -
-                            vface.begin());
-  };
+  // The corner at vertex v of the side that starts at corner k of face f.
+  auto corner_at = [&](int k, int f, int v) { return verts[k] == v ? k : (k + 1 < offsets[f + 1] ? k + 1 : offsets[f]); };
   for (int e = 0; e < edges.num_edges(); ++e)
     if (edges.uses(e) == 2) {
-      const int f1 = edges.use_face[edges.start[e]], f2 = edges.use_face[edges.start[e] + 1];
+      const int s = edges.start[e];
       for (const int v : {edges.lo(e), edges.hi(e)})
-        parent[find(node(v, f1))] = find(node(v, f2));
+        parent[find(corner_at(edges.use_corner[s], edges.use_face[s], v))] =
+            find(corner_at(edges.use_corner[s + 1], edges.use_face[s + 1], v));
     }
-  // Unions join only nodes of one vertex, so each fan's root is one of its own nodes.
+  // Unions join only corners of one vertex, so each fan's root is one of its own corners.
+  std::vector<int> fans(static_cast<size_t>(nv), 0);
+  for (size_t k = 0; k < verts.size(); ++k)
+    fans[verts[k]] += find(static_cast<int>(k)) == static_cast<int>(k);
   std::vector<int> bad;
-  for (int v = 0; v < nv; ++v) {
-    int fans = 0;
-    for (int k = vstart[v]; k < vstart[v + 1]; ++k)
-      fans += find(k) == k;
-    if (fans > 1)
+  for (int v = 0; v < nv; ++v)
+    if (fans[v] > 1)
       bad.push_back(v);
-  }
   return bad;
 }
 
@@ -261,6 +257,59 @@ std::vector<int> first_at_same_position(const std::vector<Vec3>& positions) {
   }
   return first;
 }
+
+/// The nearest of a set of points to a query point (the lowest index among
+/// equally near ones): a k-d tree by median splits, over a permutation of
+/// the points, searched with pruning. Each query is logarithmic for points
+/// in general position; a loop over every point was quadratic in a file's
+/// loose vertices (60k of them took 90 s).
+class NearestPoint {
+public:
+  explicit NearestPoint(const std::vector<Vec3>& points) : points_(points), order_(points.size()) {
+    std::iota(order_.begin(), order_.end(), 0);
+    build(0, static_cast<int>(order_.size()), 0);
+  }
+  [[nodiscard]] int of(const Vec3& q) const {
+    int best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    search(0, static_cast<int>(order_.size()), 0, q, best, best_d);
+    return best;
+  }
+
+private:
+  void build(int lo, int hi, int axis) {
+    if (hi - lo <= 1)
+      return;
+    const int mid = lo + (hi - lo) / 2;
+    std::nth_element(order_.begin() + lo, order_.begin() + mid, order_.begin() + hi,
+                     [&](int a, int b) { return points_[a][axis] < points_[b][axis]; });
+    build(lo, mid, (axis + 1) % 3);
+    build(mid + 1, hi, (axis + 1) % 3);
+  }
+  void search(int lo, int hi, int axis, const Vec3& q, int& best, double& best_d) const {
+    if (lo >= hi)
+      return;
+    const int mid = lo + (hi - lo) / 2, i = order_[mid];
+    const double d = (points_[i] - q).squaredNorm();
+    if (best < 0 || d < best_d || (d == best_d && i < best)) {
+      best = i;
+      best_d = d;
+    }
+    const double along = q[axis] - points_[i][axis];
+    const int next = (axis + 1) % 3;
+    if (along < 0) {
+      search(lo, mid, next, q, best, best_d);
+      if (!(along * along > best_d))
+        search(mid + 1, hi, next, q, best, best_d);
+    } else {
+      search(mid + 1, hi, next, q, best, best_d);
+      if (!(along * along > best_d))
+        search(lo, mid, next, q, best, best_d);
+    }
+  }
+  const std::vector<Vec3>& points_;
+  std::vector<int> order_;
+};
 
 } // namespace
 
@@ -339,35 +388,49 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   // Degenerate faces (two corners at one point, or no area), which game
   // meshes have, are left out of the surface the engine works on; the
   // output keeps them (it is written on the file's own topology).
-  std::vector<int> offsets{0}, verts;
+  // Each face classified on its own (in parallel), then the survivors kept
+  // in file order.
+  enum : char { kKept = 0, kSamePoint = 1, kNoArea = 2 };
+  std::vector<char> kind(static_cast<size_t>(nraw), kKept);
+  tbb::parallel_for(tbb::blocked_range<int>(0, nraw, 4096), [&](const tbb::blocked_range<int>& range) {
+    std::vector<Vec3> corners;
+    for (int f = range.begin(); f < range.end(); ++f) {
+      const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
+      auto at = [&](int i) -> const Vec3& { return raw.positions[raw.face_vertices[b + i]]; };
+      bool degenerate = false;
+      if (n <= 16) {
+        for (int i = 0; i < n && !degenerate; ++i)
+          for (int j = i + 1; j < n && !degenerate; ++j)
+            degenerate = at(i) == at(j);
+      } else { // a large polygon: its corners' points sorted, not compared pairwise
+        corners.clear();
+        for (int i = 0; i < n; ++i)
+          corners.push_back(at(i));
+        auto less = [](const Vec3& x, const Vec3& y) {
+          return std::lexicographical_compare(x.data(), x.data() + 3, y.data(), y.data() + 3);
+        };
+        std::sort(corners.begin(), corners.end(), less);
+        degenerate = std::adjacent_find(corners.begin(), corners.end()) != corners.end();
+      }
+      bool all_collinear = !degenerate;
+      for (int i = 1; i + 1 < n && all_collinear; ++i)
+        all_collinear = detail::collinear3d(at(0), at(i), at(i + 1));
+      kind[f] = degenerate ? kSamePoint : all_collinear ? kNoArea : kKept;
+    }
+  });
+  std::vector<int> offsets, verts;
+  offsets.reserve(static_cast<size_t>(nraw) + 1);
+  offsets.push_back(0);
+  verts.reserve(raw.face_vertices.size());
   int dropped = 0;
   std::string first_reason; // of the first degenerate face, for a mesh with no other
   for (int f = 0; f < nraw; ++f) {
     const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
-    bool degenerate = false;
-    if (n <= 16) {
-      for (int i = 0; i < n && !degenerate; ++i)
-        for (int j = i + 1; j < n && !degenerate; ++j)
-          degenerate = raw.positions[raw.face_vertices[b + i]] == raw.positions[raw.face_vertices[b + j]];
-    } else { // a large polygon: its corners' points sorted, not compared pairwise
-      std::vector<Vec3> corners;
-      for (int i = 0; i < n; ++i)
-        corners.push_back(raw.positions[raw.face_vertices[b + i]]);
-      auto less = [](const Vec3& x, const Vec3& y) {
-        return std::lexicographical_compare(x.data(), x.data() + 3, y.data(), y.data() + 3);
-      };
-      std::sort(corners.begin(), corners.end(), less);
-      degenerate = std::adjacent_find(corners.begin(), corners.end()) != corners.end();
-    }
-    bool all_collinear = true;
-    for (int i = 1; i + 1 < n && all_collinear && !degenerate; ++i)
-      all_collinear = detail::collinear3d(raw.positions[raw.face_vertices[b]], raw.positions[raw.face_vertices[b + i]],
-                                          raw.positions[raw.face_vertices[b + i + 1]]);
-    if (degenerate || all_collinear) {
+    if (kind[f] != kKept) {
       if (dropped++ == 0)
         first_reason = "face " + std::to_string(f) +
-                       (degenerate ? ": degenerate: two of its corners are one point"
-                                   : ": degenerate: its corners are collinear (no area)");
+                       (kind[f] == kSamePoint ? ": degenerate: two of its corners are one point"
+                                              : ": degenerate: its corners are collinear (no area)");
       continue;
     }
     verts.insert(verts.end(), raw.face_vertices.begin() + b, raw.face_vertices.begin() + b + n);
@@ -465,14 +528,13 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
     if (compact[to_welded[v]] >= 0)
       welded_pos[compact[to_welded[v]]] = raw.positions[v];
   int followers = 0;
+  std::optional<NearestPoint> nearest; // built for the first follower
   for (int v = 0; v < nin; ++v) {
     if (compact[to_welded[v]] >= 0)
       continue;
-    int best = 0;
-    for (int w = 1; w < nw; ++w)
-      if ((welded_pos[w] - raw.positions[v]).squaredNorm() < (welded_pos[best] - raw.positions[v]).squaredNorm())
-        best = w;
-    to_welded[v] = -2 - best; // resolved below
+    if (!nearest)
+      nearest.emplace(welded_pos);
+    to_welded[v] = -2 - nearest->of(raw.positions[v]); // resolved below
     ++followers;
   }
   for (int v = 0; v < nin; ++v)
@@ -485,10 +547,10 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
 
   SurfaceMesh mesh;
   mesh.source = source;
-  mesh.input_to_welded = to_welded;
+  mesh.input_to_welded = std::move(to_welded);
   mesh.positions = std::move(welded_pos);
-  mesh.face_offsets = offsets;
-  mesh.face_vertices = fverts;
+  mesh.face_offsets = std::move(offsets);
+  mesh.face_vertices = std::move(fverts);
   if (dropped > 0)
     mesh.notes.push_back(
         "left out " + std::to_string(dropped) +
