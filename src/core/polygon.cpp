@@ -8,16 +8,27 @@
 namespace curvenet::detail {
 
 std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vector3d>& corners) {
+  std::vector<std::array<int, 3>> tris;
+  triangulate_polygon(corners, tris);
+  return tris;
+}
+
+void triangulate_polygon(std::span<const Eigen::Vector3d> corners, std::vector<std::array<int, 3>>& tris) {
+  tris.clear();
   const int n = static_cast<int>(corners.size());
-  if (n == 3)
-    return {{0, 1, 2}};
+  if (n == 3) {
+    tris.push_back({0, 1, 2});
+    return;
+  }
   Eigen::Vector3d normal = Eigen::Vector3d::Zero(); // Newell
   for (int i = 0; i < n; ++i)
     normal += corners[i].cross(corners[(i + 1) % n]);
   normal.normalize();
   const Eigen::Vector3d axis = std::abs(normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
   const Eigen::Vector3d u = normal.cross(axis).normalized(), w = normal.cross(u);
-  std::vector<Eigen::Vector2d> p2(n);
+  Eigen::Vector2d small[8]; // the common polygons need no allocation
+  std::vector<Eigen::Vector2d> large(n > 8 ? n : 0);
+  Eigen::Vector2d* p2 = n > 8 ? large.data() : small;
   for (int i = 0; i < n; ++i)
     p2[i] = {corners[i].dot(u), corners[i].dot(w)};
   if (n == 4) {
@@ -26,15 +37,20 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vec
     const bool split02 = orient2d(p2[0], p2[1], p2[2]) > 0 && orient2d(p2[0], p2[2], p2[3]) > 0;
     const bool split13 = orient2d(p2[1], p2[2], p2[3]) > 0 && orient2d(p2[1], p2[3], p2[0]) > 0;
     const bool shorter02 = (corners[0] - corners[2]).squaredNorm() <= (corners[1] - corners[3]).squaredNorm();
-    if (split02 && (!split13 || shorter02))
-      return {{0, 1, 2}, {0, 2, 3}};
-    if (split13)
-      return {{1, 2, 3}, {1, 3, 0}};
+    if (split02 && (!split13 || shorter02)) {
+      tris.push_back({0, 1, 2});
+      tris.push_back({0, 2, 3});
+      return;
+    }
+    if (split13) {
+      tris.push_back({1, 2, 3});
+      tris.push_back({1, 3, 0});
+      return;
+    }
   }
   std::vector<int> ring(n);
   for (int i = 0; i < n; ++i)
     ring[i] = i;
-  std::vector<std::array<int, 3>> tris;
   while (ring.size() > 3) {
     const int m = static_cast<int>(ring.size());
     int ear = -1;
@@ -61,7 +77,6 @@ std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vec
     ring.erase(ring.begin() + ear);
   }
   tris.push_back({ring[0], ring[1], ring[2]});
-  return tris;
 }
 
 TriClosest closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <span>
 #include <vector>
 
 namespace curvenet::detail {
@@ -16,6 +17,8 @@ namespace curvenet::detail {
 /// planar enough to have a clean ear at some step gets its first corner cut
 /// there.
 std::vector<std::array<int, 3>> triangulate_polygon(const std::vector<Eigen::Vector3d>& corners);
+/// The same, into `tris` (cleared first), for loops over many faces.
+void triangulate_polygon(std::span<const Eigen::Vector3d> corners, std::vector<std::array<int, 3>>& tris);
 
 /// Closest point on triangle (a, b, c) to p, with its barycentric
 /// coordinates (exact zeros where the point is clamped to a side or corner).

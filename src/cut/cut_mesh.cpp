@@ -191,6 +191,12 @@ void CutMesh::set_tag(Halfedge h, CurveTag t) {
 
 std::vector<Halfedge> CutMesh::face_loop(Face f) const {
   std::vector<Halfedge> loop;
+  face_loop(f, loop);
+  return loop;
+}
+
+void CutMesh::face_loop(Face f, std::vector<Halfedge>& loop) const {
+  loop.clear();
   const Halfedge start = face_halfedge_[f.idx];
   Halfedge h = start;
   do {
@@ -199,7 +205,6 @@ std::vector<Halfedge> CutMesh::face_loop(Face f) const {
     if (static_cast<int>(loop.size()) > num_halfedges())
       throw TopologyError("face loop does not close");
   } while (h != start);
-  return loop;
 }
 
 std::vector<Halfedge> CutMesh::outgoing(Vertex v) const {
@@ -219,8 +224,15 @@ std::vector<Halfedge> CutMesh::outgoing(Vertex v) const {
 
 Eigen::Vector3d CutMesh::face_normal(Face f) const {
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
-  for (Halfedge h : face_loop(f))
+  const Halfedge start = face_halfedge_[f.idx];
+  Halfedge h = start;
+  int steps = 0;
+  do { // the loop walked in place (face_loop would allocate)
     n += position(from(h)).cross(position(to(h)));
+    h = next(h);
+    if (++steps > num_halfedges())
+      throw TopologyError("face loop does not close");
+  } while (h != start);
   return n;
 }
 

@@ -85,6 +85,8 @@ public:
 
   /// The half-edges of a face's loop, starting at halfedge(f).
   [[nodiscard]] std::vector<Halfedge> face_loop(Face f) const;
+  /// The same, into `loop` (cleared first), for loops over many faces.
+  void face_loop(Face f, std::vector<Halfedge>& loop) const;
   /// Outgoing half-edges of a vertex, by rotation (twin, next).
   [[nodiscard]] std::vector<Halfedge> outgoing(Vertex v) const;
   [[nodiscard]] double face_area(Face f) const;

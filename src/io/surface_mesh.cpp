@@ -136,39 +136,42 @@ std::uint64_t edge_key(int a, int b) {
 EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& verts) {
   // Every face side bucketed by its smaller vertex (a counting sort: linear,
   // no comparisons), then each small bucket ordered by the larger vertex;
-  // sides enter their bucket in face order and the insertion sort is
-  // stable, so each edge's uses stay in face order.
+  // sides enter their bucket in corner order and the insertion sort is
+  // stable, so each edge's uses stay in face order. A side is its larger
+  // vertex and its corner (8 bytes: the scatter into buckets is what costs).
   struct Use {
     int hi;
-    int face;
     int corner;
-    char forward;
   };
   int nv = 0;
   for (int v : verts)
     nv = std::max(nv, v + 1);
-  std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
   const size_t nf = offsets.empty() ? 0 : offsets.size() - 1;
-  for (size_t f = 0; f < nf; ++f) {
-    const int n = offsets[f + 1] - offsets[f];
-    for (int i = 0; i < n; ++i)
-      ++bucket[std::min(verts[offsets[f] + i], verts[offsets[f] + (i + 1) % n]) + 1];
-  }
+  std::vector<int> corner_face(verts.size()), next(verts.size());
+  for (size_t f = 0; f < nf; ++f)
+    for (int k = offsets[f]; k < offsets[f + 1]; ++k) {
+      corner_face[k] = static_cast<int>(f);
+      next[k] = k + 1 < offsets[f + 1] ? k + 1 : offsets[f];
+    }
+  std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
+  for (size_t k = 0; k < verts.size(); ++k)
+    ++bucket[std::min(verts[k], verts[next[k]]) + 1];
   for (int v = 0; v < nv; ++v)
     bucket[v + 1] += bucket[v];
   std::vector<Use> all(verts.size());
-  std::vector<int> fill(bucket.begin(), bucket.end() - 1);
-  for (size_t f = 0; f < nf; ++f) {
-    const int n = offsets[f + 1] - offsets[f];
-    for (int i = 0; i < n; ++i) {
-      const int a = verts[offsets[f] + i], b = verts[offsets[f] + (i + 1) % n];
-      all[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<int>(f), offsets[f] + i, static_cast<char>(a < b)};
+  {
+    std::vector<int> fill(bucket.begin(), bucket.end() - 1);
+    for (size_t k = 0; k < verts.size(); ++k) {
+      const int a = verts[k], b = verts[next[k]];
+      all[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<int>(k)};
     }
   }
   EdgeTable t;
-  t.use_face.reserve(all.size());
-  t.use_corner.reserve(all.size());
-  t.use_forward.reserve(all.size());
+  t.key.reserve(all.size() / 2 + 1);
+  t.start.reserve(all.size() / 2 + 2);
+  t.use_face.resize(all.size());
+  t.use_corner.resize(all.size());
+  t.use_forward.resize(all.size());
   for (int v = 0; v < nv; ++v) {
     const int b = bucket[v], e = bucket[v + 1];
     for (int i = b + 1; i < e; ++i) // insertion sort by the larger vertex (stable)
@@ -177,14 +180,15 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
     for (int i = b; i < e; ++i) {
       if (i == b || all[i].hi != all[i - 1].hi) {
         t.key.push_back(edge_key(v, all[i].hi));
-        t.start.push_back(static_cast<int>(t.use_face.size()));
+        t.start.push_back(i);
       }
-      t.use_face.push_back(all[i].face);
-      t.use_corner.push_back(all[i].corner);
-      t.use_forward.push_back(all[i].forward);
+      const int k = all[i].corner;
+      t.use_face[i] = corner_face[k];
+      t.use_corner[i] = k;
+      t.use_forward[i] = static_cast<char>(verts[k] == v); // the side runs from its smaller vertex
     }
   }
-  t.start.push_back(static_cast<int>(t.use_face.size()));
+  t.start.push_back(static_cast<int>(all.size()));
   return t;
 }
 

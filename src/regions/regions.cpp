@@ -80,6 +80,7 @@ RegionResult find_regions(const CutMesh& mesh, const std::vector<std::string>& p
   std::vector<int> piece(nf, -1);
   std::vector<double> area;
   std::vector<int> piece_component;
+  std::vector<Halfedge> loop; // one face's, reused
   for (int s = 0; s < nf; ++s) {
     if (piece[s] >= 0)
       continue;
@@ -92,7 +93,8 @@ RegionResult find_regions(const CutMesh& mesh, const std::vector<std::string>& p
       const Face f(stack.back());
       stack.pop_back();
       area[id] += mesh.face_area(f);
-      for (Halfedge h : mesh.face_loop(f)) {
+      mesh.face_loop(f, loop);
+      for (Halfedge h : loop) {
         if (mesh.tag(h).is_curve())
           continue; // a barrier
         const Face g = mesh.face(CutMesh::twin(h));
@@ -107,10 +109,12 @@ RegionResult find_regions(const CutMesh& mesh, const std::vector<std::string>& p
   std::vector<char> outside(npieces, 0);
   if (coverage == Coverage::Local) {
     // Pieces that reach the mesh boundary are not enclosed by the net.
-    for (int f = 0; f < nf; ++f)
-      for (Halfedge h : mesh.face_loop(Face(f)))
+    for (int f = 0; f < nf; ++f) {
+      mesh.face_loop(Face(f), loop);
+      for (Halfedge h : loop)
         if (!mesh.tag(h).is_curve() && mesh.is_boundary(CutMesh::twin(h)))
           outside[piece[f]] = 1;
+    }
     std::set<int> open_component;
     for (int p = 0; p < npieces; ++p)
       if (outside[p])
@@ -145,7 +149,8 @@ RegionResult find_regions(const CutMesh& mesh, const std::vector<std::string>& p
       continue;
     }
     out.regions[r].faces++;
-    for (Halfedge h : mesh.face_loop(Face(f))) {
+    mesh.face_loop(Face(f), loop);
+    for (Halfedge h : loop) {
       const CurveTag& t = mesh.tag(h);
       if (!t.is_curve())
         continue;

@@ -43,22 +43,26 @@ struct QueryData {
   double scale = 1; ///< mesh units per Embree unit
 };
 
-bool point_query(RTCPointQueryFunctionArguments* args) {
-  auto* d = static_cast<QueryData*>(args->userPtr);
-  const int t = static_cast<int>(args->primID);
-  const auto& c = d->mesh->tri(t);
-  const TriClosest r =
-      closest_on_triangle(d->q, d->mesh->position(c[0]), d->mesh->position(c[1]), d->mesh->position(c[2]));
-  const double dist = (r.point - d->q).norm();
-  if (dist < d->best || (dist == d->best && t < d->tri)) {
-    d->best = dist;
-    d->tri = t;
-    d->hit = r;
+/// Triangle t as a candidate of the query: kept when nearer (or as near and
+/// lower in index), and then the search radius shrinks to it.
+bool point_query_triangle(QueryData& d, int t, float& radius) {
+  const auto& c = d.mesh->tri(t);
+  const TriClosest r = closest_on_triangle(d.q, d.mesh->position(c[0]), d.mesh->position(c[1]), d.mesh->position(c[2]));
+  const double dist = (r.point - d.q).norm();
+  if (dist < d.best || (dist == d.best && t < d.tri)) {
+    d.best = dist;
+    d.tri = t;
+    d.hit = r;
     // Embree's boxes are in float: keep a little slack so no closer triangle is culled.
-    args->query->radius = static_cast<float>(dist / d->scale + d->slack);
+    radius = static_cast<float>(dist / d.scale + d.slack);
     return true;
   }
   return false;
+}
+
+bool point_query(RTCPointQueryFunctionArguments* args) {
+  return point_query_triangle(*static_cast<QueryData*>(args->userPtr), static_cast<int>(args->primID),
+                              args->query->radius);
 }
 } // namespace
 
@@ -72,13 +76,20 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
     pairs.emplace_back(edge_ends_[e][1], e);
   }
   vertex_edges_ = Adjacency::build(mesh.num_vertices(), pairs);
-  tri_.reserve(2 * static_cast<size_t>(mesh.num_faces()));
+  // A triangle per corner beyond the second: reserved once.
+  const size_t triangles = mesh.face_vertices.size() - 2 * static_cast<size_t>(mesh.num_faces());
+  tri_.reserve(triangles);
+  tri_face_.reserve(triangles);
+  side_edge_.reserve(triangles);
+  nbr_.reserve(triangles);
   // A face's diagonals pair up within that face: (a, b) -> (tri, side).
   std::vector<std::pair<std::pair<int, int>, std::pair<int, int>>> diagonal;
   std::vector<int> corner, edge;
   std::vector<Vec3> pts;
+  std::vector<Halfedge> loop;
+  std::vector<std::array<int, 3>> tris;
   for (int f = 0; f < mesh.num_faces(); ++f) {
-    const std::vector<Halfedge> loop = cut.face_loop(Face(f));
+    cut.face_loop(Face(f), loop);
     const int n = static_cast<int>(loop.size());
     corner.resize(n);
     edge.resize(n);
@@ -89,7 +100,7 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) 
       pts[i] = mesh.positions[corner[i]];
     }
     diagonal.clear();
-    const auto tris = triangulate_polygon(pts); // polygon-local corner indices
+    triangulate_polygon(pts, tris); // polygon-local corner indices
     for (const auto& lt : tris) {
       const int t = static_cast<int>(tri_.size());
       tri_.push_back({corner[lt[0]], corner[lt[1]], corner[lt[2]]});
@@ -269,11 +280,21 @@ TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
   query.z = static_cast<float>(u.z());
   query.time = 0.f;
   query.radius = std::numeric_limits<float>::infinity();
+  // Queries come in runs along a curve: the triangle this thread found last
+  // bounds the distance from the start, so the search skips most of the
+  // tree. The answer does not depend on it (the nearest, the lowest index
+  // among equally near ones, within the bound).
+  thread_local const TraceMesh* last_mesh = nullptr;
+  thread_local int last_tri = -1;
+  if (last_mesh == this && last_tri >= 0 && last_tri < num_triangles())
+    point_query_triangle(data, last_tri, query.radius);
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);
   rtcPointQuery(bvh_->scene, &query, &context, nullptr, &data);
   if (data.tri < 0)
     throw EmbedError("closest point: the surface has no triangle");
+  last_mesh = this;
+  last_tri = data.tri;
   return {data.tri, data.hit.point, data.hit.bary};
 }
 
