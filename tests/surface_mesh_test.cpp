@@ -137,6 +137,59 @@ TEST(SurfaceMesh, RepairsInconsistentOrientationAndSaysSo) {
   EXPECT_NE(m.notes[0].find("reversed 1 faces"), std::string::npos);
 }
 
+TEST(SurfaceMesh, OrientationFollowsTheMajorityOfEachComponent) {
+  // Two grids apart: in the first, three of four quads reversed (the one
+  // left is the minority); in the second, none. Each component keeps the
+  // way most of its faces run: the first grid turns over, the second not.
+  RawMesh r = test::grid(2, 2);
+  const RawMesh second = test::grid(2, 2);
+  const int n = static_cast<int>(r.positions.size());
+  for (const auto& p : second.positions)
+    r.positions.push_back(p + Vec3(10, 0, 0));
+  for (size_t f = 0; f + 1 < second.face_offsets.size(); ++f) {
+    std::vector<int> c(second.face_vertices.begin() + second.face_offsets[f],
+                       second.face_vertices.begin() + second.face_offsets[f + 1]);
+    for (int& v : c)
+      v += n;
+    r.add_face(c);
+  }
+  for (int f = 1; f < 4; ++f)
+    std::reverse(r.face_vertices.begin() + r.face_offsets[f], r.face_vertices.begin() + r.face_offsets[f + 1]);
+  const SurfaceMesh m = make_surface_mesh(r, "majority");
+  ASSERT_EQ(m.notes.size(), 1u);
+  EXPECT_NE(m.notes[0].find("reversed 1 faces"), std::string::npos) << m.notes[0];
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const auto c = m.face(f);
+    const double z = (m.positions[c[1]] - m.positions[c[0]]).cross(m.positions[c[2]] - m.positions[c[1]]).z();
+    EXPECT_EQ(z > 0, f >= 4) << "face " << f << " runs against its component's majority";
+  }
+}
+
+TEST(SurfaceMesh, RefusesASurfaceThatCannotBeOriented) {
+  // A Moebius strip: 12 quads around, the last joined to the first with a
+  // half twist.
+  RawMesh r;
+  const int n = 12;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * 3.14159265358979 * i / n, t = a / 2;
+    const Vec3 centre(std::cos(a), std::sin(a), 0), out(std::cos(a) * std::cos(t), std::sin(a) * std::cos(t), std::sin(t));
+    r.positions.push_back(centre - 0.3 * out);
+    r.positions.push_back(centre + 0.3 * out);
+  }
+  for (int i = 0; i < n; ++i) {
+    const int a = 2 * i, b = 2 * i + 1;
+    const int c = i + 1 < n ? 2 * (i + 1) + 1 : 0, d = i + 1 < n ? 2 * (i + 1) : 1; // the twist swaps the sides
+    r.add_face(std::vector<int>{a, b, c, d});
+  }
+  try {
+    make_surface_mesh(r, "moebius.obj");
+    FAIL() << "a Moebius strip was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "moebius.obj");
+    EXPECT_NE(std::string(e.what()).find("not orientable"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SurfaceMesh, HandGltfWeldsIntoTheClosedExampleMesh) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -147,24 +147,23 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
   for (int v : verts)
     nv = std::max(nv, v + 1);
   const size_t nf = offsets.empty() ? 0 : offsets.size() - 1;
-  std::vector<int> corner_face(verts.size()), next(verts.size());
+  std::vector<int> corner_face(verts.size());
+  std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
   for (size_t f = 0; f < nf; ++f)
     for (int k = offsets[f]; k < offsets[f + 1]; ++k) {
       corner_face[k] = static_cast<int>(f);
-      next[k] = k + 1 < offsets[f + 1] ? k + 1 : offsets[f];
+      ++bucket[std::min(verts[k], verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]) + 1];
     }
-  std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
-  for (size_t k = 0; k < verts.size(); ++k)
-    ++bucket[std::min(verts[k], verts[next[k]]) + 1];
   for (int v = 0; v < nv; ++v)
     bucket[v + 1] += bucket[v];
   std::vector<Use> all(verts.size());
   {
     std::vector<int> fill(bucket.begin(), bucket.end() - 1);
-    for (size_t k = 0; k < verts.size(); ++k) {
-      const int a = verts[k], b = verts[next[k]];
-      all[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<int>(k)};
-    }
+    for (size_t f = 0; f < nf; ++f)
+      for (int k = offsets[f]; k < offsets[f + 1]; ++k) {
+        const int a = verts[k], b = verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]];
+        all[fill[std::min(a, b)]++] = {std::max(a, b), k};
+      }
   }
   EdgeTable t;
   t.key.reserve(all.size() / 2 + 1);
@@ -314,6 +313,77 @@ private:
   const std::vector<Vec3>& points_;
   std::vector<int> order_;
 };
+
+/// Makes every component's faces run one way, the way most of them run.
+/// Returns how many faces were reversed. Where every edge two faces share
+/// is run in opposite directions, as in most files, nothing is searched.
+/// \throw InputError for a component that cannot be oriented.
+int orient_consistently(SurfaceMesh& mesh, const EdgeTable& edges) {
+  const int nf = mesh.num_faces();
+  bool consistent = true;
+  for (int e = 0; e < edges.num_edges() && consistent; ++e)
+    consistent = edges.uses(e) != 2 || edges.use_forward[edges.start[e]] != edges.use_forward[edges.start[e] + 1];
+  if (consistent)
+    return 0;
+  // Each face's neighbours across its manifold edges, with whether the two
+  // run the edge the same way (compressed rows).
+  std::vector<int> adj_start(static_cast<size_t>(nf) + 1, 0);
+  for (int e = 0; e < edges.num_edges(); ++e)
+    if (edges.uses(e) == 2) {
+      ++adj_start[edges.use_face[edges.start[e]] + 1];
+      ++adj_start[edges.use_face[edges.start[e] + 1] + 1];
+    }
+  for (int f = 0; f < nf; ++f)
+    adj_start[f + 1] += adj_start[f];
+  std::vector<std::pair<int, bool>> adj(static_cast<size_t>(adj_start[nf])); // neighbour, same-direction use
+  {
+    std::vector<int> fill(adj_start.begin(), adj_start.end() - 1);
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) == 2) {
+        const int k = edges.start[e], f = edges.use_face[k], g = edges.use_face[k + 1];
+        const bool conflict = edges.use_forward[k] == edges.use_forward[k + 1];
+        adj[fill[f]++] = {g, conflict};
+        adj[fill[g]++] = {f, conflict};
+      }
+  }
+  std::vector<int> flip(nf, -1);
+  int flipped = 0;
+  std::vector<int> members; // of one component, in the order reached
+  for (int s = 0; s < nf; ++s) {
+    if (flip[s] >= 0)
+      continue;
+    flip[s] = 0;
+    members.assign(1, s);
+    for (size_t next = 0; next < members.size(); ++next) {
+      const int f = members[next];
+      for (int a = adj_start[f]; a < adj_start[f + 1]; ++a) {
+        const auto [g, conflict] = adj[a];
+        const int want = flip[f] ^ static_cast<int>(conflict);
+        if (flip[g] < 0) {
+          flip[g] = want;
+          members.push_back(g);
+        } else if (flip[g] != want) {
+          throw InputError(mesh.source, "face " + std::to_string(g),
+                           "the surface is not orientable (a Moebius-like component)");
+        }
+      }
+    }
+    int count = 0;
+    for (int f : members)
+      count += flip[f];
+    // Keep the majority orientation of the component.
+    if (2 * count > static_cast<int>(members.size()))
+      for (int f : members)
+        flip[f] ^= 1;
+    for (int f : members)
+      flipped += flip[f];
+  }
+  for (int f = 0; f < nf; ++f)
+    if (flip[f])
+      std::reverse(mesh.face_vertices.begin() + mesh.face_offsets[f],
+                   mesh.face_vertices.begin() + mesh.face_offsets[f + 1]);
+  return flipped;
+}
 
 } // namespace
 
@@ -472,7 +542,7 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
       to_welded[v] = id_of_rep[r];
     }
     fverts.resize(verts.size());
-    bool same = next == nin; // nothing welded: ids in order of first occurrence are the input's
+    const bool same = next == nin; // nothing welded: ids in order of first occurrence are the input's
     for (size_t k = 0; k < fverts.size(); ++k)
       fverts[k] = to_welded[verts[k]];
     if (!same || round > 0)
@@ -482,7 +552,7 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
     for (int e = 0; e < edges.num_edges(); ++e)
       if (edges.uses(e) > 2)
         unweld[edges.lo(e)] = unweld[edges.hi(e)] = any = true;
-    for (int f = 0; f < nf; ++f) { // a weld that collapses a face
+    for (int f = 0; f < nf && !same; ++f) { // a weld that collapses a face (none without a weld)
       const int b = offsets[f], n = offsets[f + 1] - b;
       for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j)
@@ -570,66 +640,9 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   // Orientation: make every component consistent with its lowest face.
   if (renumbered)
     edges = edge_table(mesh.face_offsets, mesh.face_vertices);
-  // Each face's neighbours across its manifold edges, with whether the two
-  // run the edge the same way (compressed rows).
-  std::vector<int> adj_start(static_cast<size_t>(nf) + 1, 0);
-  for (int e = 0; e < edges.num_edges(); ++e)
-    if (edges.uses(e) == 2) {
-      ++adj_start[edges.use_face[edges.start[e]] + 1];
-      ++adj_start[edges.use_face[edges.start[e] + 1] + 1];
-    }
-  for (int f = 0; f < nf; ++f)
-    adj_start[f + 1] += adj_start[f];
-  std::vector<std::pair<int, bool>> adj(static_cast<size_t>(adj_start[nf])); // neighbour, same-direction use
-  {
-    std::vector<int> fill(adj_start.begin(), adj_start.end() - 1);
-    for (int e = 0; e < edges.num_edges(); ++e)
-      if (edges.uses(e) == 2) {
-        const int k = edges.start[e], f = edges.use_face[k], g = edges.use_face[k + 1];
-        const bool conflict = edges.use_forward[k] == edges.use_forward[k + 1];
-        adj[fill[f]++] = {g, conflict};
-        adj[fill[g]++] = {f, conflict};
-      }
-  }
-  std::vector<int> flip(nf, -1);
-  int flipped = 0;
-  std::vector<int> members; // of one component, in the order reached
-  for (int s = 0; s < nf; ++s) {
-    if (flip[s] >= 0)
-      continue;
-    flip[s] = 0;
-    members.assign(1, s);
-    for (size_t next = 0; next < members.size(); ++next) {
-      const int f = members[next];
-      for (int a = adj_start[f]; a < adj_start[f + 1]; ++a) {
-        const auto [g, conflict] = adj[a];
-        const int want = flip[f] ^ static_cast<int>(conflict);
-        if (flip[g] < 0) {
-          flip[g] = want;
-          members.push_back(g);
-        } else if (flip[g] != want) {
-          throw InputError(source, "face " + std::to_string(g),
-                           "the surface is not orientable (a Moebius-like component)");
-        }
-      }
-    }
-    int count = 0;
-    for (int f : members)
-      count += flip[f];
-    // Keep the majority orientation of the component.
-    if (2 * count > static_cast<int>(members.size()))
-      for (int f : members)
-        flip[f] ^= 1;
-    for (int f : members)
-      flipped += flip[f];
-  }
-  if (flipped > 0) {
-    for (int f = 0; f < nf; ++f)
-      if (flip[f])
-        std::reverse(mesh.face_vertices.begin() + mesh.face_offsets[f],
-                     mesh.face_vertices.begin() + mesh.face_offsets[f + 1]);
+  const int flipped = orient_consistently(mesh, edges);
+  if (flipped > 0)
     mesh.notes.push_back("repaired inconsistent orientation: reversed " + std::to_string(flipped) + " faces");
-  }
   return mesh;
 }
 
