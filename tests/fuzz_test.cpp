@@ -383,6 +383,33 @@ TEST(Fuzz, GeneratedFaultsOfEveryClassAreReadOrRefusedInOneLine) {
         ".cnrig.json", [](const std::string& p) { read_rig(p); }, "out and back", refused);
     ++cases;
   }
+  // Work that grows faster than the file: a grid with loose vertices
+  // beside it (no face uses them; each follows its nearest surface vertex).
+  // A search of every vertex for each took 90 s for 60k of them (this
+  // case: about 6e9 distances); surface_mesh_test checks the answer.
+  {
+    std::ostringstream obj;
+    obj.precision(17);
+    const int side = 200;
+    for (int j = 0; j <= side; ++j)
+      for (int i = 0; i <= side; ++i)
+        obj << "v " << i << ' ' << j << " 0\n";
+    for (int k = 0; k < 150000; ++k)
+      obj << "v " << uniform(-10, side + 10) << ' ' << uniform(-10, side + 10) << ' ' << uniform(-5, 5) << '\n';
+    for (int j = 0; j < side; ++j)
+      for (int i = 0; i < side; ++i) {
+        const int a = j * (side + 1) + i + 1;
+        obj << "f " << a << ' ' << a + 1 << ' ' << a + side + 2 << ' ' << a + side + 1 << '\n';
+      }
+    expect_read_or_refused(
+        dir, obj.str(), ".obj",
+        [](const std::string& p) {
+          if (load_mesh(p).input_to_welded.size() != 150000 + 201 * 201)
+            throw std::runtime_error("the loose vertices were not all mapped");
+        },
+        "150k loose vertices", refused);
+    ++cases;
+  }
   // A tube and its net scaled alike by 10^k, k from -200 to 200: the same
   // embedding, or refused as out of range in one line.
   for (int k = 0; k < 24; ++k) {
