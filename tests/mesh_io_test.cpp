@@ -115,6 +115,9 @@ TEST(MeshIo, ObjReadsEveryElementWithItsIndicesInFileOrder) {
   exact.precision(17);
   exact << "v " << x << ' ' << y << ' ' << z << "\nv 0 0 0\nv 1 0 0\nf 1 2 3";
   EXPECT_EQ(detail::read_obj_bytes("exact.obj", exact.str()).positions[0], Vec3(x, y, z));
+  // A UTF-8 byte order mark before the first line is not part of it.
+  EXPECT_EQ(detail::read_obj_bytes("bom.obj", "\xEF\xBB\xBFv 1 2 3\nv 0 0 0\nv 1 0 0\nf 1 2 3\n").positions[0],
+            Vec3(1, 2, 3));
 }
 
 TEST(MeshIo, ObjNormalsThatSomeFacesDoNotUseGiveEveryCornerAnExistingSlot) {

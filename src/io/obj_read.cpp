@@ -66,6 +66,8 @@ ObjData read_obj_bytes(const std::string& path, const std::string& bytes) {
   };
   const char* p = bytes.data();
   const char* const end = p + bytes.size();
+  if (bytes.rfind("\xEF\xBB\xBF", 0) == 0)
+    p += 3; // a UTF-8 byte order mark, which some Windows tools write first
   // (No line continuations, as tinyobjloader had none.)
   while (p < end) {
     ++line_no;
