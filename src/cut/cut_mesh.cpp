@@ -47,7 +47,7 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
   for (int f = 0; f < nf; ++f)
     for (int c = mesh.face_offsets[f]; c < mesh.face_offsets[f + 1]; ++c)
       corner_face[c] = f;
-  std::vector<int> group_offset(static_cast<size_t>(nv) + 1, 0), group(corners);
+  std::vector<int> group_offset(static_cast<size_t>(nv) + 1, 0), group(corners), group_hi(corners);
   for (size_t c = 0; c < corners; ++c) {
     const auto [a, b] = corner_ends(c, corner_face[c]);
     ++group_offset[std::min(a, b) + 1];
@@ -58,6 +58,7 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
     std::vector<int> fill(group_offset.begin(), group_offset.end() - 1);
     for (size_t c = 0; c < corners; ++c) {
       const auto [a, b] = corner_ends(c, corner_face[c]);
+      group_hi[fill[std::min(a, b)]] = std::max(a, b); // beside the corner: the scan below reads one run
       group[fill[std::min(a, b)]++] = static_cast<int>(c);
     }
   }
@@ -79,11 +80,9 @@ CutMesh CutMesh::from_surface(const SurfaceMesh& mesh) {
       const int lo = std::min(a, b), hi = std::max(a, b);
       // The first corner of this edge, in face order (corners are numbered so).
       int first = static_cast<int>(corner);
-      for (int g = group_offset[lo]; g < group_offset[lo + 1]; ++g) {
-        const auto [x, y] = corner_ends(static_cast<size_t>(group[g]), corner_face[group[g]]);
-        if (std::max(x, y) == hi && group[g] < first)
+      for (int g = group_offset[lo]; g < group_offset[lo + 1]; ++g)
+        if (group_hi[g] == hi && group[g] < first)
           first = group[g];
-      }
       int e = corner_edge[first];
       if (e < 0) {
         e = m.num_edges();
