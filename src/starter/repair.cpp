@@ -66,6 +66,40 @@ void give_up_join(const StarterContext& c, const std::vector<Ring>& rings, int s
   }
 }
 
+/// Rings that `moved` had displaced (dropped for coming too close to it)
+/// come back where they now keep clear of every ring in play, now that it
+/// has moved or been dropped; then the chains and nodes are made again over
+/// the rings in play. True when one came back.
+bool readmit_displaced(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
+                       std::map<int, std::string>& ringless, int moved, const std::string& how, NetRepairs& st) {
+  std::vector<int> left = st.active();
+  bool back = false;
+  for (size_t i = 0; i < rings.size(); ++i) {
+    Ring& q = rings[i];
+    if (q.active || q.replaced_by != moved || st.dropped.count(static_cast<int>(i)) ||
+        ring_conflict(c, ro, q, rings, left, static_cast<int>(i)) >= 0)
+      continue;
+    q.active = true;
+    q.replaced_by = -1;
+    left.push_back(static_cast<int>(i));
+    back = true;
+    c.say("ring '" + q.id + "' comes back: ring '" + rings[moved].id + "', which it came too close to, " + how);
+    if (q.frac == 1)
+      ringless.erase(q.joint);
+  }
+  if (back) { // chains and nodes again, over the rings left
+    for (int i : st.dropped)
+      rings[i].active = false;
+    st.kept = left;
+    st.dropped.clear();
+    st.parent_ring = chain_rings(c, ro, rings, st.kept);
+    st.join_attempt.clear();
+    st.parent_override.clear();
+    st.tried.clear();
+  }
+  return back;
+}
+
 /// A ring moved along its bone where it keeps clear of the others, or
 /// dropped; rings it had displaced come back where they now keep clear.
 void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
@@ -81,6 +115,7 @@ void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ri
     if (ring_conflict(c, ro, r, rings, others, culprit) < 0) {
       place_nodes(r, ro.nodes_per_ring, ro.first_angle_deg);
       c.say("ring '" + r.id + "' moved along its bone (" + percent(t0) + " to " + percent(r.t) + "): " + failure);
+      readmit_displaced(c, ro, rings, ringless, culprit, "moved", st);
       return;
     }
   r = before;
@@ -91,30 +126,7 @@ void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ri
     ringless[r.joint] = m;
   if (st.dropped.size() == st.kept.size())
     throw EmbedError("starter: could not make a net that embeds: " + failure);
-  std::vector<int> left = st.active();
-  bool back = false;
-  for (size_t i = 0; i < rings.size(); ++i) {
-    Ring& q = rings[i];
-    if (q.active || q.replaced_by != culprit || ring_conflict(c, ro, q, rings, left, static_cast<int>(i)) >= 0)
-      continue;
-    q.active = true;
-    q.replaced_by = -1;
-    left.push_back(static_cast<int>(i));
-    back = true;
-    c.say("ring '" + q.id + "' comes back: ring '" + r.id + "', which it came too close to, is dropped");
-    if (q.frac == 1)
-      ringless.erase(q.joint);
-  }
-  if (back) { // chains and nodes again, over the rings left
-    for (int i : st.dropped)
-      rings[i].active = false;
-    st.kept = left;
-    st.dropped.clear();
-    st.parent_ring = chain_rings(c, ro, rings, st.kept);
-    st.join_attempt.clear();
-    st.parent_override.clear();
-    st.tried.clear();
-  }
+  readmit_displaced(c, ro, rings, ringless, culprit, "is dropped", st);
 }
 
 } // namespace
