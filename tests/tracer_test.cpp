@@ -1,10 +1,14 @@
 // Stage "project and trace": placing points on the surface and walking it.
 
+#include "core/polygon.hpp"
 #include "curvenet/errors.hpp"
 #include "helpers.hpp"
 #include "trace/tracer.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
 
 using namespace curvenet;
 using namespace curvenet::detail;
@@ -77,6 +81,44 @@ TEST(Tracer, ACurveAlongEdgesVisitsTheirVertices) {
       vertices.push_back(p.at.vertex);
   }
   EXPECT_EQ(vertices, (std::vector<int>{5, 6, 7, 8, 9}));
+}
+
+TEST(TraceMesh, NearestIsTheClosestTriangleLowestFirstWhateverCameBefore) {
+  // Every query against a search of every triangle: the nearest distance,
+  // and among equally near triangles (points over grid vertices and edges
+  // are near several) the lowest index. Queries run in an order that walks
+  // and in one that jumps, since a query starts from the last one's answer.
+  Fixture f(test::grid(30, 20, true));
+  std::uint64_t state = 11;
+  auto unit = [&]() {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  std::vector<Vec3> walk, jump;
+  for (int k = 0; k < 600; ++k) {
+    Vec3 p(unit() * 34 - 2, unit() * 24 - 2, unit() * 4 - 2);
+    if (k % 3 == 0) // over a grid vertex, or the middle of an edge
+      p.head<2>() = (p.head<2>() * 2).array().round() / 2;
+    jump.push_back(p);
+    walk.push_back(Vec3(30.0 * k / 600, 10 + 5 * std::sin(k / 30.0), 0.5 * std::cos(k / 7.0)));
+  }
+  for (const auto* queries : {&walk, &jump}) {
+    for (const Vec3& q : *queries) {
+      const TraceMesh::Nearest n = f.tm->nearest(q);
+      int best = -1;
+      double best_d = 0;
+      for (int t = 0; t < f.tm->num_triangles(); ++t) {
+        const auto& c = f.tm->tri(t);
+        const double d = (closest_on_triangle(q, f.tm->position(c[0]), f.tm->position(c[1]), f.tm->position(c[2])).point - q).norm();
+        if (best < 0 || d < best_d) {
+          best = t;
+          best_d = d;
+        }
+      }
+      ASSERT_EQ(n.tri, best) << "query (" << q.transpose() << ")";
+      EXPECT_NEAR((n.point - q).norm(), best_d, 1e-12);
+    }
+  }
 }
 
 TEST(TraceMesh, ARayLandsOnTheFirstSideFacingTheRightWay) {
