@@ -896,6 +896,52 @@ TEST(StarterStages, ARepairGivesUpWhatTheFailureNamesAndStopsWhenNothingIsLeft) 
   EXPECT_THROW(detail::repair_net(t.c, t.rings, found.rings, found.ringless, net, "not ok", st), EmbedError);
 }
 
+TEST(StarterStages, ARingDisplacedByOneTheRepairMovesComesBackWhereItNowKeepsClear) {
+  // The ring below the middle one stands for a ring that clearance dropped
+  // for coming too close to the middle ring. The repair then moves the
+  // middle ring along its bone: the displaced ring comes back, since it now
+  // keeps clear of every ring in play, and the chains are made again.
+  TubeStages t;
+  detail::RingsResult found = detail::candidate_rings(t.c, t.rings);
+  detail::NetRepairs st;
+  st.kept = detail::keep_clear_rings(t.c, t.rings, found.rings, found.ringless);
+  int middle = -1, below = -1;
+  for (int i : st.kept) {
+    if (found.rings[i].joint == 2)
+      middle = i;
+    if (found.rings[i].joint == 1)
+      below = i;
+  }
+  ASSERT_GE(middle, 0);
+  ASSERT_GE(below, 0);
+  found.rings[below].active = false;
+  found.rings[below].replaced_by = middle;
+  st.kept.erase(std::find(st.kept.begin(), st.kept.end(), below));
+  st.parent_ring = detail::chain_rings(t.c, t.rings, found.rings, st.kept);
+  const detail::NetResult net = detail::build_net(
+      t.c, t.net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  std::string arc;
+  for (const auto& [id, who] : net.owner)
+    if (who.first == 'a' && who.second == middle)
+      arc = id;
+  ASSERT_FALSE(arc.empty());
+  const double t0 = found.rings[middle].t;
+  detail::repair_net(t.c, t.rings, found.rings, found.ringless, net, "profile '" + arc + "' crosses another", st);
+  ASSERT_NE(found.rings[middle].t, t0) << "the middle ring was not moved";
+  ASSERT_EQ(st.dropped.count(middle), 0u);
+  EXPECT_TRUE(found.rings[below].active);
+  EXPECT_EQ(std::count(st.kept.begin(), st.kept.end(), below), 1);
+  EXPECT_TRUE(std::any_of(t.said.begin(), t.said.end(), [&](const std::string& m) {
+    return m.find("ring '" + found.rings[below].id + "' comes back") != std::string::npos &&
+           m.find("moved") != std::string::npos;
+  }));
+  // And the net over the rings in play embeds.
+  const detail::NetResult again = detail::build_net(
+      t.c, t.net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+  EXPECT_EQ(again.failure, "");
+  EXPECT_TRUE(embed(t.mesh, again.rig).report().ok);
+}
+
 TEST(StarterStages, EachStageTakesItsOwnOptionsFromTheStartersOptions) {
   StarterOptions o;
   o.nodes_per_ring = 6;
