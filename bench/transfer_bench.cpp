@@ -2,7 +2,8 @@
 // capped quad tube, transferred to a triangulated tube of about 2.5 to 3.5
 // times as many faces (placing, embedding on both, region agreement and the
 // shape distance all included), against embedding the transferred rig on
-// the target alone. Prints medians of 3 from one run, and their ratio.
+// the target alone, the two alternated. Prints medians of 5 from one run,
+// and their ratio.
 //
 //   build/bin/transfer_bench [max_target_faces]
 
@@ -30,6 +31,7 @@ SurfaceMesh tube(int around, int along, int caps, bool triangulate) {
   s.triangulate = triangulate;
   return make_surface_mesh(make_capped_tube(s), "tube");
 }
+constexpr int kRuns = 5;
 } // namespace
 
 int main(int argc, char** argv) {
@@ -41,24 +43,23 @@ int main(int argc, char** argv) {
     const SurfaceMesh from = tube(32 * k, 32 * k, 4 * k, false), to = tube(45 * k, 40 * k, 6 * k, true);
     if (to.num_faces() > max_faces)
       break;
-    std::vector<double> ms;
+    // Alternated, so that a busy moment of a shared machine falls on both.
+    std::vector<double> ms, embed_ms;
     TransferResult r;
-    for (int rep = 0; rep < 3; ++rep) {
-      const double t0 = now_ms();
+    for (int rep = 0; rep < kRuns; ++rep) {
+      double t0 = now_ms();
       r = transfer(net, from, to);
       ms.push_back(now_ms() - t0);
-    }
-    // The yardstick: embedding the transferred rig on the target alone.
-    std::vector<double> embed_ms;
-    for (int rep = 0; rep < 3; ++rep) {
-      const double t0 = now_ms();
+      // The yardstick: embedding the transferred rig on the target alone.
+      t0 = now_ms();
       const Embedding e = embed(to, r.rig);
       embed_ms.push_back(now_ms() - t0);
     }
     std::sort(ms.begin(), ms.end());
     std::sort(embed_ms.begin(), embed_ms.end());
     std::printf("%12d %12d %10d %12.1f %14.2f %16.1f %10.2f %6s\n", from.num_faces(), to.num_faces(),
-                r.report.target.regions, ms[1], 1000 * ms[1] / to.num_faces(), embed_ms[1], ms[1] / embed_ms[1],
+                r.report.target.regions, ms[kRuns / 2], 1000 * ms[kRuns / 2] / to.num_faces(), embed_ms[kRuns / 2],
+                ms[kRuns / 2] / embed_ms[kRuns / 2],
                 r.report.ok ? "yes" : "NO");
   }
   return 0;

@@ -343,6 +343,21 @@ TEST(Transfer, HandNetGoesFromEveryTessellationToEveryOther) {
   }
 }
 
+TEST(Transfer, ARigThatDoesNotLieOnTheSourceIsRefusedForTheSource) {
+  // The source's embedding runs beside the shape distance: its refusal
+  // still reaches the caller as an EmbedError naming what failed.
+  SurfaceMesh moved = test::tube(16, 16, 4, false);
+  for (Vec3& p : moved.positions)
+    p += Vec3(10, 0, 0);
+  const SurfaceMesh tris = test::tube(30, 24, 7, true);
+  try {
+    transfer(make_tube_net(), moved, tris);
+    FAIL() << "accepted a rig that does not lie on its source";
+  } catch (const EmbedError& e) {
+    EXPECT_NE(std::string(e.what()).find("node '"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Transfer, NailedHandIsRefusedCleanly) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -20,6 +20,7 @@
 #include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -46,24 +47,34 @@ std::string percent(double x) {
   return s.str();
 }
 
-/// Which cut face of an embedding holds a point of its input mesh.
+/// Which region of an embedding holds a point of its input mesh.
 class RegionLocator {
 public:
   /// `tm` is the trace mesh of the mesh `e` embeds in.
   RegionLocator(const TraceMesh& tm, const Embedding& e) : mesh_(tm.mesh()), emb_(e), tm_(tm) {
+    // The cut faces of each input face, as one run per input face.
     const CutMesh& cm = e.impl().cut;
-    pieces_.resize(mesh_.num_faces());
+    first_.assign(mesh_.num_faces() + 1, 0);
     for (int f = 0; f < cm.num_faces(); ++f)
-      pieces_[cm.face_origin(Face(f))].push_back(f);
+      ++first_[cm.face_origin(Face(f)) + 1];
+    for (int f = 0; f < mesh_.num_faces(); ++f)
+      first_[f + 1] += first_[f];
+    pieces_.resize(cm.num_faces());
+    std::vector<int> fill(first_.begin(), first_.end() - 1);
+    for (int f = 0; f < cm.num_faces(); ++f)
+      pieces_[fill[cm.face_origin(Face(f))]++] = f;
   }
 
-  /// The region key at the surface point nearest to p ("" outside a local net).
-  std::string key_at(const Vec3& p) const {
+  /// The region (an index into the embedding's region list) at the surface
+  /// point nearest to p; -1 outside a local net.
+  int region_at(const Vec3& p) const {
     const auto n = tm_.nearest(p);
     const int f = tm_.tri_face(n.tri);
     const CutMesh& cm = emb_.impl().cut;
-    int face = pieces_[f].front();
-    if (pieces_[f].size() > 1) {
+    const int* begin = pieces_.data() + first_[f];
+    const int* end = pieces_.data() + first_[f + 1];
+    int face = *begin;
+    if (end - begin > 1) {
       // Point in polygon, in the input face's plane.
       const auto c = mesh_.face(f);
       Vec3 normal = Vec3::Zero();
@@ -73,29 +84,31 @@ public:
       auto to2 = [&](const Vec3& q) { return Eigen::Vector2d(q.dot(u), q.dot(w)); };
       const Eigen::Vector2d q = to2(n.point);
       double best = -1;
-      for (int piece : pieces_[f]) {
+      for (const int* piece = begin; piece != end; ++piece) {
         // Winding via the signed angle sum is robust enough for a sample at a centroid.
-        const auto loop = cm.face_loop(Face(piece));
         double angle = 0;
-        for (Halfedge h : loop) {
+        const Halfedge h0 = cm.halfedge(Face(*piece));
+        for (Halfedge h = h0;;) {
           const Eigen::Vector2d a = to2(cm.position(cm.from(h))) - q, b = to2(cm.position(cm.to(h))) - q;
           angle += std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
+          if ((h = cm.next(h)) == h0)
+            break;
         }
         if (std::abs(angle) > best) {
           best = std::abs(angle);
-          face = piece;
+          face = *piece;
         }
       }
     }
-    const int r = emb_.face_regions()[face];
-    return r < 0 ? std::string() : emb_.report().region_list[r].key();
+    return emb_.face_regions()[face];
   }
 
 private:
   const SurfaceMesh& mesh_;
   const Embedding& emb_;
   const TraceMesh& tm_;
-  std::vector<std::vector<int>> pieces_;
+  std::vector<int> first_;  ///< pieces_[first_[f], first_[f + 1]) are input face f's cut faces
+  std::vector<int> pieces_; ///< cut faces, grouped by input face
 };
 
 /// Places points of the source surface on the target along the source's
@@ -154,7 +167,7 @@ private:
 /// (`mapped`); the last point (the end node) is always kept, and takes back
 /// the kept points it would double back over.
 constexpr int kReplacements = 8;      ///< re-placements of the profiles a target's embedding names
-constexpr int kRegionSamples = 20000; ///< faces per region the agreement is measured on, at most
+constexpr int kRegionSamples = 5000;  ///< faces per region the agreement is measured on, at most
 constexpr double kMinAngle =
     10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
 constexpr double kKeptAngle = 0.5;     ///< a node whose curves keep less of their angle than this is placed again
@@ -611,64 +624,87 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const SurfaceMesh& target_surface = target_cage ? target_cage->limit() : target;
   // The trace meshes: a cage map holds its own; a plain mesh gets one here.
   auto trace_of = [](const SurfaceMesh& m) { return std::make_unique<TraceMesh>(m, CutMesh::from_surface(m)); };
-  const std::unique_ptr<TraceMesh> source_trace = source_cage ? nullptr : trace_of(source);
-  const std::unique_ptr<TraceMesh> target_trace = target_cage ? nullptr : trace_of(target);
+  // Built side by side: most of the building is serial.
+  std::unique_ptr<TraceMesh> source_trace, target_trace;
+  tbb::parallel_invoke(
+      [&] {
+        if (!source_cage)
+          source_trace = trace_of(source);
+      },
+      [&] {
+        if (!target_cage)
+          target_trace = trace_of(target);
+      });
   const TraceMesh& source_placed = source_cage ? source_cage->limit_trace() : *source_trace;
   const TraceMesh& target_placed = target_cage ? target_cage->limit_trace() : *target_trace;
   const TraceMesh& source_located = source_cage ? source_cage->cage_trace() : *source_trace;
-  // A plain mesh is embedded on the trace mesh built here.
-  const Embedding src =
-      source_cage ? embed(source, rig, source_embed) : embed_on(source, *source_trace, rig, source_embed);
-  rep.source = src.report();
-  if (!rep.source.ok)
-    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
-                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
-  SurfaceMesh mapped = source_surface;
-  for (auto& p : mapped.positions)
-    p = apply(source_to_target, p);
-  // Measured at every vertex of each (the corners of its triangles), on
+  // Two lines of work side by side, as most of the embedding is serial:
+  // the source's embedding (a plain mesh on the trace mesh built here),
+  // the placing and the target's embedding; and the shape distance,
+  // measured at every vertex of each (the corners of its triangles), on
   // the trace meshes built for placing where the frames leave the source
   // where it is.
-  const bool same_space = source_to_target.isIdentity(0);
-  const std::unique_ptr<TraceMesh> mapped_trace = same_space ? nullptr : trace_of(mapped);
-  rep.shape =
-      detail::surface_distance(mapped, same_space ? source_placed : *mapped_trace, target_surface, target_placed, 1);
+  std::optional<Embedding> source_embedding, placed;
+  std::string unplaced; // the target's embedding's last refusal, when the placing gives up
+  tbb::parallel_invoke(
+      [&] {
+        source_embedding.emplace(source_cage ? embed(source, rig, source_embed)
+                                             : embed_on(source, *source_trace, rig, source_embed));
+        const Embedding& src = *source_embedding;
+        rep.source = src.report();
+        if (!rep.source.ok)
+          throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
+                           (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
+        // Placed along the source's normals; where the target's embedding
+        // then finds two profiles crossing or a profile straying (a thin
+        // limb of a coarse target, whose few faces the normals cross at
+        // steep angles), the profiles it names go to the target's closest
+        // points instead, a few times over.
+        std::set<std::string> by_closest, ids;
+        for (const Profile& p : rig.profiles)
+          ids.insert(p.id);
+        for (int attempt = 0;; ++attempt) {
+          try {
+            double offset = 0;
+            result.rig = place_on_target(rig, src, source_placed, target_placed, opt,
+                                         source_cage ? &*source_cage : nullptr, target_cage ? &*target_cage : nullptr,
+                                         by_closest, offset);
+            rep.max_node_offset = offset;
+            placed.emplace(target_cage ? embed(target, result.rig, target_embed)
+                                       : embed_on(target, *target_trace, result.rig, target_embed));
+            return;
+          } catch (const EmbedError& e) {
+            const std::string what = e.what();
+            bool more = false;
+            if (attempt < kReplacements && what.rfind("transfer:", 0) != 0)
+              for (const std::string& id : quoted(what))
+                if (ids.count(id))
+                  more |= by_closest.insert(id).second;
+            if (!more) {
+              unplaced = what;
+              return;
+            }
+          }
+        }
+      },
+      [&] {
+        SurfaceMesh mapped = source_surface;
+        for (auto& p : mapped.positions)
+          p = apply(source_to_target, p);
+        const bool same_space = source_to_target.isIdentity(0);
+        const std::unique_ptr<TraceMesh> mapped_trace = same_space ? nullptr : trace_of(mapped);
+        rep.shape = detail::surface_distance(mapped, same_space ? source_placed : *mapped_trace, target_surface,
+                                             target_placed, 1);
+      });
   // A refusal says how far apart the surfaces lie, and, where the
   // skeletons were asked for and not used, why not.
   const std::string apart =
       " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) + " of the diagonal apart, " +
       percent(rep.shape.mean / rep.shape.diagonal) + " on average" +
       (rep.alignment.rfind("frames (", 0) == 0 ? "; lined up by " + rep.alignment : std::string()) + ")";
-
-  // Placed along the source's normals; where the target's embedding then
-  // finds two profiles crossing or a profile straying (a thin limb of a
-  // coarse target, whose few faces the normals cross at steep angles), the
-  // profiles it names go to the target's closest points instead, a few
-  // times over.
-  std::optional<Embedding> placed;
-  std::set<std::string> by_closest, ids;
-  for (const Profile& p : rig.profiles)
-    ids.insert(p.id);
-  for (int attempt = 0;; ++attempt) {
-    try {
-      double offset = 0;
-      result.rig = place_on_target(rig, src, source_placed, target_placed, opt, source_cage ? &*source_cage : nullptr,
-                                   target_cage ? &*target_cage : nullptr, by_closest, offset);
-      rep.max_node_offset = offset;
-      placed.emplace(target_cage ? embed(target, result.rig, target_embed)
-                                 : embed_on(target, *target_trace, result.rig, target_embed));
-      break;
-    } catch (const EmbedError& e) {
-      const std::string what = e.what();
-      bool more = false;
-      if (attempt < kReplacements && what.rfind("transfer:", 0) != 0)
-        for (const std::string& id : quoted(what))
-          if (ids.count(id))
-            more |= by_closest.insert(id).second;
-      if (!more)
-        throw EmbedError(what + apart);
-    }
-  }
+  if (!placed)
+    throw EmbedError(unplaced + apart);
+  const Embedding& src = *source_embedding;
   const Embedding& tgt = *placed;
   rep.target = tgt.report();
   const EmbedReport &a = rep.source, &b = rep.target;
@@ -689,6 +725,19 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   std::vector<std::string> keys(b.region_list.size());
   for (size_t r = 0; r < keys.size(); ++r)
     keys[r] = b.region_list[r].key();
+  // Each region's identity as a number, on both sides; a point outside a
+  // local net has the empty identity.
+  std::map<std::string, int> identity{{"", 0}};
+  auto identity_of = [&](const std::string& key) { return identity.emplace(key, static_cast<int>(identity.size())).first->second; };
+  std::vector<int> target_identity(keys.size()), source_identity(a.region_list.size());
+  for (size_t r = 0; r < keys.size(); ++r)
+    target_identity[r] = identity_of(keys[r]);
+  for (size_t r = 0; r < source_identity.size(); ++r)
+    source_identity[r] = identity_of(a.region_list[r].key());
+  auto source_identity_at = [&](const Vec3& p) {
+    const int r = locate.region_at(p);
+    return r < 0 ? 0 : source_identity[r];
+  };
   // Per cut face, in parallel: its area, and the part of it whose source
   // region has its key. A region of many faces is measured on an even
   // share of them (every k-th, up to kRegionSamples faces), each standing
@@ -726,7 +775,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       if (source_cage)
         at = source_cage->to_cage(at);
       face_area[f].first += stride[r] * area;
-      face_area[f].second += locate.key_at(at) == keys[r] ? stride[r] * area : 0;
+      face_area[f].second += source_identity_at(at) == target_identity[r] ? stride[r] * area : 0;
     }
   });
   double total = 0, agreeing = 0; // summed in face order: the same on any thread count
