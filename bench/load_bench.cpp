@@ -1,6 +1,7 @@
 // Loading at the speed of the parse, and the whole process as a user runs
 // it. On the shared hand refined by midpoint subdivision (the same surface,
-// 146,496 quads as a 6 MB OBJ) and a 1M-face capped tube: the OBJ parse
+// 146,496 quads as a 13 MB OBJ of 17-digit numbers, and as 9 MB of 6-digit
+// ones, as most exporters write) and a 1M-face capped tube: the OBJ parse
 // alone (read_raw_mesh), the load with its validation and welding
 // (load_mesh), and `curvenet embed` as a process, on all cores and on one
 // (taskset), with the hand's starter net (~160 profiles) or the tube's
@@ -51,6 +52,23 @@ void write_obj(const SurfaceMesh& m, const std::string& path) {
   write_file_atomic(path, mesh_to_obj(m.positions, m.face_offsets, m.face_vertices));
 }
 
+/// The same mesh with six significant digits, as most exporters write.
+void write_short_obj(const SurfaceMesh& m, const std::string& path) {
+  std::string text;
+  char line[128];
+  for (const Vec3& p : m.positions) {
+    std::snprintf(line, sizeof line, "v %.6g %.6g %.6g\n", p.x(), p.y(), p.z());
+    text += line;
+  }
+  for (int f = 0; f < m.num_faces(); ++f) {
+    text += 'f';
+    for (const int v : m.face(f))
+      text += ' ' + std::to_string(v + 1);
+    text += '\n';
+  }
+  write_file_atomic(path, text);
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -67,7 +85,10 @@ int main(int argc, char** argv) {
   const std::string hand_gltf = data + "/xr_tools_hand/hand_l.gltf";
   const SurfaceMesh hand = load_mesh(hand_gltf);
   const std::string hand_obj = (dir / "hand_146k.obj").string(), hand_rig = (dir / "hand.cnrig.json").string();
-  write_obj(midpoint_subdivide(hand, 3), hand_obj);
+  const std::string hand_short_obj = (dir / "hand_146k_6_digits.obj").string();
+  const SurfaceMesh refined = midpoint_subdivide(hand, 3);
+  write_obj(refined, hand_obj);
+  write_short_obj(refined, hand_short_obj);
   write_rig(make_starter(hand, load_skinned_mesh(hand_gltf).joints).rig, hand_rig);
   // A capped tube of about 1M triangles and the tube net.
   TubeSpec spec;
@@ -81,7 +102,8 @@ int main(int argc, char** argv) {
 
   std::printf("| mesh | faces | file | parse (read_raw_mesh) | load (load_mesh) | load / parse | curvenet embed, "
               "process, all cores | one core | profiles |\n|---|---|---|---|---|---|---|---|---|\n");
-  for (const auto& [obj, rig] : {std::pair{hand_obj, hand_rig}, std::pair{tube_obj, tube_rig}}) {
+  for (const auto& [obj, rig] :
+       {std::pair{hand_obj, hand_rig}, std::pair{hand_short_obj, hand_rig}, std::pair{tube_obj, tube_rig}}) {
     int faces = 0;
     // Each repetition parses: the process keeps its last parse, which a
     // second read of the file would reuse. Parse and load alternate, so

@@ -128,6 +128,54 @@ TEST(SurfaceMesh, RefusesNonManifoldVertices) {
   }
 }
 
+TEST(SurfaceMesh, RefusesAVertexWhereTwoClosedFansMeet) {
+  // Two closed tetrahedra sharing one vertex index: every edge is shared by
+  // two faces and every vertex has as many edges as faces, so only a walk
+  // around the vertex finds its two fans.
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
+  for (const auto& f : std::vector<std::vector<int>>{
+           {0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 5, 4}, {0, 4, 6}, {0, 6, 5}, {4, 5, 6}})
+    r.add_face(f);
+  try {
+    make_surface_mesh(r, "cones.obj");
+    FAIL() << "accepted two closed fans at vertex 0";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "vertex 0");
+  }
+  // The same with the apex given twice, at one point: the weld is refused, and said so.
+  r.positions.push_back(r.positions[0]);
+  for (int k = 12; k < 24; ++k)
+    if (r.face_vertices[k] == 0)
+      r.face_vertices[k] = 7;
+  const SurfaceMesh m = make_surface_mesh(r, "cones.obj");
+  EXPECT_EQ(m.num_vertices(), 8);
+  EXPECT_EQ(mesh_components(m).size(), 2u);
+  EXPECT_FALSE(m.notes.empty());
+}
+
+TEST(SurfaceMesh, CountsEachEdgeOnceWhateverTheFaceSizes) {
+  // A cube whose faces are a quad, two triangles, a pentagon (a corner on
+  // an edge's middle) and quads: closed, genus 0, so V - E + F = 2 only if
+  // every edge is counted once with both its faces.
+  RawMesh r;
+  r.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}, {0.5, 0, 0}};
+  for (const auto& f : std::vector<std::vector<int>>{{0, 3, 2, 1, 8},
+                                                     {4, 5, 6},
+                                                     {4, 6, 7},
+                                                     {0, 8, 1, 5, 4},
+                                                     {1, 2, 6, 5},
+                                                     {2, 3, 7, 6},
+                                                     {3, 0, 4, 7}})
+    r.add_face(f);
+  const SurfaceMesh m = make_surface_mesh(r, "cube.obj");
+  const auto parts = mesh_components(m);
+  ASSERT_EQ(parts.size(), 1u);
+  EXPECT_TRUE(parts[0].closed);
+  EXPECT_EQ(parts[0].euler, 2); // 9 vertices, 14 edges, 7 faces
+  EXPECT_EQ(parts[0].genus(), 0);
+}
+
 TEST(SurfaceMesh, RepairsInconsistentOrientationAndSaysSo) {
   RawMesh r = test::grid(2, 1);
   // Reverse the second quad.

@@ -87,9 +87,7 @@ template <class F> auto naming_levels_option(const std::string& cage_file, const
   } catch (const InputError& e) {
     if (e.element().rfind("levels ", 0) != 0 || (!cage_file.empty() && e.file() != cage_file))
       throw;
-    const std::string what = e.what(), prefix = e.file() + ": " + e.element() + ": ";
-    throw InputError(e.file(), option + " " + e.element().substr(7),
-                     what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+    throw InputError(e.file(), option + " " + e.element().substr(7), e.reason());
   }
 }
 

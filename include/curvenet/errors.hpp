@@ -23,10 +23,13 @@ public:
   InputError(std::string file, std::string element, const std::string& message);
   [[nodiscard]] const std::string& file() const { return file_; }
   [[nodiscard]] const std::string& element() const { return element_; }
+  /// What is wrong, without the file and the element (to name them otherwise).
+  [[nodiscard]] const std::string& reason() const { return reason_; }
 
 private:
   std::string file_;
   std::string element_;
+  std::string reason_;
 };
 
 /// An embedding stage could not place the net on the surface. The message

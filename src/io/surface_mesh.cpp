@@ -47,7 +47,7 @@ std::string one_line(const std::string& s) {
 
 InputError::InputError(std::string file, std::string element, const std::string& message)
     : Error(one_line(file + ": " + (element.empty() ? "" : element + ": ") + message)), file_(std::move(file)),
-      element_(std::move(element)) {}
+      element_(std::move(element)), reason_(message) {}
 
 void RawMesh::add_face(std::span<const int> corners) {
   face_vertices.insert(face_vertices.end(), corners.begin(), corners.end());
@@ -147,13 +147,21 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
   for (int v : verts)
     nv = std::max(nv, v + 1);
   const size_t nf = offsets.empty() ? 0 : offsets.size() - 1;
-  std::vector<int> corner_face(verts.size());
+  // The face of each corner: by division where every face has as many
+  // corners (a triangle or quad mesh), else from a table.
+  int uniform = nf > 0 ? offsets[1] : 0;
+  for (size_t f = 1; f < nf && uniform; ++f)
+    if (offsets[f + 1] - offsets[f] != uniform)
+      uniform = 0;
+  std::vector<int> corner_face(uniform ? 0 : verts.size());
+  if (!uniform)
+    for (size_t f = 0; f < nf; ++f)
+      std::fill(corner_face.begin() + offsets[f], corner_face.begin() + offsets[f + 1], static_cast<int>(f));
+  auto face_of = [&](int k) { return uniform ? k / uniform : corner_face[k]; };
   std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
   for (size_t f = 0; f < nf; ++f)
-    for (int k = offsets[f]; k < offsets[f + 1]; ++k) {
-      corner_face[k] = static_cast<int>(f);
+    for (int k = offsets[f]; k < offsets[f + 1]; ++k)
       ++bucket[std::min(verts[k], verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]) + 1];
-    }
   for (int v = 0; v < nv; ++v)
     bucket[v + 1] += bucket[v];
   std::vector<Use> all(verts.size());
@@ -182,7 +190,7 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
         t.start.push_back(i);
       }
       const int k = all[i].corner;
-      t.use_face[i] = corner_face[k];
+      t.use_face[i] = face_of(k);
       t.use_corner[i] = k;
       t.use_forward[i] = static_cast<char>(verts[k] == v); // the side runs from its smaller vertex
     }
@@ -493,22 +501,27 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
     }
   });
   std::vector<int> offsets, verts;
-  offsets.reserve(static_cast<size_t>(nraw) + 1);
-  offsets.push_back(0);
-  verts.reserve(raw.face_vertices.size());
   int dropped = 0;
   std::string first_reason; // of the first degenerate face, for a mesh with no other
-  for (int f = 0; f < nraw; ++f) {
-    const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
-    if (kind[f] != kKept) {
-      if (dropped++ == 0)
-        first_reason = "face " + std::to_string(f) +
-                       (kind[f] == kSamePoint ? ": degenerate: two of its corners are one point"
-                                              : ": degenerate: its corners are collinear (no area)");
-      continue;
+  if (raw.face_offsets.front() == 0 && std::all_of(kind.begin(), kind.end(), [](char k) { return k == kKept; })) {
+    offsets = raw.face_offsets; // every face kept: one copy
+    verts.assign(raw.face_vertices.begin(), raw.face_vertices.begin() + raw.face_offsets.back());
+  } else {
+    offsets.reserve(static_cast<size_t>(nraw) + 1);
+    offsets.push_back(0);
+    verts.reserve(raw.face_vertices.size());
+    for (int f = 0; f < nraw; ++f) {
+      const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
+      if (kind[f] != kKept) {
+        if (dropped++ == 0)
+          first_reason = "face " + std::to_string(f) +
+                         (kind[f] == kSamePoint ? ": degenerate: two of its corners are one point"
+                                                : ": degenerate: its corners are collinear (no area)");
+        continue;
+      }
+      verts.insert(verts.end(), raw.face_vertices.begin() + b, raw.face_vertices.begin() + b + n);
+      offsets.push_back(static_cast<int>(verts.size()));
     }
-    verts.insert(verts.end(), raw.face_vertices.begin() + b, raw.face_vertices.begin() + b + n);
-    offsets.push_back(static_cast<int>(verts.size()));
   }
   const int nf = static_cast<int>(offsets.size()) - 1;
   if (nf == 0) {
@@ -541,10 +554,14 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
         id_of_rep[r] = next++;
       to_welded[v] = id_of_rep[r];
     }
-    fverts.resize(verts.size());
     const bool same = next == nin; // nothing welded: ids in order of first occurrence are the input's
-    for (size_t k = 0; k < fverts.size(); ++k)
-      fverts[k] = to_welded[verts[k]];
+    if (same) { // and so the last round: it ends, or refuses the mesh
+      fverts = std::move(verts);
+    } else {
+      fverts.resize(verts.size());
+      for (size_t k = 0; k < fverts.size(); ++k)
+        fverts[k] = to_welded[verts[k]];
+    }
     if (!same || round > 0)
       edges = edge_table(offsets, fverts);
     std::vector<char> unweld(next, 0);
@@ -597,26 +614,31 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   for (size_t w = 0; w < used.size(); ++w)
     if (used[w])
       compact[w] = nw++;
-  std::vector<Vec3> welded_pos(nw);
-  for (int v = 0; v < nin; ++v)
-    if (compact[to_welded[v]] >= 0)
-      welded_pos[compact[to_welded[v]]] = raw.positions[v];
+  std::vector<Vec3> welded_pos;
   int followers = 0;
-  std::optional<NearestPoint> nearest; // built for the first follower
-  for (int v = 0; v < nin; ++v) {
-    if (compact[to_welded[v]] >= 0)
-      continue;
-    if (!nearest)
-      nearest.emplace(welded_pos);
-    to_welded[v] = -2 - nearest->of(raw.positions[v]); // resolved below
-    ++followers;
-  }
-  for (int v = 0; v < nin; ++v)
-    to_welded[v] = to_welded[v] <= -2 ? -2 - to_welded[v] : compact[to_welded[v]];
   bool renumbered = false;
-  for (auto& w : fverts) {
-    renumbered |= compact[w] != w;
-    w = compact[w];
+  if (nw == nin) { // nothing welded and every vertex used: the ids as given
+    welded_pos = raw.positions;
+  } else {
+    welded_pos.resize(nw);
+    for (int v = 0; v < nin; ++v)
+      if (compact[to_welded[v]] >= 0)
+        welded_pos[compact[to_welded[v]]] = raw.positions[v];
+    std::optional<NearestPoint> nearest; // built for the first follower
+    for (int v = 0; v < nin; ++v) {
+      if (compact[to_welded[v]] >= 0)
+        continue;
+      if (!nearest)
+        nearest.emplace(welded_pos);
+      to_welded[v] = -2 - nearest->of(raw.positions[v]); // resolved below
+      ++followers;
+    }
+    for (int v = 0; v < nin; ++v)
+      to_welded[v] = to_welded[v] <= -2 ? -2 - to_welded[v] : compact[to_welded[v]];
+    for (auto& w : fverts) {
+      renumbered |= compact[w] != w;
+      w = compact[w];
+    }
   }
 
   SurfaceMesh mesh;
