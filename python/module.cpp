@@ -1162,6 +1162,15 @@ PYBIND11_MODULE(_curvenet, m) {
           py::arg("mask"),
           "The same layer (its binding shared, nothing solved again) with another mask: one value from 0 to 1 per "
           "input vertex, or None for all of the correction")
+      .def(
+          "region_mask",
+          [](const CurveLayer& l, const std::map<std::string, double>& values, double others) {
+            const std::vector<double> m = l.region_mask(values, others);
+            return py::array_t<double>(static_cast<py::ssize_t>(m.size()), m.data());
+          },
+          py::arg("values"), py::arg("others") = 1.0,
+          "A mask by region, for with_mask: {region key: 0 to 1} (the keys of binding.embedding.report, "
+          "\"profile:L|profile:R\"), every other region `others`; a vertex takes the largest value around it")
       .def_property_readonly(
           "mask",
           [](const CurveLayer& l) {

@@ -45,6 +45,13 @@ void write(const fs::path& p, const std::string& text) {
   std::ofstream(p) << text;
 }
 
+std::string read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
 const char* kRig =
     R"({"format":"curvenet-rig","version":1,"nodes":[{"id":"a","position":[0,0.5,0]},{"id":"b","position":[1,0.5,0]}],
   "profiles":[{"id":"p","from":"a","to":"b","points":[[0,0.5,0],[1,0.5,0]]}]})";
@@ -910,6 +917,28 @@ TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
   write(dir / "bad.mask", "1\n1.5\n");
   r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "bad.mask").string(), dir);
   EXPECT_NE(r.err.find("bad.mask: line 2: expected a number from 0 to 1"), std::string::npos) << r.err;
+  // A mask by region: a key no region has is named, with the mask file.
+  write(dir / "regions.json", R"({"regions": {"nope:L": 0}})");
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("regions.json: region 'nope:L': no region of the net has this key"), std::string::npos)
+      << r.err;
+  write(dir / "regions.json", R"({"regions": {}, "others": 1.5})");
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(), dir);
+  EXPECT_NE(r.err.find("regions.json: /others: expected a number from 0 to 1"), std::string::npos) << r.err;
+  // Every region at 0 is the skin: the same file as the envelope at 0.
+  write(dir / "regions.json", R"({"regions": {}, "others": 0})");
+  r = run("pose " + gltf + " " + rig + " " + pose + " -o " + (dir / "none.obj").string() + " --over-skin --mask " +
+              (dir / "regions.json").string(),
+          dir);
+  EXPECT_EQ(r.code, 0) << r.err;
+  r = run("pose " + gltf + " " + rig + " " + pose + " -o " + (dir / "skin.obj").string() + " --over-skin --envelope 0",
+          dir);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(read(dir / "none.obj").empty());
+  EXPECT_EQ(read(dir / "none.obj"), read(dir / "skin.obj"));
+  fs::remove(dir / "none.obj");
+  fs::remove(dir / "skin.obj");
   r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --binding-cache " + (dir / "c").string(), dir);
   EXPECT_NE(r.err.find("a layer is bound without a binding cache"), std::string::npos) << r.err;
   write(dir / "nope.pose.json",

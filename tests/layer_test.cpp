@@ -20,6 +20,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 
 using namespace curvenet;
 
@@ -36,6 +37,24 @@ struct Hand {
       r.push_back(mesh.positions[w]);
     return r;
   }
+};
+
+/// The tube net over the net's own deformation (no skin), on a capped tube,
+/// with node 0 of its middle ring pulled outwards by 2 % of the diagonal.
+struct PulledTube {
+  SurfaceMesh mesh = make_surface_mesh(make_capped_tube([] {
+                                         TubeSpec spec;
+                                         spec.around = 32;
+                                         spec.along = 40;
+                                         spec.cap_rings = 8;
+                                         return spec;
+                                       }()),
+                                       "tube");
+  Rig rig = make_tube_net();
+  CurveLayer layer = bind_layer(mesh, rig, nullptr);
+  double diag = mesh.bbox_diagonal();
+  Vec3 node = rig.nodes[rig.node_index("ring1_0")].position;
+  NodeOffsets pull{{"ring1_0", 0.02 * diag * Vec3(node.x(), 0, node.z()).normalized()}};
 };
 
 double max_apart(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
@@ -159,16 +178,8 @@ TEST(Layer, ASkinOnAnotherSkeletonIsRefusedNamingTheJoint) {
 TEST(Layer, APulledNodeMovesTheRegionsItsProfilesBoundAndNothingBeyond) {
   // The tube net's middle ring, node 0 pulled outwards by 2 % of the
   // diagonal, at rest and bent: over the net's own deformation.
-  TubeSpec spec;
-  spec.around = 32;
-  spec.along = 40;
-  spec.cap_rings = 8;
-  const SurfaceMesh mesh = make_surface_mesh(make_capped_tube(spec), "tube");
-  const Rig rig = make_tube_net();
-  const CurveLayer layer = bind_layer(mesh, rig, nullptr);
-  const double diag = mesh.bbox_diagonal();
-  const Vec3 node = rig.nodes[rig.node_index("ring1_0")].position;
-  NodeOffsets pull{{"ring1_0", 0.02 * diag * Vec3(node.x(), 0, node.z()).normalized()}};
+  const PulledTube tube;
+  const auto& [mesh, rig, layer, diag, node, pull] = tube;
   for (const double bend : {0.0, 0.6}) {
     Pose pose;
     pose["mid"].rotation = Eigen::Quaterniond(Eigen::AngleAxisd(bend, Eigen::Vector3d::UnitZ()));
@@ -201,6 +212,58 @@ TEST(Layer, APulledNodeMovesTheRegionsItsProfilesBoundAndNothingBeyond) {
   const NodeOffsets unknown{{"no_such_node", Vec3::Zero()}};
   EXPECT_THROW(layer.deform(std::vector<Mat4>(layer.joints().size(), Mat4::Identity()), out, 1.0, &unknown),
                InputError);
+}
+
+TEST(Layer, ARegionMaskedOutKeepsItsBaseAndTheOthersStillMove) {
+  // The tube net's middle ring, node 0 pulled: the regions its profiles
+  // bound move. Masked by region, one of them stays the base inside, the
+  // curves around it still follow the net, and the others move as before.
+  const PulledTube tube;
+  const auto& [mesh, rig, layer, diag, node, pull] = tube;
+  const std::vector<Mat4> M(layer.joints().size(), Mat4::Identity());
+  std::vector<Vec3> base(layer.num_input_vertices()), open(base.size()), out(base.size());
+  layer.deform(M, base);
+  layer.deform(M, open, 1.0, &pull);
+  // Each welded vertex's regions, from the cut mesh.
+  const Embedding& e = layer.binding().embedding();
+  const RawMesh cut = e.cut_mesh();
+  std::vector<std::set<int>> regions_at(mesh.num_vertices());
+  for (size_t f = 0; f + 1 < cut.face_offsets.size(); ++f)
+    for (int k = cut.face_offsets[f]; k < cut.face_offsets[f + 1]; ++k)
+      if (cut.face_vertices[k] < mesh.num_vertices())
+        regions_at[cut.face_vertices[k]].insert(e.face_regions()[f]);
+  // The region that moves most, inside.
+  const auto& list = e.report().region_list;
+  std::vector<double> moved(list.size(), 0);
+  for (size_t i = 0; i < open.size(); ++i)
+    if (const auto& at = regions_at[mesh.input_to_welded[i]]; at.size() == 1 && *at.begin() >= 0)
+      moved[*at.begin()] = std::max(moved[*at.begin()], (open[i] - base[i]).norm());
+  const int held = static_cast<int>(std::max_element(moved.begin(), moved.end()) - moved.begin());
+  ASSERT_GT(moved[held], 5e-3 * diag);
+  const std::vector<double> mask = layer.region_mask({{list[held].key(), 0.0}});
+  layer.with_mask(mask).deform(M, out, 1.0, &pull);
+  double inside = 0, boundary = 0, elsewhere = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    const auto& at = regions_at[mesh.input_to_welded[i]];
+    const double d = (out[i] - base[i]).norm(), o = (open[i] - out[i]).norm();
+    if (at.size() == 1 && *at.begin() == held)
+      inside = std::max(inside, d);
+    else if (at.count(held))
+      boundary = std::max(boundary, o);
+    else
+      elsewhere = std::max(elsewhere, o);
+  }
+  EXPECT_LT(inside, 1e-12 * diag) << "the masked region is the base inside";
+  EXPECT_LT(boundary, 1e-12 * diag) << "its curves follow the net";
+  EXPECT_LT(elsewhere, 1e-12 * diag) << "the other regions move as unmasked";
+  // Every other region, and a value between: as given.
+  const std::vector<double> half = layer.region_mask({{list[held].key(), 0.5}}, 0.0);
+  for (size_t i = 0; i < half.size(); ++i) {
+    const auto& at = regions_at[mesh.input_to_welded[i]];
+    EXPECT_EQ(half[i], at.count(held) ? 0.5 : 0.0) << "vertex " << i;
+  }
+  EXPECT_THROW((void)layer.region_mask({{"no_such:L", 0.0}}), InputError);
+  EXPECT_THROW((void)layer.region_mask({{list[held].key(), 1.5}}), InputError);
 }
 
 TEST(Layer, APoseFileOfVersionTwoGivesNodeOffsetsAndVersionOneReadsAsBefore) {

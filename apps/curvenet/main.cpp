@@ -185,8 +185,9 @@ int main(int argc, char** argv) {
         ->capture_default_str()
         ->check(finite_in(0, 1));
     cmd->add_option("--mask", a.mask,
-                    "A text file of one number from 0 to 1 per vertex of the mesh file: how much of the correction "
-                    "each vertex takes");
+                    "How much of the correction each vertex takes: a text file of one number from 0 to 1 per vertex "
+                    "of the mesh file, or a JSON file {\"regions\": {region key: 0 to 1}, \"others\": 0 to 1} "
+                    "(the keys as embed --report lists them)");
   };
   curvenet::cli::BindArgs bind_args;
   auto* bind = app.add_subcommand("bind", "Bind a rig to a mesh and write the rig with every node's weights filled in");

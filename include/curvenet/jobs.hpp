@@ -153,7 +153,10 @@ struct LayerSpec {
   bool over_skin = false; ///< the mesh file's own skin (glTF, GLB, FBX) is the base
   Skinning skinning = Skinning::Linear;
   double envelope = 1;
-  std::string mask; ///< optional: a text file of one number from 0 to 1 per vertex of the mesh file
+  /// Optional: a text file of one number from 0 to 1 per vertex of the mesh
+  /// file, or a JSON file {"regions": {region key: 0 to 1}, "others": 0 to 1}
+  /// (CurveLayer::region_mask).
+  std::string mask;
 };
 
 /// Binds a rig to a mesh and writes the rig with its nodes' weights filled in.

@@ -57,6 +57,14 @@ public:
   [[nodiscard]] CurveLayer with_mask(std::vector<double> mask) const;
   /// The mask, per input vertex (empty: 1 everywhere).
   [[nodiscard]] std::span<const double> mask() const;
+  /// A mask by region (for with_mask): each region named by its key (as
+  /// EmbedReport::region_list gives it, "profile:L|profile:R") takes its
+  /// value, from 0 to 1, and every other region `others`. A vertex takes the
+  /// largest value of the regions around it, so the curves between a masked
+  /// region and an open one still follow the net.
+  /// 	hrow InputError naming a key no region has, or a value outside [0, 1].
+  [[nodiscard]] std::vector<double> region_mask(const std::map<std::string, double>& values,
+                                                double others = 1) const;
 
   /// The base moved by `skinning` (one matrix per joint, as Binding::deform
   /// takes them), plus `envelope` times the masked correction. Output in

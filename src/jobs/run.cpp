@@ -9,11 +9,13 @@
 #include "curvenet/pose.hpp"
 #include "io/file_bytes.hpp"
 #include "io/frames_part.hpp"
+#include "io/json_text.hpp"
 
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <functional>
+#include <map>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -49,10 +51,10 @@ int find_clip(const SkinnedMesh& clips, const std::string& file, const std::stri
   return clip;
 }
 
-/// A mask file: one number from 0 to 1 per vertex of the mesh file, one a
-/// line (blank lines and `#` comments skipped).
-std::vector<double> read_mask(const std::string& path, int vertices) {
-  std::istringstream in(detail::file_bytes(path));
+/// A mask file's `text`: one number from 0 to 1 per vertex of the mesh
+/// file, one a line (blank lines and `#` comments skipped).
+std::vector<double> read_mask(const std::string& path, const std::string& text, int vertices) {
+  std::istringstream in(text);
   std::vector<double> mask;
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
@@ -69,6 +71,39 @@ std::vector<double> read_mask(const std::string& path, int vertices) {
                      std::to_string(mask.size()) + " values for a mesh of " + std::to_string(vertices) +
                          " vertices: give one per vertex of the mesh file, in its order");
   return mask;
+}
+
+/// A mask by region: a JSON object {"regions": {region key: 0 to 1, ...},
+/// "others": 0 to 1 (default 1)}, the keys as the embed report lists them;
+/// read_region_mask gives none for a text that is not a JSON object.
+struct RegionMask {
+  std::map<std::string, double> values;
+  double others = 1;
+};
+std::optional<RegionMask> read_region_mask(const std::string& path, const std::string& text) {
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos || text[first] != '{')
+    return std::nullopt;
+  const nlohmann::ordered_json j = detail::parse_json(text, path);
+  RegionMask m;
+  auto number = [&](const nlohmann::ordered_json& x, const std::string& where) {
+    if (!x.is_number() || !(x.get<double>() >= 0 && x.get<double>() <= 1))
+      throw InputError(path, where, "expected a number from 0 to 1");
+    return x.get<double>();
+  };
+  for (const auto& [key, x] : j.items()) {
+    if (key == "others") {
+      m.others = number(x, "/others");
+    } else if (key == "regions") {
+      if (!x.is_object())
+        throw InputError(path, "/regions", "expected an object of region keys and numbers from 0 to 1");
+      for (const auto& [region, v] : x.items())
+        m.values[region] = number(v, "region '" + region + "'");
+    } else {
+      throw InputError(path, "/" + key, "unknown member: a region mask has \"regions\" and \"others\"");
+    }
+  }
+  return m;
 }
 
 bool layered(const LayerSpec& l, bool offsets) {
@@ -90,13 +125,27 @@ CurveLayer layer_of(const Scene& s, const LayerSpec& spec, const BindOptions& op
   LayerOptions opt;
   opt.bind = options;
   opt.skinning = spec.skinning;
-  if (!spec.mask.empty())
-    opt.mask = read_mask(spec.mask, static_cast<int>(s.mesh.input_to_welded.size()));
+  std::optional<RegionMask> by_region;
+  if (!spec.mask.empty()) {
+    const std::string text = detail::file_bytes(spec.mask);
+    by_region = read_region_mask(spec.mask, text);
+    if (!by_region)
+      opt.mask = read_mask(spec.mask, text, static_cast<int>(s.mesh.input_to_welded.size()));
+  }
+  std::optional<CurveLayer> layer;
   try {
-    return bind_layer(s.mesh, s.rig, skin ? &*skin : nullptr, opt);
+    layer.emplace(bind_layer(s.mesh, s.rig, skin ? &*skin : nullptr, opt));
   } catch (const EmbedError& e) {
     throw EmbedError(s.files.rig + ": " + e.what());
   }
+  if (by_region) {
+    try {
+      return layer->with_mask(layer->region_mask(by_region->values, by_region->others));
+    } catch (const InputError& e) { // the mask file, and the region it names
+      throw InputError(spec.mask, e.element(), e.reason());
+    }
+  }
+  return *layer;
 }
 
 JobSummary summary_of(const Scene& s, const CurveLayer& layer) {

@@ -81,6 +81,48 @@ CurveLayer CurveLayer::with_mask(std::vector<double> mask) const {
 std::span<const double> CurveLayer::mask() const {
   return mask_ ? std::span<const double>(*mask_) : std::span<const double>();
 }
+std::vector<double> CurveLayer::region_mask(const std::map<std::string, double>& values, double others) const {
+  const Binding& b = impl_->binding;
+  if (!b.has_embedding())
+    throw Error("region_mask: the layer's binding has no embedding");
+  if (!(others >= 0 && others <= 1))
+    throw InputError("mask", "other regions", "expected a number from 0 to 1");
+  const Embedding& e = b.embedding();
+  const auto& list = e.report().region_list;
+  std::map<std::string, int> by_key;
+  for (size_t r = 0; r < list.size(); ++r)
+    by_key.emplace(list[r].key(), static_cast<int>(r));
+  std::vector<double> value(list.size(), others);
+  for (const auto& [key, x] : values) {
+    const auto it = by_key.find(key);
+    if (it == by_key.end())
+      throw InputError("mask", "region '" + key + "'",
+                       "no region of the net has this key (the embed report lists them, as "
+                       "\"profile:L|profile:R\")");
+    if (!(x >= 0 && x <= 1))
+      throw InputError("mask", "region '" + key + "'", "expected a number from 0 to 1");
+    value[it->second] = x;
+  }
+  // Per welded vertex (the cut mesh's first vertices), the largest value
+  // of the faces around it; outside a local net, `others`.
+  const size_t welded = impl_->welded_input.size();
+  std::vector<double> at(welded, -1);
+  const RawMesh cut = e.cut_mesh();
+  const std::vector<int>& region = e.face_regions();
+  for (size_t f = 0; f + 1 < cut.face_offsets.size(); ++f) {
+    const double x = region[f] >= 0 ? value[region[f]] : others;
+    for (int k = cut.face_offsets[f]; k < cut.face_offsets[f + 1]; ++k)
+      if (const int v = cut.face_vertices[k]; v >= 0 && static_cast<size_t>(v) < welded)
+        at[v] = std::max(at[v], x);
+  }
+  std::vector<double> mask(impl_->input_to_welded.size());
+  for (size_t i = 0; i < mask.size(); ++i) {
+    const double x = at[impl_->input_to_welded[i]];
+    mask[i] = x >= 0 ? x : others;
+  }
+  return mask;
+}
+
 const std::vector<Joint>& CurveLayer::joints() const {
   return impl_->binding.joints();
 }

@@ -652,6 +652,16 @@ def test_a_layer_takes_another_mask_without_binding_again_and_bakes_its_keyed_en
         layer.with_mask(np.where(np.arange(n) == 3, 2.0, 1.0))
     with pytest.raises(curvenet.InputError):
         layer.with_mask(np.ones(n - 1))
+    # a mask by region, by the keys of the embedding's report: one region held at the skin
+    keys = [r["key"] for r in layer.binding.embedding.report["region_list"]]
+    by_region = layer.region_mask({keys[0]: 0.0})
+    assert by_region.shape == (n,) and 0 < np.count_nonzero(by_region == 0) < n
+    held = layer.with_mask(by_region).deform(M)
+    assert np.array_equal(held[by_region == 0], base[by_region == 0])
+    assert np.array_equal(held[by_region == 1], full[by_region == 1])
+    assert np.array_equal(layer.region_mask({}, others=0.0), np.zeros(n))
+    with pytest.raises(curvenet.InputError, match="no region of the net has this key"):
+        layer.region_mask({"nope:L": 0.0})
 
     # the frame job through a layer: each frame's envelope and offsets, as deform gives them
     def pose(f):
