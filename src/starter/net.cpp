@@ -417,7 +417,7 @@ std::vector<Join> branch_joins(const StarterContext& c, const NetOptions& no, co
 /// that meets both rings at a clear angle, or the squarest; where no plane
 /// section makes one, along the mesh's edges.
 void chain_profiles(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
-                    const std::vector<int>& active, int p, int ch, NetResult& net) {
+                    const std::vector<int>& active, int p, int ch, const PathSkips& skips, NetResult& net) {
   const Vec3 mid = (rings[p].centre + rings[ch].centre) / 2;
   for (int k = 0; k < no.nodes_per_ring; ++k) {
     const Vec3 a = loop_point(rings[p], rings[p].base_nodes[k]), b = loop_point(rings[ch], rings[ch].base_nodes[k]);
@@ -427,7 +427,11 @@ void chain_profiles(const StarterContext& c, const NetOptions& no, const std::ve
     pr.to = rings[ch].id + "_" + std::to_string(k);
     std::optional<std::vector<Vec3>> path;
     double best_sine = -1;
+    const auto skip = skips.find(pr.id);
+    int left_out = skip == skips.end() ? 0 : skip->second; // given up by the repairs
     for (const auto& candidate : surface_paths(c, a, b, {mid})) {
+      if (left_out-- > 0)
+        continue;
       const double sine = std::min(crossing_sine(candidate, rings[p], rings[p].base_nodes[k], false, c.h),
                                    crossing_sine(candidate, rings[ch], rings[ch].base_nodes[k], true, c.h));
       if (sine > best_sine) {
@@ -457,7 +461,7 @@ void chain_profiles(const StarterContext& c, const NetOptions& no, const std::ve
 
 NetResult build_net(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
                     const std::vector<int>& active, const std::function<int(int)>& parent_of,
-                    const JoinAttempts& attempts) {
+                    const JoinAttempts& attempts, const PathSkips& skips) {
   NetResult net;
   net.rig.coverage = no.coverage;
   net.rig.has_skeleton = true;
@@ -497,7 +501,7 @@ NetResult build_net(const StarterContext& c, const NetOptions& no, const std::ve
     }
   }
   for (const auto& [p, ch] : forks.series_child)
-    chain_profiles(c, no, rings, active, p, ch, net);
+    chain_profiles(c, no, rings, active, p, ch, skips, net);
   for (const Join& jn : joins) {
     Profile pr;
     pr.id = rings[jn.child].id + "-" + rings[jn.parent].id + (jn.slot == 0 ? "_join" : "_join1");

@@ -104,6 +104,7 @@ bool readmit_displaced(const StarterContext& c, const RingOptions& ro, std::vect
 /// dropped; rings it had displaced come back where they now keep clear.
 void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
                   std::map<int, std::string>& ringless, int culprit, const std::string& failure, NetRepairs& st) {
+  st.path_skip.clear(); // the rings change: every path is found again
   Ring& r = rings[culprit];
   std::vector<int> others;
   for (int i : st.active())
@@ -134,6 +135,24 @@ void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ri
 void repair_net(const StarterContext& c, const RingOptions& ro, std::vector<Ring>& rings,
                 std::map<int, std::string>& ringless, const NetResult& net, const std::string& failure,
                 NetRepairs& st) {
+  // Two profiles along one chain that come too close: first another path
+  // for one of them (another plane section between its nodes). These tries
+  // have their own budget, so that they never use up the rings' repairs.
+  if (failure.find("come closer than") != std::string::npos &&
+      st.path_retries < 2 * static_cast<int>(rings.size()) + 9) {
+    std::vector<std::string> along;
+    for (const std::string& id : quoted(failure))
+      if (const auto it = net.owner.find(id); it != net.owner.end() && it->second.first == 'l')
+        along.push_back(id);
+    if (along.size() == 2 && net.owner.at(along[0]).second == net.owner.at(along[1]).second)
+      for (const std::string& id : {along[1], along[0]})
+        if (st.path_skip[id] < kPathTries) {
+          ++st.path_skip[id];
+          ++st.path_retries;
+          c.say("profile '" + id + "' takes another path along the surface: " + failure);
+          return;
+        }
+  }
   if (++st.attempts > 6 * static_cast<int>(rings.size()) + 9)
     throw EmbedError("starter: could not make a net that embeds: " + failure);
   // What the failure names: a join first, then the child ring of a

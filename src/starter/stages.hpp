@@ -203,6 +203,10 @@ std::map<int, int> chain_rings(const StarterContext& c, const RingOptions& ro, s
 /// and second-nearest arcs, kJoinTries none.
 using JoinAttempts = std::map<int, int>;
 inline constexpr int kJoinTries = 4;
+/// Per longitudinal profile, how many of its surface paths (the plane
+/// sections between its nodes, best first) were given up.
+using PathSkips = std::map<std::string, int>;
+inline constexpr int kPathTries = 3;
 
 struct NetResult {
   Rig rig;
@@ -219,7 +223,7 @@ struct NetResult {
 /// and joins on both sides of each fork.
 NetResult build_net(const StarterContext& c, const NetOptions& no, const std::vector<Ring>& rings,
                     const std::vector<int>& active, const std::function<int(int)>& parent_of,
-                    const JoinAttempts& attempts);
+                    const JoinAttempts& attempts, const PathSkips& skips = {});
 
 /// Profiles that share no node keep their clearance, profiles leaving one
 /// node part at a clear angle. The first fault, or empty.
@@ -234,6 +238,8 @@ struct NetRepairs {
   std::map<int, int> parent_ring; ///< chain_rings()
   std::set<int> dropped;
   JoinAttempts join_attempt;
+  PathSkips path_skip;
+  int path_retries = 0; ///< paths given up so far, on every ring
   std::map<int, std::string> join_failure; ///< child ring -> why its last join was given up
   std::map<int, int> parent_override;      ///< child ring -> the ring it joins instead of its own parent
   std::map<int, std::set<int>> tried;      ///< child ring -> the parents whose joins were given up

@@ -270,7 +270,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
                            joints[ringless.empty() ? 0 : ringless.begin()->first].name + "': " + why + ")");
     }
     const auto parent_of = [&](int i) { return st.effective_parent(i); };
-    NetResult net = build_net(c, net_options, rings, active, parent_of, st.join_attempt);
+    NetResult net = build_net(c, net_options, rings, active, parent_of, st.join_attempt, st.path_skip);
     std::string failure = net.failure.empty() ? check_net(c, net_options, net) : net.failure;
     try {
       const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
