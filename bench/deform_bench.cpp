@@ -6,9 +6,14 @@
 //   build/bin/deform_bench [max_vertices]
 //
 // "1 thread" runs with TBB limited to one thread; "2 threads" with two.
+// The layer's rows (docs/deform.md, "A layer over the skin"): over the LBS
+// skin above with envelope 1, and over the net's own deformation with one
+// node of the middle ring pulled by 2 % of the diagonal. Set CURVENET_ONLY_LAYER
+// to skip the modes.
 
 #include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
+#include "curvenet/layer.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/weights.hpp"
 #include "generate/tube.hpp"
@@ -16,6 +21,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -112,7 +118,45 @@ int main(int argc, char** argv) {
                   method == Skinning::Linear ? "LBS (baseline)" : "DQS (baseline)", median_ms(1, frames, frame),
                   median_ms(2, frames, frame));
     }
+    {
+      SkinnedMesh skinned; // the same skin, as a file's skin is read
+      skinned.source = "tube skin";
+      for (const auto& j : joints) {
+        skinned.joints.push_back(j);
+        skinned.inverse_bind.push_back(j.bind.inverse());
+      }
+      for (size_t v = 0; v < rest.size(); ++v) {
+        std::array<int, 4> jv{};
+        std::array<double, 4> wv{};
+        for (int k = 0; k < 4; ++k) {
+          jv[k] = skin.joint[4 * v + k];
+          wv[k] = skin.weight[4 * v + k];
+        }
+        skinned.vertex_joint.push_back(jv);
+        skinned.vertex_weight.push_back(wv);
+      }
+      const double diagonal = mesh.bbox_diagonal();
+      const NodeOffsets pulled{{rig.nodes[6 * ns.nodes_per_ring].id, Vec3(0.02 * diagonal, 0, 0)}};
+      for (const bool over_skin : {true, false}) {
+        LayerOptions lo;
+        double bind_ms = 0;
+        std::unique_ptr<CurveLayer> layer;
+        {
+          tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+          const double t0 = now_ms();
+          layer = std::make_unique<CurveLayer>(bind_layer(mesh, rig, over_skin ? &skinned : nullptr, lo));
+          bind_ms = now_ms() - t0;
+        }
+        auto frame = [&](const std::vector<Mat4>& M) { layer->deform(M, out, 1, over_skin ? nullptr : &pulled); };
+        std::printf("| %d | %d | %s | %.1f | %.3f | %.3f | | %ld |\n", mesh.num_vertices(), mesh.num_faces(),
+                    over_skin ? "layer over LBS (dq curves)" : "layer over dq, one node pulled", bind_ms,
+                    median_ms(1, frames, frame), median_ms(2, frames, frame), peak_mb());
+        std::fflush(stdout);
+      }
+    }
     for (const auto m : {DeformMethod::DualQuaternion, DeformMethod::Harmonic, DeformMethod::Gradient}) {
+      if (std::getenv("CURVENET_ONLY_LAYER"))
+        continue;
       if (std::getenv("CURVENET_ONLY_DQ") && m != DeformMethod::DualQuaternion)
         continue;
       BindOptions o;
