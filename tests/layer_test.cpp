@@ -14,10 +14,12 @@
 #include "curvenet/pose.hpp"
 #include "curvenet/transfer.hpp"
 #include "embed/embedding_impl.hpp"
+#include "bind/laplacian.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <set>
@@ -155,6 +157,56 @@ TEST(Layer, WithEnvelopeOneTheChainsLieOnThePosedCurvesAndRestIsRest) {
   std::vector<Vec3> out(layer.num_input_vertices());
   layer.deform(I, out);
   EXPECT_LT(max_apart(out, h.rest()), 1e-12 * diag);
+}
+
+TEST(Layer, TheCorrectionIsHarmonicOffTheChainsAndTheSameOnAnyThreadCount) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Hand h;
+  const CurveLayer layer = bind_layer(h.mesh, h.rig, &h.skin);
+  const Binding& b = layer.binding();
+  const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), h.clips, h.clips.find_clip("Grip"), 1 / 24.0);
+  std::vector<Vec3> cut, base, cut_two;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    layer.deform_cut(M, cut);
+  }
+  {
+    tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+    layer.deform_cut(M, cut_two);
+    layer.deform_cut(M, base, 0.0);
+  }
+  EXPECT_EQ(cut, cut_two) << "a frame is the same on one thread and on two";
+  // Each region is solved on its own: the correction still satisfies the
+  // whole cut mesh's Laplace equation at every vertex off the chains that
+  // a chain reaches, and it is not zero.
+  const Embedding::Impl& emb = b.embedding().impl();
+  std::map<std::string, int> joint_index;
+  for (size_t j = 0; j < b.joints().size(); ++j)
+    joint_index[b.joints()[j].name] = static_cast<int>(j);
+  Rig completed = with_skeleton(h.rig, h.skin.joints, "skin");
+  completed.weights = b.node_weights();
+  const detail::ChainConstraints cc = detail::chain_constraints(emb, completed, joint_index);
+  const Eigen::SparseMatrix<double> lap = detail::cut_mesh_laplacian(emb.cut, detail::LaplacianKind::IntrinsicDelaunay);
+  double worst = 0, largest = 0, scale = 0;
+  int free = 0;
+  for (int v = 0; v < lap.outerSize(); ++v) {
+    largest = std::max(largest, (cut[v] - base[v]).norm());
+    if (cc.constrained[v])
+      continue;
+    Vec3 r = Vec3::Zero();
+    double diag_entry = 0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(lap, v); it; ++it) {
+      r += it.value() * (cut[it.row()] - base[it.row()]);
+      diag_entry = std::max(diag_entry, std::abs(it.value()));
+    }
+    worst = std::max(worst, r.norm() / diag_entry);
+    ++free;
+  }
+  scale = largest;
+  EXPECT_GT(free, 500);
+  EXPECT_GT(largest, 1e-3 * h.mesh.bbox_diagonal());
+  EXPECT_LT(worst, 1e-9 * scale) << "the correction is harmonic off the chains";
 }
 
 TEST(Layer, ASkinOnAnotherSkeletonIsRefusedNamingTheJoint) {

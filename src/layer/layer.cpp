@@ -10,11 +10,13 @@
 #include "core/dual_quaternion.hpp"
 #include "curvenet/errors.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <Eigen/LU>
 #include <Eigen/SparseCholesky>
 
+#include <algorithm>
 #include <array>
 
 #include <cmath>
@@ -50,7 +52,16 @@ struct CurveLayer::Impl {
   std::vector<int> free_index;                                  ///< per cut vertex, -1 off the solve
   std::vector<int> chain_index;                                 ///< per cut vertex, -1 off the chains
   std::vector<std::vector<std::pair<int, double>>> fc;          ///< free row -> (chain index, L entry)
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
+  /// The free vertices fall into parts that the chains separate (the
+  /// regions, where the net closes them): L_ff is block diagonal, so each
+  /// part has its own factor, solved on its own (in parallel) and only when
+  /// a chain around it moves. Each part's free rows are contiguous.
+  struct Part {
+    int begin = 0, size = 0; ///< free rows
+    std::vector<int> chains; ///< the chain indices its rows reach
+    std::unique_ptr<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> solver;
+  };
+  std::vector<Part> parts;
   int num_welded = 0, num_free = 0;
 };
 
@@ -262,31 +273,53 @@ CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh
       }
     }
   }
+  // The parts: the free vertices joined by nonzero Laplacian entries,
+  // numbered part by part.
   L.free_index.assign(nc, -1);
-  for (int v = 0; v < nc; ++v)
-    if (reached[v] && !cc.constrained[v])
-      L.free_index[v] = L.num_free++;
-  std::vector<Eigen::Triplet<double>> ff;
-  L.fc.resize(L.num_free);
-  for (int v = 0; v < nc; ++v) {
-    const int k = L.free_index[v];
-    if (k < 0)
+  std::vector<int> free_vertex; // free row -> cut vertex
+  for (int seed = 0; seed < nc; ++seed) {
+    if (!reached[seed] || cc.constrained[seed] || L.free_index[seed] >= 0)
       continue;
-    for (Eigen::SparseMatrix<double>::InnerIterator it(lap, v); it; ++it) {
-      const int u = static_cast<int>(it.row());
-      if (L.free_index[u] >= 0)
-        ff.emplace_back(k, L.free_index[u], it.value());
-      else if (L.chain_index[u] >= 0)
-        L.fc[k].emplace_back(L.chain_index[u], it.value());
-    }
+    CurveLayer::Impl::Part part;
+    part.begin = L.num_free;
+    L.free_index[seed] = L.num_free++;
+    free_vertex.push_back(seed);
+    for (size_t k = static_cast<size_t>(part.begin); k < free_vertex.size(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(lap, free_vertex[k]); it; ++it) {
+        const int u = static_cast<int>(it.row());
+        if (it.value() != 0 && reached[u] && !cc.constrained[u] && L.free_index[u] < 0) {
+          L.free_index[u] = L.num_free++;
+          free_vertex.push_back(u);
+        }
+      }
+    part.size = L.num_free - part.begin;
+    L.parts.push_back(std::move(part));
   }
-  if (L.num_free > 0) {
-    Eigen::SparseMatrix<double> Lff(L.num_free, L.num_free);
+  L.fc.resize(L.num_free);
+  // Each part's L_ff block, factored on its own (in parallel: the parts are
+  // independent).
+  tbb::parallel_for(size_t{0}, L.parts.size(), [&](size_t pi) {
+    CurveLayer::Impl::Part& part = L.parts[pi];
+    std::vector<Eigen::Triplet<double>> ff;
+    for (int k = part.begin; k < part.begin + part.size; ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(lap, free_vertex[k]); it; ++it) {
+        const int u = static_cast<int>(it.row());
+        if (L.free_index[u] >= 0)
+          ff.emplace_back(k - part.begin, L.free_index[u] - part.begin, it.value());
+        else if (L.chain_index[u] >= 0) {
+          L.fc[k].emplace_back(L.chain_index[u], it.value());
+          part.chains.push_back(L.chain_index[u]);
+        }
+      }
+    std::sort(part.chains.begin(), part.chains.end());
+    part.chains.erase(std::unique(part.chains.begin(), part.chains.end()), part.chains.end());
+    Eigen::SparseMatrix<double> Lff(part.size, part.size);
     Lff.setFromTriplets(ff.begin(), ff.end());
-    L.solver.compute(Lff);
-    if (L.solver.info() != Eigen::Success)
+    part.solver = std::make_unique<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>>(Lff);
+  });
+  for (const auto& part : L.parts)
+    if (part.solver->info() != Eigen::Success)
       throw EmbedError("layer: the harmonic system could not be factored on " + mesh.source);
-  }
   return CurveLayer(impl).with_mask(opt.mask);
 }
 
@@ -354,39 +387,47 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
     return p;
   };
   Eigen::MatrixXd dc(static_cast<Eigen::Index>(L.chains.size()), 3);
-  DualBlend blend;
-  for (size_t i = 0; i < L.chains.size(); ++i) {
-    const Impl::Chain& c = L.chains[i];
-    auto posed = [&](const Vec3& x) {
-      if (L.dual) {
-        blend.clear();
+  // Each chain vertex on its own (the same on any thread count).
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, L.chains.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+    DualBlend blend;
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const Impl::Chain& c = L.chains[i];
+      auto posed = [&](const Vec3& x) {
+        if (L.dual) {
+          blend.clear();
+          for (const auto& [j, w] : c.joints)
+            blend.add(dj[j], w);
+          if (blend.valid())
+            return blend.apply(x);
+        }
+        Vec3 p = Vec3::Zero();
         for (const auto& [j, w] : c.joints)
-          blend.add(dj[j], w);
-        if (blend.valid())
-          return blend.apply(x);
+          p += w * (M[j] * x.homogeneous()).head<3>();
+        return p;
+      };
+      const Vec3 curve = posed(c.rest);
+      Vec3 d = L.over_skin ? Vec3(curve - base_at(c.surface)) : Vec3::Zero();
+      if (offset) {
+        const Vec3 o = (1 - c.t) * node_offset[c.node_a] + c.t * node_offset[c.node_b];
+        if (o != Vec3::Zero())
+          d += posed(c.rest + o) - curve;
       }
-      Vec3 p = Vec3::Zero();
-      for (const auto& [j, w] : c.joints)
-        p += w * (M[j] * x.homogeneous()).head<3>();
-      return p;
-    };
-    const Vec3 curve = posed(c.rest);
-    Vec3 d = L.over_skin ? Vec3(curve - base_at(c.surface)) : Vec3::Zero();
-    if (offset) {
-      const Vec3 o = (1 - c.t) * node_offset[c.node_a] + c.t * node_offset[c.node_b];
-      if (o != Vec3::Zero())
-        d += posed(c.rest + o) - curve;
+      dc.row(static_cast<Eigen::Index>(i)) = d.transpose();
     }
-    dc.row(static_cast<Eigen::Index>(i)) = d.transpose();
-  }
-  Eigen::MatrixXd df;
-  if (L.num_free > 0) {
-    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(L.num_free, 3);
-    for (int k = 0; k < L.num_free; ++k)
-      for (const auto& [ci, l] : L.fc[k])
+  });
+  // Each part whose chains move solves for its free vertices; the others
+  // stay where the base puts them.
+  Eigen::MatrixXd df = Eigen::MatrixXd::Zero(L.num_free, 3);
+  tbb::parallel_for(size_t{0}, L.parts.size(), [&](size_t pi) {
+    const Impl::Part& part = L.parts[pi];
+    if (std::none_of(part.chains.begin(), part.chains.end(), [&](int ci) { return dc.row(ci).squaredNorm() != 0; }))
+      return;
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(part.size, 3);
+    for (int k = 0; k < part.size; ++k)
+      for (const auto& [ci, l] : L.fc[part.begin + k])
         rhs.row(k) -= l * dc.row(ci);
-    df = L.solver.solve(rhs);
-  }
+    df.middleRows(part.begin, part.size) = part.solver->solve(rhs);
+  });
   for (size_t i = 0; i < ni; ++i) {
     const int v = L.input_to_welded[i];
     const double s = envelope * (mask_ ? (*mask_)[i] : 1.0);
