@@ -5,6 +5,8 @@
 //   build/bin/deform_quality [CASE...]        the table; cases by name prefix (cylinder, hand, cesium, horse, ...)
 //   build/bin/deform_quality --ply DIR CASE   also writes rest and each deformation of a case's last frame as PLY
 //   (checker colours)
+//   build/bin/deform_quality --layer [CASE...]  the skins, the net and the layer over each skin only, with the
+//   change of the surface's detail away from the curves (docs/deform.md, "A layer over the skin")
 //
 // LBS and DQS use the character's own skin weights where it has a skin, and
 // `curvenet bake`'s weights of the same rig on the generated cylinder. Each
@@ -20,6 +22,7 @@
 #include "curvenet/quality.hpp"
 #include "curvenet/skin.hpp"
 #include "curvenet/starter.hpp"
+#include "core/polyline_distance.hpp"
 #include "generate/tube.hpp"
 
 #include <algorithm>
@@ -131,6 +134,7 @@ void worst_of(DeformationQuality& w, const DeformationQuality& q, bool first) {
   w.turned = std::max(w.turned, q.turned);
   w.stretch_mean = std::max(w.stretch_mean, q.stretch_mean);
   w.stretch_max = std::max(w.stretch_max, q.stretch_max);
+  w.detail_change = std::max(w.detail_change, q.detail_change);
 }
 
 // ---- cases --------------------------------------------------------------
@@ -348,7 +352,7 @@ void write_ply(const std::string& path, const SurfaceMesh& mesh, const std::vect
   std::fclose(f);
 }
 
-void run(Case c, const std::string& ply_dir) {
+void run(Case c, const std::string& ply_dir, bool layer_only) {
   c.dominant = dominant_of(c.mesh, c.skin);
   if (c.quality.bone_joints.empty()) {
     // Bones to joints that carry skin weight (IK helpers and poles do not).
@@ -372,12 +376,14 @@ void run(Case c, const std::string& ply_dir) {
     o.method = m;
     modes.push_back({std::string(to_string(m)) + (m == DeformMethod::DualQuaternion ? " (default)" : ""), o});
   }
-  {
+  if (layer_only)
+    modes.resize(1);
+  if (!layer_only) {
     BindOptions o; // the dq mode as it was: the harmonic extension of the curves' weights inside the regions
     o.interior = InteriorWeights::Harmonic;
     modes.push_back({"dq, harmonic interior", o});
   }
-  {
+  if (!layer_only) {
     BindOptions o; // the gradient mode as it was: targets that do not turn with the sections, and polar rotations
     o.method = DeformMethod::Gradient;
     o.sections = false;
@@ -430,6 +436,24 @@ void run(Case c, const std::string& ply_dir) {
                          return out;
                        }});
   }
+  size_t counted = 0;
+  if (layer_only) {
+    // The detail counts away from the curves: more than 2 % of the diagonal
+    // from every chain of the net, at rest.
+    const double far = 0.02 * c.mesh.bbox_diagonal();
+    const auto chains = bindings.front()->embedding().chains();
+    c.quality.detail_vertices.assign(c.mesh.num_vertices(), 1);
+    for (int v = 0; v < c.mesh.num_vertices(); ++v) {
+      for (const auto& [id, line] : chains) {
+        for (size_t k = 0; k + 1 < line.size() && c.quality.detail_vertices[v]; ++k)
+          if (detail::point_segment_distance(c.mesh.positions[v], line[k], line[k + 1]) < far)
+            c.quality.detail_vertices[v] = 0;
+        if (!c.quality.detail_vertices[v])
+          break;
+      }
+      counted += c.quality.detail_vertices[v];
+    }
+  }
   std::vector<Row> rows;
   for (const auto& m : methods) {
     Row r;
@@ -453,11 +477,19 @@ void run(Case c, const std::string& ply_dir) {
     char section[32] = "";
     if (limb)
       std::snprintf(section, sizeof(section), "%.2f", w.smallest_section);
+    if (layer_only) {
+      std::printf("| %s | %s | %+.2f%% | %d | %.3f (%zu of %d vertices) |\n", c.name.c_str(), r.method.c_str(),
+                  100 * w.volume_change, w.self_intersections, w.detail_change, counted, c.mesh.num_vertices());
+      std::fflush(stdout);
+      continue;
+    }
     std::printf("| %s | %s | %+.2f%% | %s | %.2f%% | %d | %d | %.1f%% / %.0f%% |\n", c.name.c_str(), r.method.c_str(),
                 100 * w.volume_change, section, 100 * w.bulge, w.self_intersections, w.turned, 100 * w.stretch_mean,
                 100 * w.stretch_max);
     std::fflush(stdout);
   }
+  if (layer_only)
+    return;
   // The goals (the default against DQS, and LBS for self-intersection).
   const DeformationQuality &lbs = rows[0].worst, &dqs = rows[1].worst, &ours = rows[2].worst;
   auto mark = [](bool ok) { return ok ? "yes" : "no"; };
@@ -474,16 +506,23 @@ void run(Case c, const std::string& ply_dir) {
 int main(int argc, char** argv) {
   std::vector<std::string> wanted;
   std::string ply_dir;
+  bool layer_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--ply" && i + 1 < argc)
       ply_dir = argv[++i];
+    else if (a == "--layer")
+      layer_only = true;
     else
       wanted.push_back(a);
   }
-  std::printf("| case | deformation | volume change | smallest section / rest | bulge (%% of diagonal) | "
-              "self-intersecting pairs | turned > 90 deg | edge stretch mean / max |\n"
-              "|---|---|---|---|---|---|---|---|\n");
+  if (layer_only)
+    std::printf("| case | deformation | volume change | self-intersecting pairs | detail change away from the curves |\n"
+                "|---|---|---|---|---|\n");
+  else
+    std::printf("| case | deformation | volume change | smallest section / rest | bulge (%% of diagonal) | "
+                "self-intersecting pairs | turned > 90 deg | edge stretch mean / max |\n"
+                "|---|---|---|---|---|---|---|---|\n");
   for (const auto& [name, make] : all_cases()) {
     bool take = wanted.empty();
     for (const auto& w : wanted)
@@ -491,7 +530,7 @@ int main(int argc, char** argv) {
     if (!take)
       continue;
     try {
-      run(make(), ply_dir);
+      run(make(), ply_dir, layer_only);
     } catch (const Error& e) {
       std::printf("| %s | (refused) | %s |\n", name.c_str(), e.what());
     }

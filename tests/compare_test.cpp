@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -145,6 +146,65 @@ TEST(Quality, MeasuresVolumeStretchGrowthAndTurnedTriangles) {
   const Mat4 half = Eigen::Affine3d(Eigen::AngleAxisd(std::numbers::pi, Vec3::UnitX())).matrix();
   d = measure_deformation(m, m.positions, joints, std::vector<Mat4>(3, half), dominant, q);
   EXPECT_GT(d.turned, 0);
+}
+
+TEST(Quality, TheMeanCurvatureNormalOfASphereIsOneOverItsRadiusAndDetailChangeIgnoresTheJointsRotation) {
+  // A UV sphere of radius 2.
+  RawMesh raw;
+  const int rings = 48, around = 96;
+  raw.positions.push_back(Vec3(0, 2, 0));
+  for (int i = 1; i < rings; ++i)
+    for (int k = 0; k < around; ++k) {
+      const double t = std::numbers::pi * i / rings, p = 2 * std::numbers::pi * k / around;
+      raw.positions.push_back(2 * Vec3(std::sin(t) * std::cos(p), std::cos(t), std::sin(t) * std::sin(p)));
+    }
+  raw.positions.push_back(Vec3(0, -2, 0));
+  auto at = [&](int i, int k) { return 1 + (i - 1) * around + (k % around); };
+  const int bottom = static_cast<int>(raw.positions.size()) - 1;
+  for (int k = 0; k < around; ++k) {
+    raw.add_face(std::array<int, 3>{0, at(1, k + 1), at(1, k)});
+    for (int i = 1; i + 1 < rings; ++i)
+      raw.add_face(std::array<int, 4>{at(i, k), at(i, k + 1), at(i + 1, k + 1), at(i + 1, k)});
+    raw.add_face(std::array<int, 3>{bottom, at(rings - 1, k), at(rings - 1, k + 1)});
+  }
+  const SurfaceMesh m = make_surface_mesh(raw, "sphere");
+  const std::vector<Vec3> h = mean_curvature_normals(m, m.positions);
+  double worst = 0;
+  for (int v = 0; v < m.num_vertices(); ++v)
+    if (std::abs(m.positions[v].y()) < 1.5) // away from the poles' slivers
+      worst = std::max(worst, (h[v] - m.positions[v] / 4).norm() / 0.5);
+  EXPECT_LT(worst, 0.01) << "H n = n / r, pointing away from the centre";
+
+  const std::vector<Joint> joints = make_tube_skeleton({0.0, 1.0});
+  const std::vector<int> dominant(m.num_vertices(), 1);
+  auto detail = [&](const std::vector<Vec3>& posed, const Mat4& M) {
+    return measure_deformation(m, posed, joints, std::vector<Mat4>(2, M), dominant).detail_change;
+  };
+  EXPECT_EQ(detail(m.positions, Mat4::Identity()), 0.0);
+  // Turned with its joint: no change. Turned without: the normals are off.
+  const Eigen::Affine3d turn(Eigen::AngleAxisd(1.0, Vec3(1, 2, 3).normalized()));
+  std::vector<Vec3> turned = m.positions;
+  for (auto& p : turned)
+    p = turn * p;
+  EXPECT_LT(detail(turned, turn.matrix()), 1e-9);
+  EXPECT_GT(detail(turned, Mat4::Identity()), 0.5);
+  // Twice as large: the curvature halves, whatever the joint's scale.
+  std::vector<Vec3> twice = m.positions;
+  for (auto& p : twice)
+    p *= 2;
+  EXPECT_NEAR(detail(twice, Mat4(Eigen::Affine3d(Eigen::Scaling(2.0)).matrix())), 0.5, 1e-9);
+  // A bump on one vertex changes the detail there, and nowhere else counts
+  // when only the far side is measured.
+  std::vector<Vec3> bumped = m.positions;
+  bumped[m.input_to_welded[at(24, 0)]] *= 1.05;
+  EXPECT_GT(detail(bumped, Mat4::Identity()), 0.0);
+  QualityOptions far;
+  far.detail_vertices.assign(m.num_vertices(), 0);
+  for (int v = 0; v < m.num_vertices(); ++v)
+    far.detail_vertices[v] = m.positions[v].x() < -1;
+  EXPECT_EQ(measure_deformation(m, bumped, joints, std::vector<Mat4>(2, Mat4::Identity()), dominant, far)
+                .detail_change,
+            0.0);
 }
 
 TEST(Quality, TurnedTrianglesAreThoseAJointsRotationDoesNotCarry) {

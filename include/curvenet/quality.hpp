@@ -28,6 +28,9 @@ struct QualityOptions {
   /// A triangle is turned when its normal turns by more than this against
   /// its rest normal carried by its dominant joint's rotation.
   double turn_degrees = 90;
+  /// Welded vertices whose mean-curvature normal counts for the detail
+  /// change (empty: all).
+  std::vector<char> detail_vertices;
 };
 
 struct DeformationQuality {
@@ -40,6 +43,10 @@ struct DeformationQuality {
   int self_intersections = 0; ///< pairs of triangles that share no vertex and intersect
   int turned = 0;
   double stretch_mean = 0, stretch_max = 0; ///< |length / rest length - 1| over the edges
+  /// How much of the surface's detail changes: the mean over the counted
+  /// vertices of |posed mean-curvature normal - the rest one turned by the
+  /// vertex's dominant joint|, over the mean length of the rest one.
+  double detail_change = 0;
 };
 
 /// Measures `posed` (one position per welded vertex of `mesh`) against the
@@ -57,6 +64,12 @@ DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const 
 /// where a deformation folds the surface over.
 int turned_triangles(const SurfaceMesh& mesh, std::span<const Vec3> posed, std::span<const Mat4> skinning,
                      std::span<const int> dominant_joint, double degrees = 90);
+
+/// The discrete mean-curvature normal H n at each welded vertex: the
+/// cotangent Laplacian of the positions over twice the vertex's area (a
+/// third of its triangles'), so 1/r long on a sphere of radius r, pointing
+/// away from its centre. Zero at a vertex with no area.
+std::vector<Vec3> mean_curvature_normals(const SurfaceMesh& mesh, std::span<const Vec3> positions);
 
 /// Each welded vertex's strongest joint in a skinned file's own weights
 /// (`skin` over the input vertices `mesh` was welded from).

@@ -10,6 +10,8 @@
 #include "curvenet/errors.hpp"
 #include "starter/plane_section.hpp"
 
+#include <Eigen/SVD>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -187,6 +189,32 @@ double section_area(const SurfaceMesh& mesh, std::span<const Vec3> positions, co
   return best;
 }
 
+std::vector<Vec3> mean_curvature_normals(const SurfaceMesh& mesh, std::span<const Vec3> x) {
+  const size_t nv = static_cast<size_t>(mesh.num_vertices());
+  if (x.size() != nv)
+    throw Error("mean_curvature_normals: " + std::to_string(x.size()) + " positions for " + std::to_string(nv) +
+                " vertices");
+  std::vector<Vec3> lap(nv, Vec3::Zero());
+  std::vector<double> area(nv, 0.0);
+  for (const Tri& t : fan_triangles(mesh)) {
+    const double a = 0.5 * (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).norm();
+    if (!(a > 0))
+      continue;
+    for (int k = 0; k < 3; ++k) {
+      const int i = t[k], j = t[(k + 1) % 3], o = t[(k + 2) % 3];
+      // The cotangent of the angle at o, opposite the edge i-j.
+      const Vec3 u = x[i] - x[o], w = x[j] - x[o];
+      const double cot = u.dot(w) / (2 * a);
+      lap[i] += 0.5 * cot * (x[j] - x[i]);
+      lap[j] += 0.5 * cot * (x[i] - x[j]);
+      area[t[k]] += a / 3;
+    }
+  }
+  for (size_t v = 0; v < nv; ++v)
+    lap[v] = area[v] > 0 ? Vec3(-lap[v] / (2 * area[v])) : Vec3::Zero();
+  return lap;
+}
+
 int turned_triangles(const SurfaceMesh& mesh, std::span<const Vec3> posed, std::span<const Mat4> skinning,
                      std::span<const int> dominant, double degrees) {
   const int nj = static_cast<int>(skinning.size());
@@ -326,6 +354,26 @@ DeformationQuality measure_deformation(const SurfaceMesh& mesh, std::span<const 
     }
   }
   q.stretch_mean = edges > 0 ? sum / edges : 0;
+
+  // The detail: each counted vertex's mean-curvature normal against the
+  // rest one, carried by the rotation of its dominant joint (the polar
+  // part of its matrix).
+  const std::vector<Vec3> h0 = mean_curvature_normals(mesh, rest), h1 = mean_curvature_normals(mesh, posed);
+  double change = 0, length = 0;
+  for (int v = 0; v < nv; ++v) {
+    if (!opt.detail_vertices.empty() && !opt.detail_vertices[v])
+      continue;
+    const int j = dominant[v];
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    if (j >= 0 && j < nj) {
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(skinning[j].block<3, 3>(0, 0),
+                                                  Eigen::ComputeFullU | Eigen::ComputeFullV);
+      R = svd.matrixU() * svd.matrixV().transpose();
+    }
+    change += (h1[v] - R * h0[v]).norm();
+    length += h0[v].norm();
+  }
+  q.detail_change = length > 0 ? change / length : 0;
   return q;
 }
 
