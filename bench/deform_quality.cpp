@@ -27,6 +27,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -152,7 +153,12 @@ Case cylinder(const std::string& name, double degrees, bool twist) {
   c.raw = make_capped_tube(ts);
   c.mesh = make_surface_mesh(c.raw, "cylinder");
   const auto joints = make_tube_skeleton({0.4, 2.0, 3.6});
-  c.rig = make_starter(c.mesh, joints).rig;
+  {
+    StarterOptions so;
+    if (const char* r = std::getenv("CURVENET_RINGS_PER_BONE"))
+      so.rings_per_bone = std::atoi(r);
+    c.rig = make_starter(c.mesh, joints, so).rig;
+  }
   c.skin_joints = joints;
   c.skin = bake_weights(bind(c.mesh, c.rig), 4); // `curvenet bake`'s weights of the same rig
   Pose p;
@@ -267,6 +273,8 @@ Case skinned(const std::string& name, const std::string& path, const std::vector
   c.skin_joints = s->joints;
   c.skin = weights_of(*s);
   StarterOptions so;
+  if (const char* r = std::getenv("CURVENET_RINGS_PER_BONE"))
+    so.rings_per_bone = std::atoi(r);
   so.deforming = weighted_joints(*s);
   so.skin = s.get(); // as `curvenet starter` does with a skinned file
   c.rig = make_starter(c.mesh, s->joints, so).rig;

@@ -831,35 +831,40 @@ TEST(Cli, EveryCommandWritesADeviceInPlaceAndABindingCacheOnlyWithItsOutput) {
 TEST(Cli, PoseAndAnimateWriteThePosedCutMeshOnRequest) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const auto dir = test::temp_dir("cut_mesh_out");
-  const std::string gltf = test::data("rigged_simple/RiggedSimple.gltf"), rig = (dir / "rs.cnrig.json").string();
-  ASSERT_EQ(run("starter " + gltf + " -o " + rig, dir).code, 0);
-  ASSERT_EQ(run("embed " + gltf + " " + rig + " --cut-mesh " + (dir / "rest_cut.obj").string(), dir).code, 0);
-  const Rig r = read_rig(rig);
-  write(dir / "bend.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{")" + r.joints.back().name +
-                                    R"(":{"rotation":[0.3826834,0,0,0.9238795]}}})");
-  CliRun out = run("pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " -o " +
-                       (dir / "posed.obj").string() + " --cut-mesh " + (dir / "posed_cut.obj").string(),
-                   dir);
-  ASSERT_EQ(out.code, 0) << out.err;
-  auto count = [](const fs::path& p, const char* prefix) {
-    std::ifstream in(p);
-    int n = 0;
-    for (std::string line; std::getline(in, line);)
-      n += line.rfind(prefix, 0) == 0;
-    return n;
-  };
-  // The posed cut mesh has the rest cut mesh's vertices and curves, moved.
-  EXPECT_EQ(count(dir / "posed_cut.obj", "v "), count(dir / "rest_cut.obj", "v "));
-  EXPECT_EQ(count(dir / "posed_cut.obj", "l "), static_cast<int>(r.profiles.size()));
-  EXPECT_NE(load_mesh((dir / "posed_cut.obj").string()).positions,
-            load_mesh((dir / "rest_cut.obj").string()).positions);
-  out = run("animate " + gltf + " " + rig + " " + gltf + " -o " + (dir / "a.pc2").string() + " --frames 0:2" +
-                " --cut-mesh-sequence " + (dir / "cut").string(),
-            dir);
-  ASSERT_EQ(out.code, 0) << out.err;
-  for (const char* f : {"cut_frame_0000.obj", "cut_frame_0001.obj", "cut_frame_0002.obj"})
-    EXPECT_EQ(count(dir / "cut" / f, "v "), count(dir / "rest_cut.obj", "v ")) << f;
+  // A small skinned file, and a game character as shipped (its starter net
+  // had failed to embed again on its own cut mesh).
+  for (const char* file : {"rigged_simple/RiggedSimple.gltf", "quaternius/Horse.glb"}) {
+    SCOPED_TRACE(file);
+    const auto dir = test::temp_dir("cut_mesh_out");
+    const std::string gltf = test::data(file), rig = (dir / "rs.cnrig.json").string();
+    ASSERT_EQ(run("starter " + gltf + " -o " + rig, dir).code, 0);
+    ASSERT_EQ(run("embed " + gltf + " " + rig + " --cut-mesh " + (dir / "rest_cut.obj").string(), dir).code, 0);
+    const Rig r = read_rig(rig);
+    write(dir / "bend.pose.json", R"({"format":"curvenet-pose","version":1,"joints":{")" + r.joints.back().name +
+                                      R"(":{"rotation":[0.3826834,0,0,0.9238795]}}})");
+    CliRun out = run("pose " + gltf + " " + rig + " " + (dir / "bend.pose.json").string() + " -o " +
+                         (dir / "posed.obj").string() + " --cut-mesh " + (dir / "posed_cut.obj").string(),
+                     dir);
+    ASSERT_EQ(out.code, 0) << out.err;
+    auto count = [](const fs::path& p, const char* prefix) {
+      std::ifstream in(p);
+      int n = 0;
+      for (std::string line; std::getline(in, line);)
+        n += line.rfind(prefix, 0) == 0;
+      return n;
+    };
+    // The posed cut mesh has the rest cut mesh's vertices and curves, moved.
+    EXPECT_EQ(count(dir / "posed_cut.obj", "v "), count(dir / "rest_cut.obj", "v "));
+    EXPECT_EQ(count(dir / "posed_cut.obj", "l "), static_cast<int>(r.profiles.size()));
+    EXPECT_NE(load_mesh((dir / "posed_cut.obj").string()).positions,
+              load_mesh((dir / "rest_cut.obj").string()).positions);
+    out = run("animate " + gltf + " " + rig + " " + gltf + " -o " + (dir / "a.pc2").string() + " --frames 0:2" +
+                  " --cut-mesh-sequence " + (dir / "cut").string(),
+              dir);
+    ASSERT_EQ(out.code, 0) << out.err;
+    for (const char* f : {"cut_frame_0000.obj", "cut_frame_0001.obj", "cut_frame_0002.obj"})
+      EXPECT_EQ(count(dir / "cut" / f, "v "), count(dir / "rest_cut.obj", "v ")) << f;
+  }
 }
 
 TEST(Cli, FarmCommandsRefuseBadInputInOneLineAndSbatchAbsentLeavesTheFolderReady) {
@@ -919,12 +924,13 @@ TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
   EXPECT_NE(r.err.find("bad.mask: line 2: expected a number from 0 to 1"), std::string::npos) << r.err;
   // A mask by region: a key no region has is named, with the mask file.
   write(dir / "regions.json", R"({"regions": {"nope:L": 0}})");
-  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(), dir);
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(),
+          dir);
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("regions.json: region 'nope:L': no region of the net has this key"), std::string::npos)
-      << r.err;
+  EXPECT_NE(r.err.find("regions.json: region 'nope:L': no region of the net has this key"), std::string::npos) << r.err;
   write(dir / "regions.json", R"({"regions": {}, "others": 1.5})");
-  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(), dir);
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(),
+          dir);
   EXPECT_NE(r.err.find("regions.json: /others: expected a number from 0 to 1"), std::string::npos) << r.err;
   // Every region at 0 is the skin: the same file as the envelope at 0.
   write(dir / "regions.json", R"({"regions": {}, "others": 0})");

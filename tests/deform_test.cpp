@@ -274,49 +274,6 @@ TEST(Deform, TubeBendsTheSameOnTwoTessellations) {
   EXPECT_LT((tips[0] - tips[1]).norm(), 0.05);
 }
 
-TEST(Deform, ThePosedCutMeshShowsTheCurvesBetweenACoarseMeshsVertices) {
-  // A coarse tube (8 around, 6 along), bent 90 degrees at its middle joint.
-  // Posed, the tube is a chord between its own vertices; its cut mesh, which
-  // has the curves' vertices too, lies closer on average to the same rig
-  // posed on the tube refined twice (the same surface, 12 times the faces):
-  // 0.23 % of the diagonal against 0.37 %.
-  const SurfaceMesh m = test::tube(8, 6, 2, true);
-  const Rig rig = make_tube_net();
-  Pose pose;
-  pose["mid"] = rotation(90, {0, 0, 1});
-  const Binding b = bind(m, rig);
-  const std::vector<Mat4> M = skinning_matrices(b.joints(), pose);
-  const CutMeshBinding cut = bind_cut_mesh(m, rig, {}, &b);
-  const SurfaceMesh cs = cut.embedding.cut_surface();
-  EXPECT_GT(cs.num_vertices(), m.num_vertices()); // the curves' vertices added
-  EXPECT_EQ(cut.binding.num_input_vertices(), static_cast<int>(cut.embedding.cut_mesh().positions.size()));
-  auto posed_surface = [&](const SurfaceMesh& mesh, const Binding& binding) {
-    std::vector<Vec3> out(binding.num_input_vertices());
-    binding.deform(M, out);
-    SurfaceMesh p = mesh;
-    p.positions = mesh.welded(out);
-    return p;
-  };
-  const SurfaceMesh fine = midpoint_subdivide(m, 2);
-  const SurfaceMesh posed_fine = posed_surface(fine, bind(fine, rig));
-  const SurfaceDistance coarse = surface_distance(posed_surface(m, b), posed_fine);
-  const SurfaceDistance with_curves = surface_distance(posed_surface(cs, cut.binding), posed_fine);
-  std::printf("against the refined tube posed: the tube %.3f%% mean, %.3f%% max; its cut mesh %.3f%%, %.3f%%\n",
-              coarse.percent(coarse.mean), coarse.percent(coarse.max), with_curves.percent(with_curves.mean),
-              with_curves.percent(with_curves.max));
-  EXPECT_LT(with_curves.mean, coarse.mean);
-  // The OBJ: every cut-mesh vertex, posed, and one polyline per profile.
-  const std::string obj = cut.posed_obj(M);
-  std::istringstream in(obj);
-  int v = 0, l = 0;
-  for (std::string line; std::getline(in, line);) {
-    v += line.rfind("v ", 0) == 0;
-    l += line.rfind("l ", 0) == 0;
-  }
-  EXPECT_EQ(v, cut.binding.num_input_vertices());
-  EXPECT_EQ(l, static_cast<int>(rig.profiles.size()));
-}
-
 TEST(Deform, NoNegativeLaplacianWeightTouchesAVertexSolvedFor) {
   // The capped cylinder of issue 22 (radius 0.5, length 4, 6,000 triangles)
   // with its starter net, and the hand with its hand-drawn net. After the

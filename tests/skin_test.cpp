@@ -183,6 +183,20 @@ TEST(Skin, ClipSamplingFollowsEachInterpolation) {
   EXPECT_NEAR((d - Mat4::Identity()).cwiseAbs().maxCoeff(), 0.0, 1e-6);
 }
 
+TEST(Skin, AClipIsFoundByName_ByIndex_OrByItsNameAfterTheArmaturesBar) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh horse = load_skinned_mesh(test::data("quaternius/Horse.glb"));
+  const int walk = horse.find_clip("AnimalArmature|Walk");
+  ASSERT_GE(walk, 0);
+  EXPECT_EQ(horse.find_clip("Walk"), walk);
+  EXPECT_EQ(horse.find_clip(std::to_string(walk)), walk);
+  EXPECT_EQ(horse.clip_names[horse.find_clip("Idle")], "AnimalArmature|Idle"); // not Idle_2
+  EXPECT_EQ(horse.find_clip("alk"), -1);
+  EXPECT_EQ(horse.find_clip("Armature|Walk"), -1);
+  EXPECT_EQ(horse.find_clip(""), -1);
+}
+
 TEST(Skin, FilesWithoutASkinAreRefused) {
   const auto dir = test::temp_dir("noskin");
   EXPECT_THROW(load_skinned_mesh(write_animated_gltf(dir)), InputError);

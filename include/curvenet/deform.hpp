@@ -186,25 +186,6 @@ Binding bind(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options
 Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options, const std::string& cache_path,
                     bool* reused = nullptr, OutputFiles* outputs = nullptr);
 
-/// The posed cut mesh: the input's surface with every curve along its edges
-/// (Embedding::cut_surface), bound to the same rig. A pose writes only a
-/// mesh's own vertices, so on a coarse mesh a bent curve is a chord between
-/// them; posed, the cut mesh shows the curve's own shape.
-struct CutMeshBinding {
-  Embedding embedding; ///< the input's embedding, whose cut mesh this is
-  Binding binding;     ///< the cut mesh bound: its input vertices are the cut mesh's
-  /// The cut mesh posed by `skinning` (one matrix per joint), as OBJ with one
-  /// polyline per curve (Embedding::cut_mesh_obj).
-  /// \throw Error when a posed position is not finite.
-  [[nodiscard]] std::string posed_obj(std::span<const Mat4> skinning) const;
-};
-
-/// Binds the cut mesh of `rig` on `mesh`, reusing `bound`'s embedding when
-/// it has one (a binding read from a cache has none: the rig is embedded again).
-/// \throw as bind() does.
-CutMeshBinding bind_cut_mesh(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options = {},
-                             const Binding* bound = nullptr);
-
 /// The rig with every node's weights filled in (automatic weights where the
 /// rig gives none), normalised.
 Rig complete_weights(const Rig& rig, const AutoWeightOptions& options = {});

@@ -63,8 +63,7 @@ public:
   /// largest value of the regions around it, so the curves between a masked
   /// region and an open one still follow the net.
   /// 	hrow InputError naming a key no region has, or a value outside [0, 1].
-  [[nodiscard]] std::vector<double> region_mask(const std::map<std::string, double>& values,
-                                                double others = 1) const;
+  [[nodiscard]] std::vector<double> region_mask(const std::map<std::string, double>& values, double others = 1) const;
 
   /// The base moved by `skinning` (one matrix per joint, as Binding::deform
   /// takes them), plus `envelope` times the masked correction. Output in
@@ -74,9 +73,13 @@ public:
   void deform(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope = 1,
               const NodeOffsets* offsets = nullptr) const;
   /// The posed cut mesh (Embedding::cut_surface's vertices): the base
-  /// surface at each cut vertex, corrected; its chain vertices lie on the
-  /// posed curves, and their nodes' offsets, at envelope 1. The mask, per
-  /// input vertex, does not apply.
+  /// surface at each cut vertex, corrected. Over a skin, its chain vertices
+  /// lie on the posed curves, and their nodes' offsets, at envelope 1; over
+  /// the net's own deformation they lie on the posed curves at any envelope
+  /// (the harmonic extension takes the chords between the posed input
+  /// vertices to the curves), and on their offsets at envelope 1. So on a
+  /// coarse mesh, whose own vertices make a bent curve a chord, the cut mesh
+  /// shows the curve's shape. The mask, per input vertex, does not apply.
   void deform_cut(std::span<const Mat4> skinning, std::vector<Vec3>& cut, double envelope = 1,
                   const NodeOffsets* offsets = nullptr) const;
   /// Over a skin: the displacement `out` (one per input vertex, in rest
@@ -104,7 +107,10 @@ private:
 ///   missing from the rig's skeleton, or has another bind matrix there; or
 ///   when the mask does not have one finite value in [0, 1] per input
 ///   vertex. \throw EmbedError as bind() does.
+/// Over the net's own deformation (no skin), `bound` may give the binding
+/// of `rig` on `mesh` made with `options.bind`, with its embedding, to use
+/// instead of binding again.
 CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh* skin,
-                      const LayerOptions& options = {});
+                      const LayerOptions& options = {}, const Binding* bound = nullptr);
 
 } // namespace curvenet

@@ -35,7 +35,9 @@ public:
   std::string source; ///< the file it was read from, for messages
 
   [[nodiscard]] int num_clips() const { return static_cast<int>(clip_names.size()); }
-  /// A clip by name, or by index written as a number. -1 when there is none.
+  /// A clip by name, or by index written as a number, or by the part of its
+  /// name after the last '|' when one clip alone ends so ("Walk" for
+  /// Blender's "Armature|Walk"). -1 when there is none.
   [[nodiscard]] int find_clip(const std::string& name_or_index) const;
   /// The time range of a clip, in seconds.
   [[nodiscard]] std::pair<double, double> clip_range(int clip) const;

@@ -923,20 +923,4 @@ void Binding::deform(std::span<const Mat4> M, std::span<Eigen::Vector3d> out) co
   }
 }
 
-CutMeshBinding bind_cut_mesh(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& options,
-                             const Binding* bound) {
-  Embedding emb = bound && bound->has_embedding() ? bound->embedding() : embed(mesh, rig, options.embed);
-  if (!emb.report().ok)
-    throw EmbedError("bind: the rig does not embed on " + mesh.source + ": " +
-                     (emb.report().problems.empty() ? std::string("not ok") : emb.report().problems[0]));
-  Binding cut = bind(emb.cut_surface(), rig, options);
-  return {std::move(emb), std::move(cut)};
-}
-
-std::string CutMeshBinding::posed_obj(std::span<const Mat4> skinning) const {
-  std::vector<Eigen::Vector3d> out(binding.num_input_vertices());
-  binding.deform(skinning, out);
-  return embedding.cut_mesh_obj(out);
-}
-
 } // namespace curvenet

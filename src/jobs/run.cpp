@@ -14,9 +14,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <functional>
 #include <map>
-#include <filesystem>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -32,10 +32,14 @@ JobSummary summary_of(const BoundScene& s) {
   return j;
 }
 
-/// The posed cut mesh's binding; an embedding failure names the rig file.
-CutMeshBinding cut_binding(const BoundScene& s, const BindOptions& options) {
+/// The net as a layer over its own deformation, for the posed cut mesh
+/// (CurveLayer::deform_cut): the scene's binding, or a new one when it came
+/// from a cache without its embedding; an embedding failure names the rig file.
+CurveLayer cut_layer(const BoundScene& s, const BindOptions& options) {
   try {
-    return bind_cut_mesh(s.mesh, s.rig, options, &s.binding);
+    LayerOptions lo;
+    lo.bind = options;
+    return bind_layer(s.mesh, s.rig, nullptr, lo, &s.binding);
   } catch (const EmbedError& e) {
     throw EmbedError(s.files.rig + ": " + e.what());
   }
@@ -205,8 +209,13 @@ JobSummary run(const PoseJob& job) {
   s.binding.deform(M, out);
   check(out);
   files.add(job.out, posed_obj(topology, out)); // deform() gives the file's own vertex order
-  if (!job.cut_mesh.empty())
-    files.add(job.cut_mesh, cut_binding(s, job.options).posed_obj(M));
+  if (!job.cut_mesh.empty()) {
+    const CurveLayer layer = cut_layer(s, job.options);
+    std::vector<Vec3> cut;
+    layer.deform_cut(M, cut);
+    check(cut);
+    files.add(job.cut_mesh, layer.binding().embedding().cut_mesh_obj(cut));
+  }
   files.commit();
   return summary_of(s);
 }
@@ -313,13 +322,18 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   if (part)
     part->finish();
   if (!job.cut_mesh_sequence.empty()) {
-    const CutMeshBinding cut = cut_binding(s, job.options);
-    FunctionSink cut_frames([&](int frame, std::span<const Vec3> positions) {
-      files.add((std::filesystem::path(job.cut_mesh_sequence) / sequence_name("cut_frame", frame)).string(),
-                cut.embedding.cut_mesh_obj(positions));
-    });
-    FrameSink* cut_sinks[] = {&cut_frames};
-    animate(cut.binding, clips, clip, range, cut_sinks);
+    const CurveLayer layer = cut_layer(s, job.options);
+    std::vector<Vec3> cut;
+    for (int f = range.first; f <= range.last; ++f) {
+      layer.deform_cut(clip_skinning_matrices(layer.joints(), clips, clip, range.time(f)), cut);
+      for (size_t v = 0; v < cut.size(); ++v)
+        if (!cut[v].allFinite())
+          throw InputError(clips.source, "frame " + std::to_string(f),
+                           "the pose moves cut-mesh vertex " + std::to_string(v) +
+                               " out of range (not a finite number); nothing was written");
+      files.add((std::filesystem::path(job.cut_mesh_sequence) / sequence_name("cut_frame", f)).string(),
+                layer.binding().embedding().cut_mesh_obj(cut));
+    }
   }
   files.commit();
   AnimateSummary out;
@@ -361,7 +375,8 @@ std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights&
   const double diag = std::max(box.diagonal().norm(), 1e-300);
   std::vector<BakeClipFidelity> out;
   for (int c = 0; c < clips.num_clips(); ++c) {
-    if (!names.empty() && std::find(names.begin(), names.end(), clips.clip_names[static_cast<size_t>(c)]) == names.end())
+    if (!names.empty() &&
+        std::find(names.begin(), names.end(), clips.clip_names[static_cast<size_t>(c)]) == names.end())
       continue;
     BakeClipFidelity f;
     f.clip = clips.clip_names[static_cast<size_t>(c)];
@@ -489,12 +504,13 @@ BakeSummary run(const BakeJob& job) {
   out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;
   if (clips) {
     const double envelope = job.layer.envelope;
-    out.fidelity = bake_fidelity(b, w, *clips, job.clip_names, job.fps, [&](std::span<const Mat4> M, std::span<Vec3> x) {
-      if (layer)
-        layer->deform_frames(M, x, envelope);
-      else
-        b.deform(M, x);
-    });
+    out.fidelity =
+        bake_fidelity(b, w, *clips, job.clip_names, job.fps, [&](std::span<const Mat4> M, std::span<Vec3> x) {
+          if (layer)
+            layer->deform_frames(M, x, envelope);
+          else
+            b.deform(M, x);
+        });
   }
   return out;
 }

@@ -198,8 +198,12 @@ Rig on_skin_skeleton(const Rig& rig, const SkinnedMesh& skin) {
 
 } // namespace
 
-CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh* skin, const LayerOptions& opt) {
-  auto impl = std::make_shared<CurveLayer::Impl>(bind(mesh, skin ? on_skin_skeleton(rig, *skin) : rig, opt.bind));
+CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh* skin, const LayerOptions& opt,
+                      const Binding* bound) {
+  const bool reuse = bound && !skin && bound->has_embedding() &&
+                     bound->num_input_vertices() == static_cast<int>(mesh.input_to_welded.size());
+  auto impl = std::make_shared<CurveLayer::Impl>(
+      reuse ? *bound : bind(mesh, skin ? on_skin_skeleton(rig, *skin) : rig, opt.bind));
   CurveLayer::Impl& L = *impl;
   const Binding& b = L.binding;
   const std::vector<Joint>& joints = b.joints();
@@ -361,7 +365,12 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
       for (const auto& [u, w] : L.cut_surface[v])
         (*cut)[v] += w * out[L.welded_input[u]];
   }
-  if (envelope == 0 || (!L.over_skin && !offset) || L.chains.empty())
+  // Over the net's own deformation the cut mesh's chains go to the posed
+  // curves whatever the envelope: the net's deformation puts them there, and
+  // the base gives only the chords between the input vertices.
+  const bool cut_curves = cut && !L.over_skin && !L.chains.empty();
+  const bool correct = envelope != 0 && (L.over_skin || offset) && !L.chains.empty();
+  if (!correct && !cut_curves)
     return; // the base exactly
   std::vector<Vec3> node_offset;
   if (offset) {
@@ -387,6 +396,7 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
     return p;
   };
   Eigen::MatrixXd dc(static_cast<Eigen::Index>(L.chains.size()), 3);
+  Eigen::MatrixXd dk(cut_curves ? static_cast<Eigen::Index>(L.chains.size()) : 0, 3); // chords to curves
   // Each chain vertex on its own (the same on any thread count).
   tbb::parallel_for(tbb::blocked_range<size_t>(0, L.chains.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
     DualBlend blend;
@@ -407,6 +417,8 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
       };
       const Vec3 curve = posed(c.rest);
       Vec3 d = L.over_skin ? Vec3(curve - base_at(c.surface)) : Vec3::Zero();
+      if (cut_curves)
+        dk.row(static_cast<Eigen::Index>(i)) = (curve - base_at(c.surface)).transpose();
       if (offset) {
         const Vec3 o = (1 - c.t) * node_offset[c.node_a] + c.t * node_offset[c.node_b];
         if (o != Vec3::Zero())
@@ -415,38 +427,46 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
       dc.row(static_cast<Eigen::Index>(i)) = d.transpose();
     }
   });
-  // Each part whose chains move solves for its free vertices; the others
-  // stay where the base puts them.
-  Eigen::MatrixXd df = Eigen::MatrixXd::Zero(L.num_free, 3);
-  tbb::parallel_for(size_t{0}, L.parts.size(), [&](size_t pi) {
-    const Impl::Part& part = L.parts[pi];
-    if (std::none_of(part.chains.begin(), part.chains.end(), [&](int ci) { return dc.row(ci).squaredNorm() != 0; }))
-      return;
-    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(part.size, 3);
-    for (int k = 0; k < part.size; ++k)
-      for (const auto& [ci, l] : L.fc[part.begin + k])
-        rhs.row(k) -= l * dc.row(ci);
-    df.middleRows(part.begin, part.size) = part.solver->solve(rhs);
-  });
+  // The harmonic extension of chain values: each part whose chains move
+  // solves for its free vertices; the others stay where the base puts them.
+  auto extend = [&](const Eigen::MatrixXd& on_chains) {
+    Eigen::MatrixXd free = Eigen::MatrixXd::Zero(L.num_free, 3);
+    tbb::parallel_for(size_t{0}, L.parts.size(), [&](size_t pi) {
+      const Impl::Part& part = L.parts[pi];
+      if (std::none_of(part.chains.begin(), part.chains.end(),
+                       [&](int ci) { return on_chains.row(ci).squaredNorm() != 0; }))
+        return;
+      Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(part.size, 3);
+      for (int k = 0; k < part.size; ++k)
+        for (const auto& [ci, l] : L.fc[part.begin + k])
+          rhs.row(k) -= l * on_chains.row(ci);
+      free.middleRows(part.begin, part.size) = part.solver->solve(rhs);
+    });
+    return free;
+  };
+  auto at = [&](const Eigen::MatrixXd& on_chains, const Eigen::MatrixXd& free, int v) {
+    return L.chain_index[v] >= 0  ? Vec3(on_chains.row(L.chain_index[v]).transpose())
+           : L.free_index[v] >= 0 ? Vec3(free.row(L.free_index[v]).transpose())
+                                  : Vec3::Zero();
+  };
+  if (cut_curves) {
+    const Eigen::MatrixXd fk = extend(dk);
+    for (size_t v = 0; v < cut->size(); ++v)
+      (*cut)[v] += at(dk, fk, static_cast<int>(v));
+  }
+  if (!correct)
+    return;
+  const Eigen::MatrixXd df = extend(dc);
   for (size_t i = 0; i < ni; ++i) {
     const int v = L.input_to_welded[i];
     const double s = envelope * (mask_ ? (*mask_)[i] : 1.0);
     if (s == 0)
       continue;
-    Vec3 d = Vec3::Zero();
-    if (L.chain_index[v] >= 0)
-      d = dc.row(L.chain_index[v]).transpose();
-    else if (L.free_index[v] >= 0)
-      d = df.row(L.free_index[v]).transpose();
-    out[i] += s * d;
+    out[i] += s * at(dc, df, v);
   }
-  if (cut)
-    for (size_t v = 0; v < cut->size(); ++v) {
-      const Vec3 d = L.chain_index[v] >= 0  ? Vec3(dc.row(L.chain_index[v]).transpose())
-                     : L.free_index[v] >= 0 ? Vec3(df.row(L.free_index[v]).transpose())
-                                            : Vec3::Zero();
-      (*cut)[v] += envelope * d; // the mask is per input vertex: the cut mesh takes the whole correction
-    }
+  if (cut) // the mask is per input vertex: the cut mesh takes the whole correction
+    for (size_t v = 0; v < cut->size(); ++v)
+      (*cut)[v] += envelope * at(dc, df, static_cast<int>(v));
   for (size_t i = 0; i < ni; ++i)
     if (!out[i].allFinite())
       throw InputError("pose", "vertex " + std::to_string(i),

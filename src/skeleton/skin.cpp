@@ -151,7 +151,19 @@ int SkinnedMesh::find_clip(const std::string& key) const {
     if (detail::parse_whole(key, i) && i < num_clips())
       return static_cast<int>(i);
   }
-  return -1;
+  // Blender's exporter names a clip "Armature|Walk": "Walk" finds it when no
+  // other clip ends the same way.
+  int found = -1;
+  for (int c = 0; c < num_clips(); ++c) {
+    const std::string& n = clip_names[c];
+    const size_t bar = n.rfind('|');
+    if (!key.empty() && bar != std::string::npos && n.compare(bar + 1, std::string::npos, key) == 0) {
+      if (found >= 0)
+        return -1; // ambiguous
+      found = c;
+    }
+  }
+  return found;
 }
 
 std::pair<double, double> SkinnedMesh::clip_range(int clip) const {
