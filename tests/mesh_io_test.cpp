@@ -276,6 +276,44 @@ TEST(OutputFiles, ADeviceOrAFifoIsWrittenInPlaceNeverReplaced) {
   fs::remove_all(dir);
 }
 
+TEST(OutputFiles, TwoOutputsGivenOneFileAreRefusedAndTheFileIsLeftAsItWas) {
+  const fs::path dir = fs::temp_directory_path() / "curvenet_output_files_twice";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "sub");
+  std::ofstream(dir / "old.glb") << "OLD";
+  fs::create_symlink(dir / "old.glb", dir / "link.glb");
+  // The same file however it is spelled: as given, through "sub/..", through a link.
+  for (const fs::path& again : {dir / "old.glb", dir / "sub" / ".." / "old.glb", dir / "link.glb"}) {
+    SCOPED_TRACE(again.string());
+    OutputFiles out;
+    out.add((dir / "old.glb").string(), "the mesh");
+    try {
+      out.add(again.string(), "the weights");
+      ADD_FAILURE() << "not refused";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("two outputs"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(slurp(dir / "old.glb"), "OLD");
+  // Two files, or a device given twice (written in place, both times), are fine.
+  {
+    OutputFiles out;
+    out.add((dir / "a.txt").string(), "a");
+    out.add((dir / "sub" / "a.txt").string(), "b");
+    out.commit();
+  }
+  EXPECT_EQ(slurp(dir / "sub" / "a.txt"), "b");
+  const fs::path null = dir / "null";
+  if (::mknod(null.c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0) {
+    OutputFiles out;
+    out.add(null.string(), "one");
+    out.add(null.string(), "two");
+    out.commit();
+    EXPECT_TRUE(fs::is_character_file(null));
+  }
+  fs::remove_all(dir);
+}
+
 TEST(OutputFiles, ASymbolicLinkKeepsItsPlaceAndTheFileItNamesIsReplaced) {
   const fs::path dir = fs::temp_directory_path() / "curvenet_output_files_link";
   fs::remove_all(dir);

@@ -230,6 +230,11 @@ std::ostream& OutputFiles::stream(const std::string& path) {
       fs::create_directories(target.parent_path(), ec);
       made_dirs_.insert(made_dirs_.end(), missing.rbegin(), missing.rend());
     }
+    // Two outputs given one path: the second would replace the first.
+    const fs::path key = fs::weakly_canonical(fs::absolute(target, ec), ec);
+    for (const auto& other : files_)
+      if (!other->temp.empty() && fs::weakly_canonical(fs::absolute(other->dest, ec), ec) == key)
+        throw Error(path + ": two outputs were given this one path; give each its own");
     remove_stale_temporaries(target);
     f->dest = target.string();
     f->temp = temp_name(f->dest);
