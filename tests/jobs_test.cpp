@@ -235,3 +235,44 @@ TEST(Jobs, ABakeReportsEachClipsFidelityToTheRigWorstFirst) {
   }
   EXPECT_LT(fitted_mean, mean);
 }
+
+TEST(Jobs, ABakesFidelityIsMeasuredAtThePosesOwnScaleWhenTheArmatureScalesTheSkeleton) {
+  // The T-rex's armature scales its skeleton by 100 (Blender's export): the
+  // skin and the rig are posed 100 times the rest mesh's size, and the
+  // report measures them against the diagonal at that scale.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("bake_fidelity_scaled");
+  const std::string trex = test::data("quaternius/Trex.glb"), rig = (dir / "trex.cnrig.json").string();
+  const SurfaceMesh mesh = load_mesh(trex);
+  const SkinnedMesh clips = load_skinned_mesh(trex);
+  StarterOptions so;
+  so.skin = &clips;
+  so.deforming = weighted_joints(clips);
+  write_rig(make_starter(mesh, clips.joints, so).rig, rig);
+  BakeJob job;
+  job.scene = {trex, rig, "", ""};
+  job.clip_file = trex;
+  job.clip_names = {clips.clip_names[static_cast<size_t>(clips.find_clip("TRex_Walk"))]};
+  job.glb = (dir / "trex.glb").string();
+  const BakeSummary s = run(job);
+  ASSERT_EQ(s.fidelity.size(), 1u);
+  const auto& f = s.fidelity.front();
+  // Measured anew on the worst frame's scale: the posed rig's own diagonal.
+  const Binding b = bind(mesh, read_rig(rig));
+  const double t = clips.clip_range(f.index).first + f.worst_time;
+  const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, f.index, t);
+  std::vector<Vec3> rest(b.num_input_vertices()), posed(rest.size());
+  b.deform(std::vector<Mat4>(M.size(), Mat4::Identity()), rest);
+  b.deform(M, posed);
+  Eigen::AlignedBox3d box0, box1;
+  for (size_t v = 0; v < rest.size(); ++v) {
+    box0.extend(rest[v]);
+    box1.extend(posed[v]);
+  }
+  const double scale = box1.diagonal().norm() / box0.diagonal().norm();
+  EXPECT_GT(scale, 50.0) << "the armature scales the pose";
+  EXPECT_LT(f.mean, 0.01) << "a mean under 1 % of the diagonal, not 100 times it";
+  EXPECT_GT(f.mean, 1e-5);
+  EXPECT_LT(f.max, 0.2);
+}

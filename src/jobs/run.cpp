@@ -388,9 +388,17 @@ std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights&
       const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t);
       deform(M, rig);
       const std::vector<Vec3> skin = skin_positions(w, rest, M);
+      // A file's armature may scale the whole skeleton (Blender's exports by
+      // 100): distances are measured against the diagonal at the pose's own
+      // scale, the median over the joints of each one's volume scale.
+      std::vector<double> scales;
+      for (const Mat4& m : M)
+        scales.push_back(std::cbrt(std::abs(m.block<3, 3>(0, 0).determinant())));
+      std::nth_element(scales.begin(), scales.begin() + static_cast<std::ptrdiff_t>(scales.size() / 2), scales.end());
+      const double scale = scales.empty() || !(scales[scales.size() / 2] > 0) ? 1.0 : scales[scales.size() / 2];
       double sum = 0;
       for (size_t v = 0; v < n; ++v) {
-        const double d = (skin[v] - rig[v]).norm() / diag;
+        const double d = (skin[v] - rig[v]).norm() / (diag * scale);
         sum += d;
         if (d > f.max) {
           f.max = d;
