@@ -6,6 +6,8 @@
 #include "curvenet/io.hpp"
 #include "curvenet/mesh_output.hpp"
 #include "curvenet/pose.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
 
@@ -196,6 +198,36 @@ TEST(Bake, TheGlbReadsBackWithTheSkeletonWeightsAndClipsItWasGiven) {
   EXPECT_THROW(skinned_glb(mesh_file, b.joints(), fewer), InputError);
   opt.clips = {"NoSuchClip"};
   EXPECT_THROW(skinned_glb(mesh_file, b.joints(), w, &clips, opt), InputError);
+}
+
+TEST(Bake, AGlbOfManyMaterialsReadsBackWithTheSourcesVerticesOnce) {
+  // The T-rex has five primitives (materials); the baked file writes them
+  // over one vertex buffer, and reading it back gives each vertex once, in
+  // the source's order, so the baked file poses like the source.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const std::string source = test::data("quaternius/Trex.glb");
+  const SurfaceMesh m = load_mesh(source);
+  const SkinnedMesh skin = load_skinned_mesh(source);
+  StarterOptions so;
+  so.skin = &skin;
+  so.deforming = weighted_joints(skin);
+  const Binding b = bind(m, make_starter(m, skin.joints, so).rig);
+  const SkinWeights w = bake_weights(b, 4);
+  const std::string path = temp("trex_baked.glb");
+  write_file_atomic(path, skinned_glb(source, b.joints(), w));
+  const SurfaceMesh back = load_mesh(path);
+  const InputTopology topo = read_input_topology(source), back_topo = read_input_topology(path);
+  ASSERT_GT(topo.faces.face_offsets.size(), 2u);
+  EXPECT_EQ(back.input_to_welded.size(), m.input_to_welded.size());
+  EXPECT_EQ(back.num_vertices(), m.num_vertices());
+  EXPECT_EQ(back.num_faces(), m.num_faces());
+  ASSERT_EQ(back_topo.faces.positions.size(), topo.faces.positions.size());
+  double apart = 0;
+  for (size_t v = 0; v < topo.faces.positions.size(); ++v)
+    apart = std::max(apart, (back_topo.faces.positions[v] - topo.faces.positions[v]).norm());
+  EXPECT_LT(apart, 1e-6 * m.bbox_diagonal()) << "the source's vertex order";
+  EXPECT_EQ(load_skinned_mesh(path).vertex_joint.size(), topo.faces.positions.size());
 }
 
 TEST(Bake, AnObjKeepsItsVertexOrderAndSplitsOnlyWhereItsCornersDiffer) {

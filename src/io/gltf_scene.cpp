@@ -135,31 +135,18 @@ Trs rest_trs(const tinygltf::Node& node) {
   return x;
 }
 
-void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, const Eigen::Matrix4d& world,
-                      const std::string& path, const std::string& what, bool skinned, GltfScene& scene) {
-  auto it = prim.attributes.find("POSITION");
-  if (it == prim.attributes.end())
-    return;
-  const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
-  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
-    return; // points and lines carry no surface
-  RawMesh& raw = scene.mesh;
-  AccessorReader pos(model, it->second, path, what + " POSITION");
-  if (pos.ncomp != 3)
-    throw InputError(path, what, "POSITION is not a VEC3");
-  const int base = static_cast<int>(raw.positions.size());
-  for (size_t i = 0; i < pos.count(); ++i) {
-    const Eigen::Vector4d p(pos.get(i, 0), pos.get(i, 1), pos.get(i, 2), 1.0);
-    raw.positions.push_back((world * p).head<3>());
-    if (!raw.positions.back().allFinite()) // whatever the file is read for: a mesh, a skin or a skeleton
-      throw InputError(path, what + " POSITION " + std::to_string(i), "is not a finite number");
-  }
+/// The per-vertex attributes of a primitive's `count` vertices read at
+/// `base`: texture coordinates, normals and skin influences.
+void read_vertex_attributes(const tinygltf::Model& model, const tinygltf::Primitive& prim,
+                            const Eigen::Matrix4d& world, const std::string& path, const std::string& what,
+                            bool skinned, int base, size_t count, GltfScene& scene) {
+  const RawMesh& raw = scene.mesh;
   // Skin influences (JOINTS_0 / WEIGHTS_0), when this primitive is skinned.
   scene.vertex_joint.resize(raw.positions.size(), {-1, -1, -1, -1});
   scene.vertex_weight.resize(raw.positions.size(), {0, 0, 0, 0});
   if (auto uvs = prim.attributes.find("TEXCOORD_0"); uvs != prim.attributes.end()) {
     AccessorReader uv(model, uvs->second, path, what + " TEXCOORD_0");
-    if (uv.count() == pos.count() && uv.ncomp == 2) {
+    if (uv.count() == count && uv.ncomp == 2) {
       scene.uv.resize(base, Eigen::Vector2d::Zero());
       for (size_t i = 0; i < uv.count(); ++i)
         scene.uv.emplace_back(uv.get(i, 0), 1.0 - uv.get(i, 1)); // glTF's v runs down, OBJ's up
@@ -169,7 +156,7 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
     scene.uv.resize(raw.positions.size(), Eigen::Vector2d::Zero());
   if (auto ns = prim.attributes.find("NORMAL"); ns != prim.attributes.end()) {
     AccessorReader nr(model, ns->second, path, what + " NORMAL");
-    if (nr.count() == pos.count() && nr.ncomp == 3) {
+    if (nr.count() == count && nr.ncomp == 3) {
       scene.normal.resize(base, Eigen::Vector3d::Zero());
       const Eigen::Matrix3d to_world = world.topLeftCorner<3, 3>().inverse().transpose();
       for (size_t i = 0; i < nr.count(); ++i) {
@@ -184,17 +171,56 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   if (skinned && jt != prim.attributes.end() && wt != prim.attributes.end()) {
     AccessorReader joints(model, jt->second, path, what + " JOINTS_0");
     AccessorReader weights(model, wt->second, path, what + " WEIGHTS_0");
-    if (joints.count() != pos.count() || weights.count() != pos.count() || joints.ncomp != 4 || weights.ncomp != 4)
+    if (joints.count() != count || weights.count() != count || joints.ncomp != 4 || weights.ncomp != 4)
       throw InputError(path, what, "JOINTS_0 and WEIGHTS_0 must be VEC4 with one entry per vertex");
-    for (size_t i = 0; i < pos.count(); ++i)
+    for (size_t i = 0; i < count; ++i)
       for (int k = 0; k < 4; ++k) {
         const double w = weights.get(i, k);
         scene.vertex_joint[base + i][k] = w > 0 ? static_cast<int>(joints.get(i, k)) : -1;
         scene.vertex_weight[base + i][k] = w > 0 ? w : 0;
       }
   }
-  std::vector<int> idx;
-  if (prim.indices >= 0) {
+}
+
+void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, const Eigen::Matrix4d& world,
+                      const std::string& path, const std::string& what, bool skinned, GltfScene& scene) {
+  auto it = prim.attributes.find("POSITION");
+  if (it == prim.attributes.end())
+    return;
+  const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+    return; // points and lines carry no surface
+  RawMesh& raw = scene.mesh;
+  AccessorReader pos(model, it->second, path, what + " POSITION");
+  if (pos.ncomp != 3)
+    throw InputError(path, what, "POSITION is not a VEC3");
+  std::array<int, 5> accessors{};
+  {
+    int k = 0;
+    for (const char* name : {"POSITION", "NORMAL", "TEXCOORD_0", "JOINTS_0", "WEIGHTS_0"}) {
+      const auto a = prim.attributes.find(name);
+      accessors[k++] = a == prim.attributes.end() ? -1 : a->second;
+    }
+  }
+  int base = static_cast<int>(raw.positions.size());
+  bool shared = false;
+  for (const auto& source : scene.vertex_sources)
+    if (source.accessors == accessors && source.skinned == skinned && source.world == world) {
+      base = source.base;
+      shared = true;
+      break;
+    }
+  if (!shared)
+    scene.vertex_sources.push_back({accessors, world, skinned, base});
+  for (size_t i = 0; i < (shared ? 0 : pos.count()); ++i) {
+    const Eigen::Vector4d p(pos.get(i, 0), pos.get(i, 1), pos.get(i, 2), 1.0);
+    raw.positions.push_back((world * p).head<3>());
+    if (!raw.positions.back().allFinite()) // whatever the file is read for: a mesh, a skin or a skeleton
+      throw InputError(path, what + " POSITION " + std::to_string(i), "is not a finite number");
+  }
+  if (!shared)
+    read_vertex_attributes(model, prim, world, path, what, skinned, base, pos.count(), scene);
+  std::vector<int> idx;  if (prim.indices >= 0) {
     AccessorReader ind(model, prim.indices, path, what + " indices");
     for (size_t i = 0; i < ind.count(); ++i) {
       const double v = ind.get(i, 0);

@@ -30,6 +30,16 @@ struct GltfScene {
   /// Per mesh vertex: up to 4 (skin joint slot, weight); slot -1 when unused.
   std::vector<std::array<int, 4>> vertex_joint;
   std::vector<std::array<double, 4>> vertex_weight;
+  /// Vertices read so far, by the accessors and placement they came from:
+  /// primitives that share their vertex accessors (materials over one vertex
+  /// buffer, as `curvenet bake` writes them) share the vertices.
+  struct VertexSource {
+    std::array<int, 5> accessors; ///< POSITION, NORMAL, TEXCOORD_0, JOINTS_0, WEIGHTS_0 (-1: none)
+    Eigen::Matrix4d world;
+    bool skinned;
+    int base; ///< the first of its vertices in `mesh`
+  };
+  std::vector<VertexSource> vertex_sources;
 };
 
 /// Reads a .gltf or .glb file. The last two files parsed are kept with a
