@@ -915,6 +915,21 @@ TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
   CliRun r = run("pose " + obj + " " + rig + " " + pose + out + " --over-skin", dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("hand_l_welded.obj: has no skin to layer over"), std::string::npos) << r.err;
+  // An envelope or a mask with nothing to scale (no skin under the net, no
+  // node offsets) is refused, not ignored.
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --envelope 0.5", dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--envelope: 0.5"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("give --over-skin"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out.obj"));
+  // A hand-typed quaternion of four digits is refused with what to do.
+  write(dir / "typed.pose.json",
+        R"({"format":"curvenet-pose","version":1,"joints":{"Wrist_L":{"rotation":[0.7071,0,0,0.7071]}}})");
+  r = run("pose " + gltf + " " + rig + " " + (dir / "typed.pose.json").string() + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("norm is 0.99999"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("divide the four numbers by their norm"), std::string::npos) << r.err;
   write(dir / "short.mask", "1\n0.5\n");
   r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "short.mask").string(), dir);
   EXPECT_EQ(r.code, 2);

@@ -111,7 +111,13 @@ std::optional<RegionMask> read_region_mask(const std::string& path, const std::s
 }
 
 bool layered(const LayerSpec& l, bool offsets) {
-  return l.over_skin || offsets || !l.mask.empty() || l.envelope != 1;
+  // Without a skin under it or node offsets, the layer corrects nothing:
+  // an envelope or a mask would be silently ignored.
+  if (!l.over_skin && !offsets && (!l.mask.empty() || l.envelope != 1))
+    throw InputError(l.mask.empty() ? "--envelope" : "--mask", l.mask.empty() ? std::to_string(l.envelope) : l.mask,
+                     "scales the layer's correction, and there is none to scale: give --over-skin, or node offsets "
+                     "(a version 2 pose, or --node-keys)");
+  return l.over_skin || offsets;
 }
 
 /// The scene's net as a layer; an embedding failure names the rig file.

@@ -7,6 +7,7 @@
 #include "io/json_text.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -81,7 +82,12 @@ PoseFile parse_pose_file(const std::string& text, const std::string& source) {
         const auto q = numbers(*k, 4, kp);
         const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
         if (std::abs(norm - 1) > 1e-6)
-          fail(kp, "not a unit quaternion (norm " + std::to_string(norm) + ")");
+        {
+          char text[64];
+          std::snprintf(text, sizeof text, "%.9g", norm);
+          fail(kp, std::string("not a unit quaternion: its norm is ") + text +
+                       ", and the format asks for 1 within 1e-6 (divide the four numbers by their norm)");
+        }
         jp.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
       } else if (k.key() == "translation") {
         const auto t = numbers(*k, 3, kp);
