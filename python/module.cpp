@@ -869,8 +869,8 @@ PYBIND11_MODULE(_curvenet, m) {
           for (const auto& name : deforming.cast<std::vector<std::string>>())
             o.deforming.insert(name);
         }
-        if (nodes_per_ring < 3 || nodes_per_ring > 64)
-          throw py::value_error("nodes_per_ring: expected 3 to 64");
+        if (nodes_per_ring < 2 || nodes_per_ring > 64)
+          throw py::value_error("nodes_per_ring: expected 2 to 64, as the CLI takes");
         if (rings_per_bone < 1 || rings_per_bone > 16)
           throw py::value_error("rings_per_bone: expected 1 to 16");
         if (!std::isfinite(first_angle))
@@ -1385,6 +1385,8 @@ PYBIND11_MODULE(_curvenet, m) {
          double start_frame) {
         if (frames.ndim() != 3 || frames.shape(2) != 3)
           throw py::value_error("frames: expected an (F, n, 3) array");
+        if (!std::isfinite(static_cast<float>(start_frame)))
+          throw InputError(path, "start_frame", "is not a finite number in single precision; nothing was written");
         std::vector<float> data(static_cast<size_t>(frames.size()));
         const double* p = frames.data();
         for (size_t i = 0; i < data.size(); ++i) {

@@ -125,6 +125,8 @@ Rig move_node(const Rig& rig, const std::string& node, const Vec3& position, con
 
 double nearest_parameter(const Rig& rig, const std::string& profile, const Vec3& point, const std::string& source) {
   const Profile& p = rig.profiles[profile_index(rig, profile, source)];
+  if (!point.allFinite())
+    throw InputError(source, "profile '" + profile + "'", "the point to find on it is not finite");
   const auto curve = curve_on_nodes(rig, p);
   const auto& pts = curve.points();
   const auto& arc = curve.arc();

@@ -115,6 +115,8 @@ std::string posed_obj(const InputTopology& t, std::span<const Eigen::Vector3d> p
 }
 
 std::string pc2_header(int points, int frames, float start_frame) {
+  if (!std::isfinite(start_frame))
+    throw Error("the point cache's start frame is not a finite number; nothing was written");
   std::string out(32, '\0');
   char* p = out.data();
   std::memcpy(p, "POINTCACHE2\0", 12);

@@ -238,7 +238,8 @@ AnimateSummary animate_layered(const AnimateJob& job, const Scene& scene, const 
   std::optional<InputTopology> topology;
   std::vector<std::unique_ptr<FrameSink>> sinks;
   if (!job.pc2.empty())
-    sinks.push_back(std::make_unique<Pc2Sink>(files, job.pc2, nv, range, job.clip_file));
+    sinks.push_back(std::make_unique<Pc2Sink>(
+        files, job.pc2, nv, range, job.node_keys.empty() ? job.clip_file : job.clip_file + " with " + job.node_keys));
   if (!job.obj_sequence.empty()) {
     topology = read_input_topology(job.scene.mesh);
     sinks.push_back(std::make_unique<ObjSequenceSink>(files, job.obj_sequence, *topology));
@@ -264,8 +265,8 @@ AnimateSummary animate_layered(const AnimateJob& job, const Scene& scene, const 
       layer.deform(M.subspan(f * nj, nj), out.subspan(f * nv, nv), envelope, &offsets);
     });
   };
-  if (!all.empty())
-    animate(nv, frames, pose, range, all, clips.source);
+  if (!all.empty()) // a frame out of range: the clip's pose, or the node keys' offsets on it
+    animate(nv, frames, pose, range, all, keys ? clips.source + " with " + job.node_keys : clips.source);
   if (!job.cut_mesh_sequence.empty()) {
     std::vector<Vec3> cut;
     for (int f = range.first; f <= range.last; ++f) {

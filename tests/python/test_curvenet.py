@@ -482,6 +482,10 @@ def test_bad_values_from_python_are_refused_not_crashed_on(tmp_path):
     with pytest.raises(curvenet.InputError):
         curvenet.write_pc2(str(tmp_path / "nan.pc2"), np.full((1, 2, 3), np.nan))
     assert not (tmp_path / "nan.pc2").exists()
+    for start in (float("nan"), float("inf"), 1e300):  # the header's start frame, single precision
+        with pytest.raises(curvenet.InputError):
+            curvenet.write_pc2(str(tmp_path / "start.pc2"), np.zeros((1, 2, 3)), start)
+        assert not (tmp_path / "start.pc2").exists()
     with pytest.raises(curvenet.InputError):
         curvenet.starter(m, [])
 
@@ -701,6 +705,8 @@ def test_the_net_editor_edits_a_copy_that_still_embeds():
     assert rep["ok"] and rep["regions"] == regions  # one node and one profile more: the same regions
     t = curvenet.nearest_parameter(rig, p.id, split.node(node).position)
     assert abs(t - 0.5) < 1e-9
+    with pytest.raises(curvenet.InputError):
+        curvenet.nearest_parameter(rig, p.id, [np.nan, 0, 0])
     merged = curvenet.merge_nodes(split, p.from_, node)
     assert len(merged.nodes) == len(rig.nodes) and merged.node_index(node) < 0
     moved = curvenet.move_node(rig, p.from_, np.asarray(rig.node(p.from_).position) + 1e-4)
