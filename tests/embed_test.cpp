@@ -4,6 +4,9 @@
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
+#include "curvenet/transfer.hpp"
 #include "cut/cutter.hpp"
 #include "embed/embedding_impl.hpp"
 #include "generate/tube.hpp"
@@ -13,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -565,4 +569,60 @@ TEST(Embed, SixteenSpokesMeetAtOnePoleNode) {
           ADD_FAILURE() << err.what();
         }
       }
+}
+
+TEST(Embed, ANetEmbedsAndTransfersOntoTheSameSurfaceWithItsTrianglePairsMergedIntoBentQuads) {
+  // A retopology a user may make: CesiumMan's triangles merged in pairs into
+  // quads, many of them bent (two triangles of a curved surface), some so
+  // far that their layout in the plane has a reflex corner. A chain that
+  // enters such a quad on one side of that corner and leaves on the other
+  // was a straight chord outside the quad, and the cut refused it ("leaves
+  // input face ... between two of its crossings"); it now passes over the
+  // quad's diagonal.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SurfaceMesh tri = load_mesh(test::data("cesium_man/CesiumMan.glb"));
+  RawMesh quads;
+  quads.positions = tri.positions;
+  std::map<std::pair<int, int>, int> edge_face;
+  for (int f = 0; f < tri.num_faces(); ++f) {
+    const auto c = tri.face(f);
+    for (size_t i = 0; i < c.size(); ++i)
+      edge_face[{c[i], c[(i + 1) % c.size()]}] = f;
+  }
+  std::vector<char> used(tri.num_faces(), 0);
+  int merged = 0;
+  for (int f = 0; f < tri.num_faces(); ++f) {
+    if (used[f])
+      continue;
+    const auto t = tri.face(f);
+    bool done = false;
+    for (int i = 0; i < 3 && !done; ++i) {
+      const int a = t[i], b = t[(i + 1) % 3], c = t[(i + 2) % 3];
+      const auto g = edge_face.find({b, a});
+      if (g == edge_face.end() || used[g->second] || g->second == f)
+        continue;
+      const auto u = tri.face(g->second);
+      const int o = *std::find_if(u.begin(), u.end(), [&](int x) { return x != a && x != b; });
+      quads.add_face(std::array<int, 4>{a, o, b, c});
+      used[f] = used[g->second] = 1;
+      done = true;
+      ++merged;
+    }
+    if (!done) {
+      quads.add_face(std::array<int, 3>{t[0], t[1], t[2]});
+      used[f] = 1;
+    }
+  }
+  ASSERT_GT(merged, 2000);
+  const SurfaceMesh q = make_surface_mesh(quads, "cesium quads");
+  const SkinnedMesh skin = load_skinned_mesh(test::data("cesium_man/CesiumMan.glb"));
+  StarterOptions so;
+  so.deforming = weighted_joints(skin);
+  const Rig rig = make_starter(tri, skin.joints, so).rig;
+  const Embedding e = embed(q, rig);
+  EXPECT_TRUE(e.report().ok) << (e.report().problems.empty() ? "" : e.report().problems[0]);
+  EXPECT_EQ(e.report().regions, embed(tri, rig).report().regions);
+  const TransferResult moved = transfer(rig, tri, q);
+  EXPECT_TRUE(moved.report.target.ok);
 }

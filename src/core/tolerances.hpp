@@ -36,6 +36,12 @@ struct Tolerances {
   /// traced more closely.
   static constexpr int cut_rounds = 8;
 
+  /// A chain that would leave a bent polygon's layout passes over its
+  /// diagonals instead, no nearer either end of a diagonal than this
+  /// fraction of its length (the straight chord meets the diagonal's line
+  /// beyond a reflex corner; the chain passes that corner this close).
+  static constexpr double detour_margin = 0.01;
+
   /// A matrix whose smallest singular value is at most this fraction of its
   /// largest is singular (bind matrices, frames, inverse bind matrices).
   static constexpr double invertible_rel = 1e-12;

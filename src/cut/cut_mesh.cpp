@@ -2,6 +2,7 @@
 
 #include "core/polygon.hpp"
 #include "core/predicates.hpp"
+#include "core/tolerances.hpp"
 #include "curvenet/errors.hpp"
 
 #include <Eigen/Geometry>
@@ -370,6 +371,59 @@ Eigen::Vector2d CutMesh::to_face_plane(Face f, const Eigen::Vector3d& p) const {
     return Eigen::Vector2d::Zero();
   const auto [c, bary] = nearest_triangle(l, p);
   return bary[0] * l.uv[c[0]] + bary[1] * l.uv[c[1]] + bary[2] * l.uv[c[2]];
+}
+
+std::vector<Eigen::Vector3d> CutMesh::detour(Face f, Vertex a, Vertex b) const {
+  const Layout& l = layout(f);
+  if (l.tris.size() < 2)
+    return {};
+  const Eigen::Vector2d A = to_face_plane(f, a), B = to_face_plane(f, b);
+  // The triangles of a and b, and the path between them in the
+  // triangulation's dual tree.
+  auto triangle_of = [&](Vertex v) {
+    const auto [c, bary] = nearest_triangle(l, position(v));
+    return static_cast<int>(std::find(l.tris.begin(), l.tris.end(), c) - l.tris.begin());
+  };
+  const int ta = triangle_of(a), tb = triangle_of(b), nt = static_cast<int>(l.tris.size());
+  auto shared = [&](int s, int t, std::array<int, 2>& edge) {
+    int k = 0;
+    for (int x : l.tris[s])
+      if (std::find(l.tris[t].begin(), l.tris[t].end(), x) != l.tris[t].end() && k < 2)
+        edge[k++] = x;
+    return k == 2;
+  };
+  std::vector<int> from(nt, -1);
+  std::vector<int> queue{ta};
+  from[ta] = ta;
+  for (size_t q = 0; q < queue.size(); ++q)
+    for (int t = 0; t < nt; ++t) {
+      std::array<int, 2> e{};
+      if (from[t] < 0 && shared(queue[q], t, e)) {
+        from[t] = queue[q];
+        queue.push_back(t);
+      }
+    }
+  if (ta == tb || from[tb] < 0)
+    return {};
+  std::vector<int> path{tb};
+  while (path.back() != ta)
+    path.push_back(from[path.back()]);
+  std::reverse(path.begin(), path.end());
+  std::vector<Eigen::Vector3d> out;
+  for (size_t k = 0; k + 1 < path.size(); ++k) {
+    std::array<int, 2> e{};
+    shared(path[k], path[k + 1], e);
+    // Where the chord's line meets the diagonal, kept inside it (away from
+    // its corners, so that no sliver is cut).
+    const Eigen::Vector2d P = l.uv[e[0]], D = l.uv[e[1]] - P, AB = B - A;
+    const double den = AB.x() * D.y() - AB.y() * D.x();
+    double s = 0.5;
+    if (den != 0)
+      s = ((P.x() - A.x()) * AB.y() - (P.y() - A.y()) * AB.x()) / den;
+    s = std::clamp(std::isfinite(s) ? s : 0.5, Tolerances::detour_margin, 1 - Tolerances::detour_margin);
+    out.push_back((1 - s) * position(Vertex(l.corners[e[0]])) + s * position(Vertex(l.corners[e[1]])));
+  }
+  return out;
 }
 
 std::vector<std::pair<int, double>> CutMesh::input_weights(Vertex v) const {

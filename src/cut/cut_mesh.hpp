@@ -120,6 +120,14 @@ public:
   [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, Vertex v) const;
   /// The same for a point of the surface inside face f that is not a vertex.
   [[nodiscard]] Eigen::Vector2d to_face_plane(Face f, const Eigen::Vector3d& inside) const;
+  /// For a chord from a to b (vertices of face f, or inside it) that would
+  /// leave the face in its layout (a polygon whose layout is not convex: a
+  /// bent quad unfolds with a reflex corner), the points it should pass
+  /// through instead, in order: one on each diagonal of the layout's
+  /// triangulation between a's triangle and b's, where the straight chord's
+  /// line meets that diagonal, kept inside it. Empty when a and b lie in one
+  /// triangle of the layout.
+  [[nodiscard]] std::vector<Eigen::Vector3d> detour(Face f, Vertex a, Vertex b) const;
   /// A vertex as an affine combination of input vertices, on the input
   /// surface: itself; the two ends of its input edge; or, inside an input
   /// face, the corners of the face's triangle nearest to it (barycentric).

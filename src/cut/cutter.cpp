@@ -251,10 +251,33 @@ CutResult cut_mesh(CutMesh& mesh, const TraceMesh& tm, const CutInput& in,
       if (common.empty())
         throw EmbedError("cut: profile '" + in.profile_ids[p] + "', sample " + std::to_string(b.sample) +
                          ": consecutive path points share no input face");
-      chords[common[0]].push_back({p, chain.halfedges.size(), {va, vb, {p, true}}});
-      chain.halfedges.emplace_back();
-      chain.vertices.push_back(vb);
-      chain.point.push_back(static_cast<int>(k));
+      // A straight chord that would leave a face whose layout is not
+      // convex (a bent quad) passes inside it, over the diagonals between
+      // (checked as step 5 checks chords against the face's boundary).
+      const int f = common[0];
+      std::vector<Vertex> stops;
+      const Face face(f);
+      auto p2 = [&](Vertex v) { return mesh.to_face_plane(face, v); };
+      bool leaves = false;
+      for (Halfedge h : mesh.face_loop(face)) {
+        const Vertex x = mesh.from(h), y = mesh.to(h);
+        if (x != va && x != vb && y != va && y != vb && seg_cross(p2(va), p2(vb), p2(x), p2(y))) {
+          leaves = true;
+          break;
+        }
+      }
+      if (leaves)
+        for (const Vec3& q : mesh.detour(face, va, vb))
+          stops.push_back(mesh.add_isolated_vertex(q, {VertexOrigin::Kind::InFace, f, 0}));
+      stops.push_back(vb);
+      Vertex prev = va;
+      for (const Vertex stop : stops) {
+        chords[f].push_back({p, chain.halfedges.size(), {prev, stop, {p, true}}});
+        chain.halfedges.emplace_back();
+        chain.vertices.push_back(stop);
+        chain.point.push_back(static_cast<int>(k));
+        prev = stop;
+      }
     }
   }
   // 5. Split each crossed face along its chords, after checking that no two cross.
