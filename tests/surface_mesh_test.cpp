@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -97,6 +99,54 @@ TEST(SurfaceMesh, RefusesDegenerateFaces) {
   s.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   s.add_face(std::vector<int>{0, 1, 1});
   EXPECT_THROW(make_surface_mesh(s, "repeat"), InputError);
+}
+
+TEST(SurfaceMesh, ASliverWithNoAreaIsLeftOutAndTheSlitItLeavesIsClosed) {
+  // A game exporter's sliver: triangle (a, b, c) split at a point m of its
+  // edge a-b into (a, m, c) and (m, b, c), with the triangle (a, b, m) of no
+  // area closing the surface. Left out, it would leave a slit (the mesh
+  // open); the triangle across a-b is split at m instead. With m exactly on
+  // the edge, and with m rounded to single precision (off it by ~1e-8).
+  const SurfaceMesh tube = test::tube(12, 8, 3, true);
+  const std::vector<ComponentInfo> before = mesh_components(tube);
+  ASSERT_EQ(before.size(), 1u);
+  ASSERT_TRUE(before[0].closed);
+  for (const bool single : {false, true}) {
+    SCOPED_TRACE(single ? "m in single precision" : "m exactly on the edge");
+    RawMesh raw;
+    raw.positions = tube.positions;
+    int slivers = 0;
+    for (int f = 0; f < tube.num_faces(); ++f) {
+      const auto t = tube.face(f);
+      if (f % 17 != 5) {
+        raw.add_face(std::array<int, 3>{t[0], t[1], t[2]});
+        continue;
+      }
+      const int a = t[0], b = t[1], c = t[2], m = static_cast<int>(raw.positions.size());
+      Vec3 mid = 0.5 * (tube.positions[a] + tube.positions[b]);
+      if (single)
+        mid = mid.cast<float>().cast<double>();
+      raw.positions.push_back(mid);
+      raw.add_face(std::array<int, 3>{a, m, c});
+      raw.add_face(std::array<int, 3>{m, b, c});
+      raw.add_face(std::array<int, 3>{a, b, m});
+      ++slivers;
+    }
+    ASSERT_GT(slivers, 5);
+    const SurfaceMesh m = make_surface_mesh(raw, "slivers");
+    const std::vector<ComponentInfo> after = mesh_components(m);
+    ASSERT_EQ(after.size(), 1u);
+    EXPECT_TRUE(after[0].closed) << "no slit left open";
+    EXPECT_EQ(after[0].euler, before[0].euler);
+    EXPECT_EQ(m.num_vertices(), static_cast<int>(raw.positions.size())) << "every vertex on the surface";
+    EXPECT_EQ(m.num_faces(), tube.num_faces() + 2 * slivers) << "each sliver out, its two halves and the split in";
+    ASSERT_FALSE(m.notes.empty());
+    EXPECT_NE(m.notes[0].find("left out " + std::to_string(slivers) + " degenerate faces"), std::string::npos)
+        << m.notes[0];
+    EXPECT_NE(m.notes[0].find("closed by splitting the triangle across"), std::string::npos) << m.notes[0];
+    EXPECT_NEAR(m.enclosed_volume(m.positions), tube.enclosed_volume(tube.positions),
+                1e-9 * std::abs(tube.enclosed_volume(tube.positions)));
+  }
 }
 
 TEST(SurfaceMesh, RefusesNonManifoldEdges) {

@@ -34,8 +34,14 @@ void triangulate_polygon(std::span<const Eigen::Vector3d> corners, std::vector<s
   if (n == 4) {
     // A quad: the shorter diagonal, when both splits are valid in the plane
     // (the common "beauty" choice, and what most exporters do).
-    const bool split02 = orient2d(p2[0], p2[1], p2[2]) > 0 && orient2d(p2[0], p2[2], p2[3]) > 0;
-    const bool split13 = orient2d(p2[1], p2[2], p2[3]) > 0 && orient2d(p2[1], p2[3], p2[0]) > 0;
+    // (A triangle of three collinear corners is never valid, whatever the
+    // rounding of the projection says: a quad with a straight corner, as
+    // closing a sliver's slit makes, splits from that corner.)
+    auto valid = [&](int a, int b, int c) {
+      return orient2d(p2[a], p2[b], p2[c]) > 0 && !collinear3d(corners[a], corners[b], corners[c]);
+    };
+    const bool split02 = valid(0, 1, 2) && valid(0, 2, 3);
+    const bool split13 = valid(1, 2, 3) && valid(1, 3, 0);
     const bool shorter02 = (corners[0] - corners[2]).squaredNorm() <= (corners[1] - corners[3]).squaredNorm();
     if (split02 && (!split13 || shorter02)) {
       tris.push_back({0, 1, 2});
@@ -56,7 +62,7 @@ void triangulate_polygon(std::span<const Eigen::Vector3d> corners, std::vector<s
     int ear = -1;
     for (int i = 0; i < m && ear < 0; ++i) {
       const int a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
-      if (orient2d(p2[a], p2[b], p2[c]) <= 0)
+      if (orient2d(p2[a], p2[b], p2[c]) <= 0 || collinear3d(corners[a], corners[b], corners[c]))
         continue;
       bool empty = true;
       for (int j : ring) {

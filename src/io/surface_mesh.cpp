@@ -2,16 +2,20 @@
 
 #include "curvenet/surface_mesh.hpp"
 #include "core/predicates.hpp"
+#include "core/tolerances.hpp"
 #include "curvenet/errors.hpp"
 
+#include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -472,6 +476,18 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   // output keeps them (it is written on the file's own topology).
   // Each face classified on its own (in parallel), then the survivors kept
   // in file order.
+  // A triangle whose corner opposite its longest edge lies within
+  // Tolerances::node_snap_rel of the diagonal of that edge, and between its
+  // ends, has no area either: a vertex put at an edge's midpoint and stored
+  // in single precision lands that close to the edge, not on it, and so
+  // thin a triangle leaves the cut no room.
+  Eigen::AlignedBox3d box;
+  for (int v = 0; v < nin; ++v)
+    box.extend(raw.positions[v]);
+  // (Measured in units of the diagonal: a mesh at 1e-200 or 1e200 would
+  // underflow or overflow a cross product of its own coordinates.)
+  const double inv_diag = 1 / box.diagonal().norm();
+  const bool measure_thin = std::isfinite(inv_diag) && inv_diag > 0;
   enum : char { kKept = 0, kSamePoint = 1, kNoArea = 2 };
   std::vector<char> kind(static_cast<size_t>(nraw), kKept);
   tbb::parallel_for(tbb::blocked_range<int>(0, nraw, 4096), [&](const tbb::blocked_range<int>& range) {
@@ -497,6 +513,13 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
       bool all_collinear = !degenerate;
       for (int i = 1; i + 1 < n && all_collinear; ++i)
         all_collinear = detail::collinear3d(at(0), at(i), at(i + 1));
+      if (n == 3 && !degenerate && !all_collinear && measure_thin)
+        for (int m = 0; m < 3 && !all_collinear; ++m) {
+          const Vec3 &a = at((m + 1) % 3), &c = at((m + 2) % 3), &x = at(m);
+          const Vec3 ac = (c - a) * inv_diag, ax = (x - a) * inv_diag;
+          const double t = ax.dot(ac) / ac.squaredNorm();
+          all_collinear = t > 0 && t < 1 && ax.cross(ac).norm() / ac.norm() <= detail::Tolerances::node_snap_rel;
+        }
       kind[f] = degenerate ? kSamePoint : all_collinear ? kNoArea : kKept;
     }
   });
@@ -523,6 +546,82 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
       offsets.push_back(static_cast<int>(verts.size()));
     }
   }
+  // Vertices at one position (the weld below starts from these groups).
+  std::vector<int> group = first_at_same_position(raw.positions);
+  // A triangle with no area whose corners are three points of one line (b
+  // between a and c) leaves a slit when it is left out. The triangle across
+  // its long edge a-c is split at b into two, so that the faces across a-b
+  // and b-c meet them and the surface stays closed. (Not a polygon across:
+  // a corner added to it would be a straight angle, which no layout orders.)
+  // A triangle that has b already, or a sliver whose long edge no kept
+  // triangle has, is left as it is.
+  int closed_slits = 0;
+  if (dropped > 0) {
+    std::map<std::pair<int, int>, std::vector<std::pair<double, int>>> insert; // kept edge x->y: (distance from x, b)
+    for (int f = 0; f < nraw; ++f) {
+      const int b = raw.face_offsets[f];
+      if (kind[f] != kNoArea || raw.face_offsets[f + 1] - b != 3)
+        continue;
+      std::array<int, 3> w{};
+      std::array<Vec3, 3> p;
+      for (int i = 0; i < 3; ++i) {
+        w[i] = raw.face_vertices[b + i];
+        p[i] = raw.positions[raw.face_vertices[b + i]];
+      }
+      if (group[w[0]] == group[w[1]] || group[w[1]] == group[w[2]] || group[w[0]] == group[w[2]])
+        continue;
+      for (int m = 0; m < 3; ++m) {
+        const int next = (m + 1) % 3, last = (m + 2) % 3;
+        if ((p[next] - p[m]).dot(p[last] - p[m]) < 0) { // m lies between the other two
+          insert[{group[w[last]], group[w[next]]}].emplace_back((p[m] - p[last]).squaredNorm(), w[m]);
+          break;
+        }
+      }
+    }
+    if (!insert.empty()) {
+      std::vector<int> new_offsets{0}, new_verts;
+      new_verts.reserve(verts.size() + 6 * insert.size());
+      int split = 0;
+      for (int f = 0; f + 1 < static_cast<int>(offsets.size()); ++f) {
+        const int b = offsets[f], n = offsets[f + 1] - b;
+        bool done = false;
+        for (int k = 0; k < n && n == 3 && !done; ++k) {
+          const int x = verts[b + k], y = verts[b + (k + 1) % 3], z = verts[b + (k + 2) % 3];
+          const auto it = insert.find({group[x], group[y]});
+          if (it == insert.end())
+            continue;
+          auto list = it->second;
+          std::sort(list.begin(), list.end());
+          if (std::any_of(list.begin(), list.end(), [&](const auto& e) { return group[e.second] == group[z]; }))
+            continue;
+          int from = x;
+          for (const auto& [d, v] : list) {
+            new_verts.insert(new_verts.end(), {from, v, z});
+            new_offsets.push_back(static_cast<int>(new_verts.size()));
+            from = v;
+            ++split;
+          }
+          new_verts.insert(new_verts.end(), {from, y, z});
+          new_offsets.push_back(static_cast<int>(new_verts.size()));
+          done = true;
+        }
+        if (done)
+          continue;
+        new_verts.insert(new_verts.end(), verts.begin() + b, verts.begin() + b + n);
+        new_offsets.push_back(static_cast<int>(new_verts.size()));
+      }
+      const EdgeTable closed = edge_table(new_offsets, new_verts);
+      bool manifold = true;
+      for (int e = 0; e < closed.num_edges() && manifold; ++e)
+        manifold = closed.uses(e) <= 2;
+      if (manifold && split > 0) {
+        offsets = std::move(new_offsets);
+        verts = std::move(new_verts);
+        closed_slits = split;
+      }
+    }
+  }
+
   const int nf = static_cast<int>(offsets.size()) - 1;
   if (nf == 0) {
     const auto colon = first_reason.find(": ");
@@ -539,7 +638,6 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
                        "non-manifold: shared by " + std::to_string(edges.uses(e)) + " faces");
 
   // Weld by exact position, then undo welds that break manifoldness.
-  std::vector<int> group = first_at_same_position(raw.positions);
   std::vector<int> to_welded;
   std::vector<int> fverts;
   int refused_welds = 0;
@@ -651,7 +749,10 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
     mesh.notes.push_back(
         "left out " + std::to_string(dropped) +
         " degenerate faces (two corners at one point, or no area) of the surface it works on" +
-        (followers > 0 ? "; " + std::to_string(followers) + " of their vertices follow their nearest neighbour" : ""));
+        (followers > 0 ? "; " + std::to_string(followers) + " of their vertices follow their nearest neighbour" : "") +
+        (closed_slits > 0 ? "; the slits " + std::to_string(closed_slits) +
+                                " of them left are closed by splitting the triangle across"
+                          : ""));
   if (nw < nin)
     mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) +
                          " by position");
