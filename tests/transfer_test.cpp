@@ -436,6 +436,8 @@ TEST(Transfer, ARigOnACageGoesThroughItsLimitSurface) {
     std::printf("from the bare cage: %s, agreement %.4f\n", bare.report.ok ? "ok" : "not ok", bare.report.agreement);
   } catch (const EmbedError& e) {
     std::printf("from the bare cage: refused: %s\n", e.what());
+    // A refusal where the placed rig does not embed names the target.
+    EXPECT_EQ(std::string(e.what()).rfind(remesh.source + ": ", 0), 0u) << e.what();
   }
 }
 

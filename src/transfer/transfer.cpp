@@ -702,8 +702,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) + " of the diagonal apart, " +
       percent(rep.shape.mean / rep.shape.diagonal) + " on average" +
       (rep.alignment.rfind("frames (", 0) == 0 ? "; lined up by " + rep.alignment : std::string()) + ")";
-  if (!placed)
-    throw EmbedError(unplaced + apart);
+  if (!placed) // named by the target: it is where the placed rig did not embed
+    throw EmbedError((unplaced.rfind("transfer:", 0) == 0 ? unplaced : target.source + ": " + unplaced) + apart);
   const Embedding& src = *source_embedding;
   const Embedding& tgt = *placed;
   rep.target = tgt.report();
