@@ -276,3 +276,36 @@ TEST(Jobs, ABakesFidelityIsMeasuredAtThePosesOwnScaleWhenTheArmatureScalesTheSke
   EXPECT_GT(f.mean, 1e-5);
   EXPECT_LT(f.max, 0.2);
 }
+
+TEST(Jobs, AnimatingWithAnotherSkeletonsClipsSaysHowManyJointsItMoves) {
+  // Clip joints are matched to the rig's by name: a horse's walk on the
+  // T-rex moves the joints both skeletons name, and the summary says how
+  // few they are; the T-rex's own walk says nothing of the kind.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("animate_other_clips");
+  const std::string trex = test::data("quaternius/Trex.glb"), rig = (dir / "trex.cnrig.json").string();
+  const SkinnedMesh skin = load_skinned_mesh(trex);
+  StarterOptions so;
+  so.skin = &skin;
+  so.deforming = weighted_joints(skin);
+  write_rig(make_starter(load_mesh(trex), skin.joints, so).rig, rig);
+  AnimateJob job;
+  job.scene = {trex, rig, "", ""};
+  job.frames = "0:1";
+  job.pc2 = (dir / "walk.pc2").string();
+  auto note_of = [](const AnimateSummary& s) {
+    for (const auto& n : s.notes)
+      if (n.find("joints (by name); the others stay at their rest pose") != std::string::npos)
+        return n;
+    return std::string();
+  };
+  job.clip_file = trex;
+  job.clip = "TRex_Walk";
+  EXPECT_EQ(note_of(run(job)), "");
+  job.clip_file = test::data("quaternius/Horse.glb");
+  job.clip = "Walk";
+  const std::string note = note_of(run(job));
+  EXPECT_NE(note.find("Horse.glb: its skeleton has "), std::string::npos) << note;
+  EXPECT_NE(note.find(" of the rig's " + std::to_string(skin.joints.size()) + " joints"), std::string::npos) << note;
+}

@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <set>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -302,6 +303,18 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   // the end (a folder this run made goes with them on a failure).
   Scene scene = read_scene(job.scene);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
+  {
+    // Joints are matched by name: say when the clip file's skeleton lacks some.
+    std::set<std::string> in_clips;
+    for (const Joint& j : clips.joints)
+      in_clips.insert(j.name);
+    const auto matched = std::count_if(scene.rig.joints.begin(), scene.rig.joints.end(),
+                                       [&](const Joint& j) { return in_clips.count(j.name) > 0; });
+    if (matched < static_cast<long>(scene.rig.joints.size()))
+      scene.notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
+                            std::to_string(scene.rig.joints.size()) +
+                            " joints (by name); the others stay at their rest pose");
+  }
   OutputFiles files;
   if (layered(job.layer, !job.node_keys.empty()))
     return animate_layered(job, scene, clips, clip, range, files);
