@@ -208,11 +208,7 @@ TEST(Bake, AGlbOfManyMaterialsReadsBackWithTheSourcesVerticesOnce) {
     GTEST_SKIP() << "no shared data";
   const std::string source = test::data("quaternius/Trex.glb");
   const SurfaceMesh m = load_mesh(source);
-  const SkinnedMesh skin = load_skinned_mesh(source);
-  StarterOptions so;
-  so.skin = &skin;
-  so.deforming = weighted_joints(skin);
-  const Binding b = bind(m, make_starter(m, skin.joints, so).rig);
+  const Binding b = bind(m, test::skinned_starter(source));
   const SkinWeights w = bake_weights(b, 4);
   const std::string path = temp("trex_baked.glb");
   write_file_atomic(path, skinned_glb(source, b.joints(), w));

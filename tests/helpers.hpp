@@ -2,6 +2,8 @@
 // Small fixtures built in code, and paths to the shared data.
 
 #include "curvenet/io.hpp"
+#include "curvenet/skin.hpp"
+#include "curvenet/starter.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "generate/tube.hpp"
 
@@ -23,6 +25,16 @@ inline std::string data(const std::string& rel) {
 }
 inline bool have_data() {
   return std::filesystem::exists(CURVENET_DATA_DIR);
+}
+
+/// The net `curvenet starter FILE` makes from a skinned file: rings on the
+/// joints that carry skin weight, each node weighted by the file's skin.
+inline Rig skinned_starter(const std::string& file) {
+  const SkinnedMesh skin = load_skinned_mesh(file);
+  StarterOptions so;
+  so.skin = &skin;
+  so.deforming = weighted_joints(skin);
+  return make_starter(load_mesh(file), skin.joints, so).rig;
 }
 
 /// An n x m grid of unit quads in the plane z = 0, from (0,0) to (n,m).

@@ -246,10 +246,7 @@ TEST(Jobs, ABakesFidelityIsMeasuredAtThePosesOwnScaleWhenTheArmatureScalesTheSke
   const std::string trex = test::data("quaternius/Trex.glb"), rig = (dir / "trex.cnrig.json").string();
   const SurfaceMesh mesh = load_mesh(trex);
   const SkinnedMesh clips = load_skinned_mesh(trex);
-  StarterOptions so;
-  so.skin = &clips;
-  so.deforming = weighted_joints(clips);
-  write_rig(make_starter(mesh, clips.joints, so).rig, rig);
+  write_rig(test::skinned_starter(trex), rig);
   BakeJob job;
   job.scene = {trex, rig, "", ""};
   job.clip_file = trex;
@@ -286,10 +283,7 @@ TEST(Jobs, AnimatingWithAnotherSkeletonsClipsSaysHowManyJointsItMoves) {
   const auto dir = test::temp_dir("animate_other_clips");
   const std::string trex = test::data("quaternius/Trex.glb"), rig = (dir / "trex.cnrig.json").string();
   const SkinnedMesh skin = load_skinned_mesh(trex);
-  StarterOptions so;
-  so.skin = &skin;
-  so.deforming = weighted_joints(skin);
-  write_rig(make_starter(load_mesh(trex), skin.joints, so).rig, rig);
+  write_rig(test::skinned_starter(trex), rig);
   AnimateJob job;
   job.scene = {trex, rig, "", ""};
   job.frames = "0:1";

@@ -24,6 +24,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -61,6 +62,34 @@ struct PulledTube {
   Vec3 node = rig.nodes[rig.node_index("ring1_0")].position;
   NodeOffsets pull{{"ring1_0", 0.02 * diag* Vec3(node.x(), 0, node.z()).normalized()}};
 };
+
+/// The binding's chain constraints (`rig` with the binding's skeleton).
+detail::ChainConstraints constraints_of(const Binding& b, Rig rig) {
+  std::map<std::string, int> joint_index;
+  for (size_t j = 0; j < b.joints().size(); ++j)
+    joint_index[b.joints()[j].name] = static_cast<int>(j);
+  rig.weights = b.node_weights();
+  return detail::chain_constraints(b.embedding().impl(), rig, joint_index);
+}
+
+/// Per cut-mesh vertex on a chain, where its chain weights, blended as dual
+/// quaternions, take its rest position: the posed curve; nothing elsewhere.
+std::vector<std::optional<Vec3>> posed_curves(const Binding& b, const Rig& rig, std::span<const Mat4> M) {
+  const detail::ChainConstraints cc = constraints_of(b, rig);
+  std::vector<detail::DualJoint> dj;
+  for (const Mat4& m : M)
+    dj.push_back(detail::split_joint(m));
+  std::vector<std::optional<Vec3>> out(cc.constrained.size());
+  for (size_t v = 0; v < out.size(); ++v) {
+    if (!cc.constrained[v])
+      continue;
+    detail::DualBlend blend;
+    for (const auto& [j, w] : cc.cw[v])
+      blend.add(dj[j], w);
+    out[v] = blend.apply(b.embedding().impl().cut.position(detail::Vertex(static_cast<int>(v))));
+  }
+  return out;
+}
 
 double max_apart(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   double d = 0;
@@ -120,26 +149,14 @@ TEST(Layer, WithEnvelopeOneTheChainsLieOnThePosedCurvesAndRestIsRest) {
   layer.deform_cut(M, skin_cut, 0.0);
   // And by the binding's own constraints: each chain vertex's weights,
   // blended as dual quaternions.
-  std::map<std::string, int> joint_index;
-  for (size_t j = 0; j < b.joints().size(); ++j)
-    joint_index[b.joints()[j].name] = static_cast<int>(j);
-  Rig completed = with_skeleton(h.rig, h.skin.joints, "skin");
-  completed.weights = b.node_weights();
-  const detail::ChainConstraints cc = detail::chain_constraints(b.embedding().impl(), completed, joint_index);
-  std::vector<detail::DualJoint> dj;
-  for (const Mat4& m : M)
-    dj.push_back(detail::split_joint(m));
+  const auto curves = posed_curves(b, with_skeleton(h.rig, h.skin.joints, "skin"), M);
   double on = 0, skin_off = 0;
   int checked = 0;
   for (size_t v = 0; v < cut.size(); ++v) {
-    if (!cc.constrained[v])
+    if (!curves[v])
       continue;
-    detail::DualBlend blend;
-    for (const auto& [j, w] : cc.cw[v])
-      blend.add(dj[j], w);
-    const Vec3 curve = blend.apply(b.embedding().impl().cut.position(detail::Vertex(static_cast<int>(v))));
-    on = std::max(on, (cut[v] - curve).norm());
-    skin_off = std::max(skin_off, (skin_cut[v] - curve).norm());
+    on = std::max(on, (cut[v] - *curves[v]).norm());
+    skin_off = std::max(skin_off, (skin_cut[v] - *curves[v]).norm());
     ++checked;
   }
   EXPECT_GT(checked, 1000);
@@ -174,12 +191,7 @@ TEST(Layer, TheCorrectionIsHarmonicOffTheChainsAndTheSameOnAnyThreadCount) {
   // whole cut mesh's Laplace equation at every vertex off the chains that
   // a chain reaches, and it is not zero.
   const Embedding::Impl& emb = b.embedding().impl();
-  std::map<std::string, int> joint_index;
-  for (size_t j = 0; j < b.joints().size(); ++j)
-    joint_index[b.joints()[j].name] = static_cast<int>(j);
-  Rig completed = with_skeleton(h.rig, h.skin.joints, "skin");
-  completed.weights = b.node_weights();
-  const detail::ChainConstraints cc = detail::chain_constraints(emb, completed, joint_index);
+  const detail::ChainConstraints cc = constraints_of(b, with_skeleton(h.rig, h.skin.joints, "skin"));
   const Eigen::SparseMatrix<double> lap = detail::cut_mesh_laplacian(emb.cut, detail::LaplacianKind::IntrinsicDelaunay);
   double worst = 0, largest = 0, scale = 0;
   int free = 0;
@@ -241,31 +253,19 @@ TEST(Layer, ThePosedCutMeshShowsTheCurvesBetweenACoarseMeshsVertices) {
   EXPECT_LT(with_curves.mean, 0.8 * coarse.mean);
   // The chains lie on the posed curves: each chain vertex where its
   // weights, blended as dual quaternions, take its rest position.
-  std::map<std::string, int> joint_index;
-  for (size_t j = 0; j < b.joints().size(); ++j)
-    joint_index[b.joints()[j].name] = static_cast<int>(j);
-  Rig completed = rig;
-  completed.weights = b.node_weights();
-  const detail::ChainConstraints cc = detail::chain_constraints(b.embedding().impl(), completed, joint_index);
-  std::vector<detail::DualJoint> dj;
-  for (const Mat4& x : M)
-    dj.push_back(detail::split_joint(x));
+  const auto curves = posed_curves(b, rig, M);
   double off = 0, chord = 0;
   const std::vector<Vec3> welded_out = m.welded(out);
   std::vector<Vec3> base;
   layer.deform_cut(std::vector<Mat4>(M.size(), Mat4::Identity()), base);
   for (size_t v = 0; v < cut.size(); ++v) {
-    if (!cc.constrained[v])
+    if (!curves[v])
       continue;
-    detail::DualBlend blend;
-    for (const auto& [j, w] : cc.cw[v])
-      blend.add(dj[j], w);
-    const Vec3 curve = blend.apply(b.embedding().impl().cut.position(detail::Vertex(static_cast<int>(v))));
-    off = std::max(off, (cut[v] - curve).norm());
+    off = std::max(off, (cut[v] - *curves[v]).norm());
     Vec3 on_chord = Vec3::Zero(); // where the posed input vertices put it
     for (const auto& [u, w] : b.embedding().impl().cut.input_weights(detail::Vertex(static_cast<int>(v))))
       on_chord += w * welded_out[u];
-    chord = std::max(chord, (on_chord - curve).norm());
+    chord = std::max(chord, (on_chord - *curves[v]).norm());
   }
   EXPECT_LT(off, 1e-12 * m.bbox_diagonal());
   EXPECT_GT(chord, 1e-3 * m.bbox_diagonal()) << "the chords are not the curves";
