@@ -1,6 +1,7 @@
 // Poses a skinned glTF binary in three.js (GLTFLoader, AnimationMixer,
 // SkinnedMesh.getVertexPosition), as a game or web engine plays it, and
-// writes the posed world-space positions of every skinned mesh's vertices.
+// writes the posed world-space positions of every skinned mesh's vertices
+// (each vertex buffer once).
 //   node three_pose.mjs NODE_MODULES FILE.glb TIMES_JSON OUT.bin
 // TIMES_JSON: [[clip index, seconds], ...]. OUT.bin: float64, for each
 // (clip, time) in order, every vertex of every skinned mesh (in the order
@@ -22,9 +23,16 @@ const loader = new GLTFLoader();
 loader.register(() => ({ name: "curvenet_no_textures", loadTexture: () => Promise.resolve(null) }));
 const gltf = await new Promise((resolve, reject) => loader.parse(buffer, "", resolve, reject));
 const scene = gltf.scene;
+// Primitives over one vertex buffer (materials of one mesh, as curvenet
+// bake writes them) share the loader's position attribute: each buffer's
+// vertices once, as every glTF reader (and curvenet's) takes them.
 const meshes = [];
+const buffers = new Set();
 scene.traverse((o) => {
-  if (o.isSkinnedMesh) meshes.push(o);
+  if (o.isSkinnedMesh && !buffers.has(o.geometry.attributes.position)) {
+    buffers.add(o.geometry.attributes.position);
+    meshes.push(o);
+  }
 });
 if (meshes.length === 0) throw new Error(file + ": no skinned mesh");
 const mixer = new THREE.AnimationMixer(scene);
