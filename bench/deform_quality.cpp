@@ -11,6 +11,8 @@
 // LBS and DQS use the character's own skin weights where it has a skin, and
 // `curvenet bake`'s weights of the same rig on the generated cylinder. Each
 // case is posed by one or more frames; each metric is its worst frame.
+// CURVENET_RINGS_PER_BONE=N and CURVENET_MIDDLE_NODES=0 make the starter nets
+// with other options, for comparison.
 
 #include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
@@ -157,6 +159,8 @@ Case cylinder(const std::string& name, double degrees, bool twist) {
     StarterOptions so;
     if (const char* r = std::getenv("CURVENET_RINGS_PER_BONE"))
       so.rings_per_bone = std::atoi(r);
+    if (const char* m = std::getenv("CURVENET_MIDDLE_NODES"))
+      so.middle_nodes = std::atoi(m) != 0;
     c.rig = make_starter(c.mesh, joints, so).rig;
   }
   c.skin_joints = joints;
@@ -275,6 +279,8 @@ Case skinned(const std::string& name, const std::string& path, const std::vector
   StarterOptions so;
   if (const char* r = std::getenv("CURVENET_RINGS_PER_BONE"))
     so.rings_per_bone = std::atoi(r);
+  if (const char* m = std::getenv("CURVENET_MIDDLE_NODES"))
+    so.middle_nodes = std::atoi(m) != 0;
   so.deforming = weighted_joints(*s);
   so.skin = s.get(); // as `curvenet starter` does with a skinned file
   c.rig = make_starter(c.mesh, s->joints, so).rig;

@@ -835,9 +835,10 @@ PYBIND11_MODULE(_curvenet, m) {
       "starter",
       [](const SurfaceMesh& mesh, const py::object& skeleton, int nodes_per_ring, int rings_per_bone,
          const std::string& coverage, double first_angle, const std::string& weight_rule, double blend,
-         const py::object& deforming) {
+         const py::object& deforming, bool middle_nodes) {
         std::vector<Joint> joints;
         StarterOptions o;
+        o.middle_nodes = middle_nodes;
         std::optional<SkinnedMesh> file_skin; // a skinned file's, read here
         const SkinnedMesh* skin = nullptr;
         if (py::isinstance<py::str>(skeleton)) { // a file, read once: its joints, and which its skin weights
@@ -885,7 +886,7 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("mesh"), py::arg("skeleton"), py::kw_only(), py::arg("nodes_per_ring") = 4, py::arg("rings_per_bone") = 1,
       py::arg("coverage") = "full", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "auto",
-      py::arg("blend") = 0.3, py::arg("deforming") = py::none());
+      py::arg("blend") = 0.3, py::arg("deforming") = py::none(), py::arg("middle_nodes") = true);
 
   py::class_<TransferResult>(m, "TransferResult")
       .def_readonly("rig", &TransferResult::rig)

@@ -286,6 +286,16 @@ TEST(Cli, StarterTakesTheWeightRule) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("weights: skin (the mesh's own"), std::string::npos) << r.out;
   EXPECT_NE(read_rig(own.string()).weights, b.weights);
+  // With the skin, each profile along the bone has a node at its middle,
+  // which takes the skin's weights there; --no-middle-nodes leaves them out.
+  const Rig with_skin = read_rig(own.string());
+  EXPECT_EQ(with_skin.nodes.size(), a.nodes.size() + 4) << "4 profiles along the one bone between the 2 rings";
+  EXPECT_TRUE(std::any_of(with_skin.nodes.begin(), with_skin.nodes.end(),
+                          [](const Node& n) { return n.id.find("_mid") != std::string::npos; }));
+  const fs::path plain = dir / "plain.cnrig.json";
+  r = run("starter " + gltf + " --no-middle-nodes -o " + plain.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(read_rig(plain.string()).nodes.size(), a.nodes.size());
   // An OBJ has no skin to take them from: refused by name, with nothing written.
   const std::string obj = test::data("xr_tools_hand/example/hand_l_welded.obj");
   const fs::path none = dir / "none.cnrig.json";

@@ -85,7 +85,7 @@ std::string merge_error(const std::string& folder) {
 TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const fs::path dir = test::temp_dir("farm_folder");
+  const auto dir = test::temp_dir("farm_folder");
   const FarmPlan plan = prepare_farm(farm_of(walk(dir, 95), dir / "job", 20));
   ASSERT_EQ(plan.shards.size(), 5u); // 20, 20, 20, 20 and 15 frames
   EXPECT_EQ(plan.shards.back().first, 88);
@@ -118,7 +118,7 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
 TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const fs::path dir = test::temp_dir("farm_merge");
+  const auto dir = test::temp_dir("farm_merge");
   const AnimateJob a = walk(dir, 70);
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 16));
   run_all(plan);
@@ -149,7 +149,7 @@ TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
 TEST(Farm, AMissingTruncatedOrForeignPartIsNamedWithTheSbatchLineForItAlone) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const fs::path dir = test::temp_dir("farm_faults");
+  const auto dir = test::temp_dir("farm_faults");
   const AnimateJob a = walk(dir, 40);
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 10));
   run_all(plan);
@@ -198,7 +198,7 @@ TEST(Farm, AMissingTruncatedOrForeignPartIsNamedWithTheSbatchLineForItAlone) {
 TEST(Farm, ALockWhoseOwnerDiedIsTakenOverAndTheCacheBuilt) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const fs::path dir = test::temp_dir("farm_lock");
+  const auto dir = test::temp_dir("farm_lock");
   const AnimateJob a = walk(dir, 20);
   const FarmPlan plan = prepare_farm(farm_of(a, dir / "job", 10));
   // A task that took the lock and died: its PID is of a process that has
@@ -224,7 +224,7 @@ TEST(Farm, ALockWhoseOwnerDiedIsTakenOverAndTheCacheBuilt) {
 TEST(Farm, ATaskRefusesInputsThatChangedSinceTheSubmission) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const fs::path dir = test::temp_dir("farm_changed");
+  const auto dir = test::temp_dir("farm_changed");
   AnimateJob a = walk(dir, 10);
   fs::copy_file(a.scene.rig, dir / "walk.cnrig.json", fs::copy_options::overwrite_existing);
   a.scene.rig = (dir / "walk.cnrig.json").string();

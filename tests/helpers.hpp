@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -81,7 +82,6 @@ inline SurfaceMesh tube(int around, int along, int cap_rings, bool triangulate, 
   return make_surface_mesh(raw, "tube");
 }
 
-/// A fresh temporary folder for one test.
 /// A file's bytes, as they are on disk.
 inline std::string file_bytes(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -90,11 +90,29 @@ inline std::string file_bytes(const std::filesystem::path& path) {
   return text.str();
 }
 
-inline std::filesystem::path temp_dir(const std::string& name) {
-  auto p = std::filesystem::temp_directory_path() / ("curvenet_test_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(p);
-  std::filesystem::create_directories(p);
-  return p;
+/// A fresh temporary folder for one test, removed with what it holds when
+/// the test's variable goes out of scope (set CURVENET_KEEP_TEST_FILES to
+/// keep it for a look). It is a path; a copy of it as a plain path does not
+/// own the folder.
+class TempDir : public std::filesystem::path {
+public:
+  explicit TempDir(std::filesystem::path p) : std::filesystem::path(std::move(p)) {
+    std::filesystem::remove_all(*this);
+    std::filesystem::create_directories(*this);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  ~TempDir() {
+    if (std::getenv("CURVENET_KEEP_TEST_FILES") != nullptr)
+      return;
+    std::error_code ignored;
+    std::filesystem::remove_all(*this, ignored);
+  }
+};
+
+inline TempDir temp_dir(const std::string& name) {
+  return TempDir(std::filesystem::temp_directory_path() /
+                 ("curvenet_test_" + name + "_" + std::to_string(::getpid())));
 }
 
 } // namespace curvenet::test

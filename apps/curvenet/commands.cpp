@@ -325,6 +325,7 @@ int run_starter(const StarterArgs& a) {
   opt.deforming = skeleton.deforming; // a skin says which joints deform
   opt.nodes_per_ring = a.nodes_per_ring;
   opt.rings_per_bone = a.rings_per_bone;
+  opt.middle_nodes = a.middle_nodes;
   opt.first_angle_deg = a.first_angle;
   opt.coverage = a.coverage == "local" ? Coverage::Local : Coverage::Full;
   opt.weights = {a.weight_rule == "segment" ? WeightRule::Segment : WeightRule::BlendZone, a.blend};

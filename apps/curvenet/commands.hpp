@@ -21,6 +21,7 @@ struct StarterArgs {
   std::string mesh, skeleton, out, coverage = "full", weight_rule = "auto";
   int nodes_per_ring = 4;
   int rings_per_bone = 1;
+  bool middle_nodes = true;
   double first_angle = 0;
   double blend = 0.3;
 };

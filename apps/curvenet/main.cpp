@@ -124,6 +124,8 @@ int main(int argc, char** argv) {
   starter->add_option("--rings-per-bone", starter_args.rings_per_bone, "Rings per bone (one at its end joint)")
       ->capture_default_str()
       ->check(CLI::Range(1, 16));
+  starter->add_flag("!--no-middle-nodes", starter_args.middle_nodes,
+                    "With the mesh's skin, no node at the middle of each profile along a bone (docs/starter.md)");
   starter
       ->add_option("--first-angle", starter_args.first_angle,
                    "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")

@@ -486,6 +486,7 @@ NetResult build_net(const StarterContext& c, const NetOptions& no, const std::ve
     for (const auto& [s, id] : nodes) {
       net.rig.nodes.push_back({id, loop_point(r, s)});
       net.node_ring.push_back(i);
+      net.node_middle.push_back(0);
     }
     for (size_t k = 0; k < nodes.size(); ++k) {
       const auto& a = nodes[k];
@@ -589,6 +590,66 @@ std::string check_net(const StarterContext& c, const NetOptions& no, const NetRe
           return "profiles '" + dirs[a].second + "' and '" + dirs[b].second + "' leave node '" + node +
                  "' less than 20 degrees apart";
   return {};
+}
+
+void split_longitudinal_profiles(NetResult& net) {
+  std::vector<Profile> out;
+  out.reserve(net.rig.profiles.size());
+  for (Profile& pr : net.rig.profiles) {
+    const auto [kind, ring] = net.owner.at(pr.id);
+    const std::vector<Vec3>& pts = pr.curve.points;
+    double length = 0;
+    for (size_t i = 1; i < pts.size(); ++i)
+      length += (pts[i] - pts[i - 1]).norm();
+    if (kind != 'l' || !(length >= net.scale.at(pr.id)) || pts.size() < 2) {
+      out.push_back(std::move(pr));
+      continue;
+    }
+    // The point at half the length: on a segment of the path, so on the
+    // face the path crosses there.
+    size_t i = 1;
+    double before = 0;
+    while (i + 1 < pts.size() && before + (pts[i] - pts[i - 1]).norm() < length / 2) {
+      before += (pts[i] - pts[i - 1]).norm();
+      ++i;
+    }
+    const double seg = (pts[i] - pts[i - 1]).norm();
+    const double t = seg > 0 ? std::clamp((length / 2 - before) / seg, 0.0, 1.0) : 0.0;
+    const Vec3 mid = pts[i - 1] + t * (pts[i] - pts[i - 1]);
+    const std::string node = pr.id + "_mid";
+    net.rig.nodes.push_back({node, mid});
+    net.node_ring.push_back(ring);
+    net.node_middle.push_back(1);
+    Profile a, b;
+    a.id = pr.id + "_a";
+    a.from = pr.from;
+    a.to = node;
+    a.curve.points.assign(pts.begin(), pts.begin() + static_cast<std::ptrdiff_t>(i)); // up to pts[i - 1]
+    if (mid != a.curve.points.back())
+      a.curve.points.push_back(mid);
+    b.id = pr.id + "_b";
+    b.from = node;
+    b.to = pr.to;
+    b.curve.points.push_back(mid);
+    for (size_t k = i; k < pts.size(); ++k)
+      if (pts[k] != b.curve.points.back())
+        b.curve.points.push_back(pts[k]);
+    if (a.curve.points.size() < 2 || b.curve.points.size() < 2) { // no length on one side: keep it whole
+      net.rig.nodes.pop_back();
+      net.node_ring.pop_back();
+      net.node_middle.pop_back();
+      out.push_back(std::move(pr));
+      continue;
+    }
+    for (const Profile* half : {&a, &b}) {
+      net.owner[half->id] = {kind, ring};
+      net.scale[half->id] = net.scale.at(pr.id);
+      net.split_from[half->id] = pr.id;
+    }
+    out.push_back(std::move(a));
+    out.push_back(std::move(b));
+  }
+  net.rig.profiles = std::move(out);
 }
 
 } // namespace curvenet::detail

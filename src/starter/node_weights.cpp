@@ -108,7 +108,8 @@ void node_weights(const StarterContext& c, const NodeWeightOptions& wo, const st
       if (!w.empty())
         continue;
     }
-    if (r.frac > 1 || (r.frac == 1 && end_of.count(r.joint) && !end_of.at(r.joint))) {
+    const bool middle = net.node_middle[k] != 0; // of a profile that ends on ring r
+    if (r.frac > 1 || (!middle && r.frac == 1 && end_of.count(r.joint) && !end_of.at(r.joint))) {
       w[joints[r.joint].name] = 1;
       continue;
     }
@@ -127,7 +128,8 @@ void node_weights(const StarterContext& c, const NodeWeightOptions& wo, const st
     // to weights all its nodes. Node by node, a limb that curls back (a
     // tail, a trunk) would hand a node to a bone further down the chain that
     // happens to pass nearer to it.
-    if (r.own.size() == 1 && bones.size() > 1)
+    // A middle node lies along a bone into the ring, whichever is nearest.
+    if (!middle && r.own.size() == 1 && bones.size() > 1)
       bones = {nearest_bone(c, r.centre, bones)};
     for (const auto& [j, v] : auto_weights(joints, n.position, wo.rule, bones))
       w[joints[j].name] = v;

@@ -78,6 +78,7 @@ double RingOptions::gap(const Ring& a, const Ring& b) const {
 NetOptions NetOptions::from(const StarterOptions& o) {
   NetOptions n;
   n.nodes_per_ring = o.nodes_per_ring;
+  n.middle_nodes = o.middle_nodes;
   n.ring_gap = o.ring_gap;
   n.coverage = o.coverage;
   return n;

@@ -109,6 +109,7 @@ struct RingOptions {
 /// The net and its check (stages 5 and 6).
 struct NetOptions {
   int nodes_per_ring = 4;
+  bool middle_nodes = true; ///< StarterOptions::middle_nodes
   /// A join's new node keeps this fraction of its ring's radius from the
   /// ring's own nodes; profiles that share no node keep half of it.
   double ring_gap = 0.25;
@@ -214,7 +215,9 @@ struct NetResult {
   std::map<std::string, std::pair<char, int>> owner;
   std::map<std::string, double> scale; ///< profile -> the radius of the limb it is on
   std::vector<int> unjoined;           ///< child rings with no join left
-  std::vector<int> node_ring;          ///< per node of `rig`, the ring it lies on
+  std::vector<int> node_ring;          ///< per node of `rig`, the ring it lies on (a middle node: its chain's child ring)
+  std::vector<char> node_middle;       ///< per node of `rig`, whether it is the middle of a longitudinal profile
+  std::map<std::string, std::string> split_from; ///< half of a longitudinal profile -> the profile it was
   int joins = 0;
   std::string failure; ///< the first reason the net cannot be used, or empty
 };
@@ -228,6 +231,13 @@ NetResult build_net(const StarterContext& c, const NetOptions& no, const std::ve
 /// Profiles that share no node keep their clearance, profiles leaving one
 /// node part at a clear angle. The first fault, or empty.
 std::string check_net(const StarterContext& c, const NetOptions& no, const NetResult& net);
+
+/// Each longitudinal profile at least as long as its limb's radius split in
+/// two at half its length, by a node of its own (`<profile>_mid`, the
+/// halves `<profile>_a` and `<profile>_b`): the curve's weights are
+/// interpolated along each profile between its end nodes, so without it the
+/// middle of a bone blends the joints at both ends.
+void split_longitudinal_profiles(NetResult& net);
 
 // ---- stage 7: repairs ----------------------------------------------------
 

@@ -272,6 +272,8 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     const auto parent_of = [&](int i) { return st.effective_parent(i); };
     NetResult net = build_net(c, net_options, rings, active, parent_of, st.join_attempt, st.path_skip);
     std::string failure = net.failure.empty() ? check_net(c, net_options, net) : net.failure;
+    if (failure.empty() && net_options.middle_nodes && opt.skin != nullptr)
+      split_longitudinal_profiles(net);
     try {
       const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
       if (failure.empty() && e.report().ok) {

@@ -116,10 +116,12 @@ obj, arm = objects()
 rig = core.get_rig(obj)
 paths = core.traced_paths(obj)
 t.select(objects()[0])
-# A profile and its two ends, away from the rest: the middle one in rig order.
-prof = rig.profiles[len(rig.profiles) // 2]
+# A profile and its two ends, away from the rest: the longest path, whose
+# middle is clear of every node.
+prof = max(rig.profiles, key=lambda p: float(np.sum(np.linalg.norm(np.diff(np.asarray(paths[p.id]), axis=0), axis=1))))
 pid, a, b = prof.id, prof.from_, prof.to
 path = paths[pid]
+print("the profile edited:", pid, "with", len(path), "points")
 mid = path[len(path) // 2]
 
 check_undoable("delete a node", lambda: press("delete", nodes=a),
