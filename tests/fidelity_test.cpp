@@ -12,7 +12,7 @@
 #include "embed/embedding_impl.hpp"
 #include "helpers.hpp"
 #include "sample/sampling.hpp"
-#include "starter/plane_section.hpp"
+#include "core/plane_section.hpp"
 #include "trace/trace_mesh.hpp"
 
 #include <gtest/gtest.h>

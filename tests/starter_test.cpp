@@ -12,7 +12,6 @@
 #include "curvenet/starter.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
-#include "starter/plane_section.hpp"
 #include "starter/stages.hpp"
 #include "transfer_check.hpp"
 
@@ -27,7 +26,6 @@
 #include <limits>
 #include <map>
 #include <numbers>
-#include <random>
 #include <set>
 
 using namespace curvenet;
@@ -96,49 +94,6 @@ void expect_embeds(const SurfaceMesh& mesh, const Rig& rig) {
 }
 
 } // namespace
-
-TEST(PlaneSection, CutsATubeIntoOneClosedPolygon) {
-  const SurfaceMesh m = tube();
-  const detail::SectionMesh sm(m);
-  const auto sections = detail::plane_sections(sm, {0, 2.05, 0}, {0, 1, 0});
-  ASSERT_EQ(sections.size(), 1u);
-  EXPECT_TRUE(sections[0].closed);
-  EXPECT_NEAR(sections[0].length(), 16 * 2 * std::sin(std::numbers::pi / 16), 1e-12); // the 16-gon
-  EXPECT_EQ(detail::winding_number(sections[0].points, {0, 2.05, 0}, {0, 2.05, 0}, {0, 1, 0}) != 0, true);
-  EXPECT_EQ(detail::winding_number(sections[0].points, {3, 2.05, 0}, {0, 2.05, 0}, {0, 1, 0}), 0);
-  // A plane through a ring of vertices still gives one closed loop.
-  EXPECT_EQ(detail::plane_sections(sm, {0, 2.0, 0}, {0, 1, 0}).size(), 1u);
-  // A plane along the axis cuts the tube in one loop too (side, caps, side, caps).
-  const auto along = detail::plane_sections(sm, {0, 2, 0}, {0, 0, 1});
-  ASSERT_EQ(along.size(), 1u);
-  EXPECT_NEAR(along[0].length(), 2 * 4 + 4 * 1.0, 1e-9);
-}
-
-TEST(PlaneSection, PolylineDistancesSkipOnlyPairsThatCannotBeNearer) {
-  // Random polylines, open and closed: the pruned distance is the smallest
-  // over every pair of segments, and `polylines_within` agrees with it for
-  // every threshold.
-  std::mt19937 rng(20);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (int trial = 0; trial < 200; ++trial) {
-    std::vector<Vec3> a(3 + trial % 7), b(2 + trial % 5);
-    const Vec3 shift(u(rng), u(rng), u(rng));
-    for (auto& p : a)
-      p = Vec3(u(rng), u(rng), u(rng)) * 0.4;
-    for (auto& p : b)
-      p = Vec3(u(rng), u(rng), u(rng)) * 0.4 + 1.5 * shift;
-    const bool ca = trial % 2 == 0, cb = trial % 3 == 0;
-    double brute = INFINITY;
-    for (size_t i = 0; i < (ca ? a.size() : a.size() - 1); ++i)
-      for (size_t j = 0; j < (cb ? b.size() : b.size() - 1); ++j)
-        brute = std::min(brute,
-                         curvenet::detail::segment_distance(a[i], a[(i + 1) % a.size()], b[j], b[(j + 1) % b.size()]));
-    const double d = curvenet::detail::polyline_distance(a, ca, b, cb);
-    EXPECT_EQ(d, brute);
-    for (const double f : {0.5, 0.99, 1.01, 2.0})
-      EXPECT_EQ(curvenet::detail::polylines_within(a, ca, b, cb, f * brute), f * brute > brute) << trial << " " << f;
-  }
-}
 
 TEST(Starter, TubeGetsARingAtEveryJointAndEmbedsOnOtherTessellations) {
   const SurfaceMesh quads = tube();

@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -280,13 +281,18 @@ TEST(Transfer, GameAnimalsGoToTheirLODsExportedInOtherAxesAndUnits) {
     GTEST_SKIP() << "no shared data";
   // Blender's decimations (tests/data/quaternius): half the faces, and a
   // fifth (286 to 436 triangles), Y up, the armature's scale of 100. Lined
-  // up by the frames (none) they lie far off.
-  for (const std::string name : {"Horse", "Wolf", "Apatosaurus"}) {
+  // up by the frames (none) they lie far off. The nets are the starter's
+  // from each file's skin, middle nodes and all, as `curvenet starter`
+  // makes them; the T-rex's forearm, a few faces across on its
+  // decimation, takes the plane sections of the last re-placement.
+  for (const std::string name : {"Horse", "Wolf", "Apatosaurus", "Trex"}) {
     const std::string from = test::data("quaternius/" + name + ".glb");
     const SurfaceMesh source_mesh = load_mesh(from);
     const SkinnedMesh source = load_skinned_mesh(from);
-    const Rig rig = make_starter(source_mesh, source.joints).rig;
+    const Rig rig = test::skinned_starter(from);
     for (const std::string lod : {"_decimated", "_decimated_20"}) {
+      if (!std::filesystem::exists(std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + name + lod + ".glb"))
+        continue; // the T-rex has no fifth
       SCOPED_TRACE(name + lod);
       const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + name + lod + ".glb";
       const SurfaceMesh target_mesh = load_mesh(to);

@@ -8,7 +8,7 @@
 #include "core/polyline_distance.hpp"
 #include "core/predicates.hpp"
 #include "curvenet/errors.hpp"
-#include "starter/plane_section.hpp"
+#include "core/plane_section.hpp"
 
 #include <Eigen/SVD>
 

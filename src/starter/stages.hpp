@@ -14,7 +14,7 @@
 #include "curvenet/rig.hpp"
 #include "curvenet/starter.hpp"
 #include "curvenet/surface_mesh.hpp"
-#include "starter/plane_section.hpp"
+#include "core/plane_section.hpp"
 
 #include <functional>
 #include <map>

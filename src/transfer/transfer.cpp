@@ -9,6 +9,7 @@
 #include "core/tolerances.hpp"
 
 #include "compare/surface_distance.hpp"
+#include "core/plane_section.hpp"
 #include "core/polygon.hpp"
 #include "core/quoted.hpp"
 #include "curvenet/errors.hpp"
@@ -370,7 +371,8 @@ private:
 /// from the source cage (`source_cage`) and down to the target cage.
 Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& source, const TraceMesh& target,
                     const TransferOptions& opt, const CageMap* source_cage, const CageMap* target_cage,
-                    const std::set<std::string>& by_closest, double& max_node_offset) {
+                    const std::set<std::string>& by_closest, const std::set<std::string>& by_section,
+                    const SectionMesh* target_sections, double& max_node_offset) {
   // The profiles as the source's embedding traced them, on its surface,
   // without the steps smaller than half the fidelity tolerance (a chain
   // zigzags across the edges near its nodes).
@@ -414,9 +416,28 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
     if (p.curve.kind !=
         Curve::Kind::Polyline) // a Bezier or NURBS curve keeps its shape, mapped; the embedding places it
       return;
-    p.curve.points =
-        placer.place_profile(rig.profiles[i], chains[i].second, out.nodes[node_index.at(p.from)].position,
-                             out.nodes[node_index.at(p.to)].position, by_closest.count(p.id) > 0, mapped[i]);
+    const Vec3 &a = out.nodes[node_index.at(p.from)].position, &b = out.nodes[node_index.at(p.to)].position;
+    p.curve.points = placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0, mapped[i]);
+    // Where even closest points fold it (a limb a few faces across), the
+    // plane section through its ends and its placed middle: a section
+    // cannot fold, and it keeps to the side of the limb the curve was on.
+    if (by_section.count(p.id) && target_sections != nullptr) {
+      const auto& q = p.curve.points;
+      double length = 0, walked = 0;
+      for (size_t k = 1; k < q.size(); ++k)
+        length += (q[k] - q[k - 1]).norm();
+      Vec3 middle = q.front();
+      for (size_t k = 1; k < q.size(); ++k) {
+        const double step = (q[k] - q[k - 1]).norm();
+        if (walked + step >= length / 2) {
+          middle = q[k - 1] + (step > 0 ? (length / 2 - walked) / step : 0.0) * (q[k] - q[k - 1]);
+          break;
+        }
+        walked += step;
+      }
+      if (auto section = section_path_through(*target_sections, a, middle, b, detail::Tolerances::fidelity_rel * diag))
+        p.curve.points = std::move(*section);
+    }
   };
   for (size_t i = 0; i < out.profiles.size(); ++i) {
     if (out.profiles[i].curve.kind != Curve::Kind::Polyline)
@@ -660,7 +681,9 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
         // limb of a coarse target, whose few faces the normals cross at
         // steep angles), the profiles it names go to the target's closest
         // points instead, a few times over.
-        std::set<std::string> by_closest, ids;
+        // Then, for those named again, the plane section through their placed ends and middle.
+        std::set<std::string> by_closest, by_section, ids;
+        std::optional<SectionMesh> sections;
         for (const Profile& p : rig.profiles)
           ids.insert(p.id);
         for (int attempt = 0;; ++attempt) {
@@ -668,7 +691,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
             double offset = 0;
             result.rig = place_on_target(rig, src, source_placed, target_placed, opt,
                                          source_cage ? &*source_cage : nullptr, target_cage ? &*target_cage : nullptr,
-                                         by_closest, offset);
+                                         by_closest, by_section, sections ? &*sections : nullptr, offset);
             rep.max_node_offset = offset;
             placed.emplace(target_cage ? embed(target, result.rig, target_embed)
                                        : embed_on(target, *target_trace, result.rig, target_embed));
@@ -677,9 +700,17 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
             const std::string what = e.what();
             bool more = false;
             if (attempt < kReplacements && what.rfind("transfer:", 0) != 0)
-              for (const std::string& id : quoted(what))
-                if (ids.count(id))
-                  more |= by_closest.insert(id).second;
+              for (const std::string& id : quoted(what)) {
+                if (!ids.count(id))
+                  continue;
+                if (by_closest.insert(id).second) {
+                  more = true;
+                } else if (by_section.insert(id).second) {
+                  more = true;
+                  if (!sections)
+                    sections.emplace(target_surface);
+                }
+              }
             if (!more) {
               unplaced = what;
               return;

@@ -1,4 +1,4 @@
-#include "starter/plane_section.hpp"
+#include "core/plane_section.hpp"
 
 #include "core/predicates.hpp"
 
@@ -134,6 +134,72 @@ int winding_number(const std::vector<Vec3>& loop, const Vec3& p, const Vec3& ori
     }
   }
   return wn;
+}
+
+std::optional<std::vector<Vec3>> section_path_through(const SectionMesh& mesh, const Vec3& a, const Vec3& m,
+                                                      const Vec3& b, double tol) {
+  const Vec3 n = (m - a).cross(b - a);
+  if (!(n.norm() > 1e-12 * (m - a).norm() * (b - a).norm()))
+    return std::nullopt;
+  // Where a point lies along a polyline: segment i, fraction t; and how far off.
+  struct At {
+    size_t seg = 0;
+    double t = 0, off = std::numeric_limits<double>::infinity();
+    [[nodiscard]] double key() const { return static_cast<double>(seg) + t; }
+  };
+  for (const Section& s : plane_sections(mesh, a, n)) {
+    const auto& p = s.points;
+    const size_t segs = s.closed ? p.size() : p.size() - 1;
+    if (p.size() < 2)
+      continue;
+    auto locate = [&](const Vec3& q) {
+      At best;
+      for (size_t i = 0; i < segs; ++i) {
+        const Vec3 &u = p[i], &v = p[(i + 1) % p.size()];
+        const double len2 = (v - u).squaredNorm();
+        const double t = len2 > 0 ? std::clamp((q - u).dot(v - u) / len2, 0.0, 1.0) : 0.0;
+        const double d = (u + t * (v - u) - q).norm();
+        if (d < best.off)
+          best = {i, t, d};
+      }
+      return best;
+    };
+    const At la = locate(a), lm = locate(m), lb = locate(b);
+    if (la.off > tol || lm.off > tol || lb.off > tol)
+      continue;
+    // Keys along the section (segment + fraction), measured from a forward;
+    // backward is forward on the reversed section.
+    const double n_seg = static_cast<double>(segs);
+    auto from_a = [&](const At& x, bool fwd) {
+      const double d = fwd ? x.key() - la.key() : la.key() - x.key();
+      return s.closed ? std::fmod(d + 2 * n_seg, n_seg) : d;
+    };
+    bool fwd = true;
+    if (!(from_a(lm, true) >= 0 && from_a(lm, true) <= from_a(lb, true))) {
+      fwd = false;
+      if (!(from_a(lm, false) >= 0 && from_a(lm, false) <= from_a(lb, false)))
+        continue; // m is not between a and b on this section
+    }
+    const double ka = la.key(), span = from_a(lb, fwd);
+    std::vector<Vec3> path{a};
+    const auto count = static_cast<long long>(p.size());
+    const auto wrap = [&](long long j) { return p[static_cast<size_t>(((j % count) + count) % count)]; };
+    if (fwd) // the vertices with keys in (ka, ka + span]
+      for (long long j = static_cast<long long>(std::floor(ka)) + 1; j <= static_cast<long long>(std::floor(ka + span)); ++j)
+        path.push_back(wrap(j));
+    else // the vertices with keys in [ka - span, ka)
+      for (long long j = static_cast<long long>(std::ceil(ka)) - 1; j >= static_cast<long long>(std::ceil(ka - span)); --j)
+        path.push_back(wrap(j));
+    path.push_back(b);
+    // Without repeated points.
+    std::vector<Vec3> clean{path.front()};
+    for (size_t k = 1; k + 1 < path.size(); ++k)
+      if ((path[k] - clean.back()).norm() > 0 && (path[k] - b).norm() > 0)
+        clean.push_back(path[k]);
+    clean.push_back(b);
+    return clean;
+  }
+  return std::nullopt;
 }
 
 double polyline_distance(const std::vector<Vec3>& a, bool ca, const std::vector<Vec3>& b, bool cb) {

@@ -9,6 +9,7 @@
 #include "curvenet/surface_mesh.hpp"
 
 #include <array>
+#include <optional>
 #include <vector>
 
 namespace curvenet::detail {
@@ -41,6 +42,13 @@ struct Section {
 
 /// Every polyline where the plane through `origin` with normal `normal` cuts the mesh.
 std::vector<Section> plane_sections(const SectionMesh& mesh, const Vec3& origin, const Vec3& normal);
+
+/// The way along the surface from a through m to b inside the plane through
+/// the three: the part of one section that holds all three points (each
+/// within `tol` of it) and meets them in that order, a and b put at its
+/// ends. None when the points are collinear or no section holds them.
+std::optional<std::vector<Vec3>> section_path_through(const SectionMesh& mesh, const Vec3& a, const Vec3& m,
+                                                      const Vec3& b, double tol);
 
 /// An orthonormal basis (u, v) of the plane with normal n, with u x v = n / |n|.
 std::array<Vec3, 2> plane_basis(const Vec3& n);

@@ -1,0 +1,102 @@
+// Plane sections of a surface: the polylines where a plane cuts it, paths
+// along them, and the distances between polylines they are checked with.
+
+#include "core/plane_section.hpp"
+#include "core/polyline_distance.hpp"
+#include "curvenet/surface_mesh.hpp"
+#include "generate/tube.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <vector>
+
+using namespace curvenet;
+
+namespace {
+
+SurfaceMesh tube() {
+  return make_surface_mesh(make_capped_tube(TubeSpec{}), "tube");
+}
+
+} // namespace
+
+TEST(PlaneSection, CutsATubeIntoOneClosedPolygon) {
+  const SurfaceMesh m = tube();
+  const detail::SectionMesh sm(m);
+  const auto sections = detail::plane_sections(sm, {0, 2.05, 0}, {0, 1, 0});
+  ASSERT_EQ(sections.size(), 1u);
+  EXPECT_TRUE(sections[0].closed);
+  EXPECT_NEAR(sections[0].length(), 16 * 2 * std::sin(std::numbers::pi / 16), 1e-12); // the 16-gon
+  EXPECT_EQ(detail::winding_number(sections[0].points, {0, 2.05, 0}, {0, 2.05, 0}, {0, 1, 0}) != 0, true);
+  EXPECT_EQ(detail::winding_number(sections[0].points, {3, 2.05, 0}, {0, 2.05, 0}, {0, 1, 0}), 0);
+  // A plane through a ring of vertices still gives one closed loop.
+  EXPECT_EQ(detail::plane_sections(sm, {0, 2.0, 0}, {0, 1, 0}).size(), 1u);
+  // A plane along the axis cuts the tube in one loop too (side, caps, side, caps).
+  const auto along = detail::plane_sections(sm, {0, 2, 0}, {0, 0, 1});
+  ASSERT_EQ(along.size(), 1u);
+  EXPECT_NEAR(along[0].length(), 2 * 4 + 4 * 1.0, 1e-9);
+}
+
+TEST(PlaneSection, APathThroughThreePointsFollowsTheSectionTheyLieOnThroughTheMiddleOne) {
+  const SurfaceMesh m = tube();
+  const detail::SectionMesh sm(m);
+  const auto ring = detail::plane_sections(sm, {0, 2.05, 0}, {0, 1, 0})[0].points;
+  const size_t n = ring.size();
+  ASSERT_EQ(n % 4, 0u);
+  const Vec3 a = ring[0], b = ring[n / 2];
+  auto length = [](const std::vector<Vec3>& p) {
+    double l = 0;
+    for (size_t k = 1; k < p.size(); ++k)
+      l += (p[k] - p[k - 1]).norm();
+    return l;
+  };
+  const double half = 8 * 2 * std::sin(std::numbers::pi / 16); // half the 16-gon
+  for (const size_t through : {n / 4, 3 * n / 4}) {
+    const auto path = detail::section_path_through(sm, a, ring[through], b, 1e-9);
+    ASSERT_TRUE(path.has_value()) << through;
+    EXPECT_EQ(path->front(), a);
+    EXPECT_EQ(path->back(), b);
+    EXPECT_NEAR(length(*path), half, 1e-12) << through;
+    EXPECT_TRUE(std::any_of(path->begin(), path->end(), [&](const Vec3& q) { return (q - ring[through]).norm() < 1e-12; }))
+        << "the path passes through the middle point " << through;
+    for (const Vec3& q : *path)
+      EXPECT_NEAR(q.y(), 2.05, 1e-12);
+  }
+  // A quarter: from a to the point a quarter round, through the one between.
+  const auto quarter = detail::section_path_through(sm, a, ring[n / 8], ring[n / 4], 1e-9);
+  ASSERT_TRUE(quarter.has_value());
+  EXPECT_NEAR(length(*quarter), half / 2, 1e-12);
+  // Collinear points make no plane; a point off the surface lies on no section.
+  EXPECT_FALSE(detail::section_path_through(sm, a, (a + b) / 2, b, 1e-9).has_value());
+  EXPECT_FALSE(detail::section_path_through(sm, a, ring[n / 4] * 0.5 + Vec3(0, 1.0, 0), b, 1e-9).has_value());
+}
+
+TEST(PlaneSection, PolylineDistancesSkipOnlyPairsThatCannotBeNearer) {
+  // Random polylines, open and closed: the pruned distance is the smallest
+  // over every pair of segments, and `polylines_within` agrees with it for
+  // every threshold.
+  std::mt19937 rng(20);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<Vec3> a(3 + trial % 7), b(2 + trial % 5);
+    const Vec3 shift(u(rng), u(rng), u(rng));
+    for (auto& p : a)
+      p = Vec3(u(rng), u(rng), u(rng)) * 0.4;
+    for (auto& p : b)
+      p = Vec3(u(rng), u(rng), u(rng)) * 0.4 + 1.5 * shift;
+    const bool ca = trial % 2 == 0, cb = trial % 3 == 0;
+    double brute = INFINITY;
+    for (size_t i = 0; i < (ca ? a.size() : a.size() - 1); ++i)
+      for (size_t j = 0; j < (cb ? b.size() : b.size() - 1); ++j)
+        brute = std::min(brute,
+                         curvenet::detail::segment_distance(a[i], a[(i + 1) % a.size()], b[j], b[(j + 1) % b.size()]));
+    const double d = curvenet::detail::polyline_distance(a, ca, b, cb);
+    EXPECT_EQ(d, brute);
+    for (const double f : {0.5, 0.99, 1.01, 2.0})
+      EXPECT_EQ(curvenet::detail::polylines_within(a, ca, b, cb, f * brute), f * brute > brute) << trial << " " << f;
+  }
+}
