@@ -644,7 +644,6 @@ void split_longitudinal_profiles(NetResult& net) {
     for (const Profile* half : {&a, &b}) {
       net.owner[half->id] = {kind, ring};
       net.scale[half->id] = net.scale.at(pr.id);
-      net.split_from[half->id] = pr.id;
     }
     out.push_back(std::move(a));
     out.push_back(std::move(b));

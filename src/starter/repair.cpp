@@ -5,7 +5,6 @@
 #include "curvenet/errors.hpp"
 #include "starter/stages.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 namespace curvenet::detail {
@@ -142,13 +141,9 @@ void repair_net(const StarterContext& c, const RingOptions& ro, std::vector<Ring
   if (failure.find("come closer than") != std::string::npos &&
       st.path_retries < 2 * static_cast<int>(rings.size()) + 9) {
     std::vector<std::string> along;
-    for (const std::string& named : quoted(failure)) {
-      const auto half = net.split_from.find(named);
-      const std::string& id = half == net.split_from.end() ? named : half->second;
-      if (const auto it = net.owner.find(id); it != net.owner.end() && it->second.first == 'l' &&
-          std::find(along.begin(), along.end(), id) == along.end())
+    for (const std::string& id : quoted(failure))
+      if (const auto it = net.owner.find(id); it != net.owner.end() && it->second.first == 'l')
         along.push_back(id);
-    }
     if (along.size() == 2 && net.owner.at(along[0]).second == net.owner.at(along[1]).second)
       for (const std::string& id : {along[1], along[0]})
         if (st.path_skip[id] < kPathTries) {

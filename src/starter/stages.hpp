@@ -217,7 +217,6 @@ struct NetResult {
   std::vector<int> unjoined;           ///< child rings with no join left
   std::vector<int> node_ring;          ///< per node of `rig`, the ring it lies on (a middle node: its chain's child ring)
   std::vector<char> node_middle;       ///< per node of `rig`, whether it is the middle of a longitudinal profile
-  std::map<std::string, std::string> split_from; ///< half of a longitudinal profile -> the profile it was
   int joins = 0;
   std::string failure; ///< the first reason the net cannot be used, or empty
 };

@@ -272,20 +272,36 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     const auto parent_of = [&](int i) { return st.effective_parent(i); };
     NetResult net = build_net(c, net_options, rings, active, parent_of, st.join_attempt, st.path_skip);
     std::string failure = net.failure.empty() ? check_net(c, net_options, net) : net.failure;
-    if (failure.empty() && net_options.middle_nodes && opt.skin != nullptr)
+    // With the middle nodes, the net split by them, and then the whole net
+    // (which passed the same checks) if the split one does not embed.
+    std::vector<NetResult> tries{net};
+    if (failure.empty() && net_options.middle_nodes && opt.skin != nullptr) {
       split_longitudinal_profiles(net);
-    try {
-      const Embedding e = failure.empty() ? embed(mesh, net.rig) : Embedding(nullptr);
-      if (failure.empty() && e.report().ok) {
-        node_weights(c, NodeWeightOptions::from(opt), rings, active, e, all_joints, net);
-        finish(c, rings, active, net, st, ringless, skipped, e.report().components, all_joints, result);
-        return result;
-      }
-      if (failure.empty())
-        failure = e.report().problems.empty() ? "not ok" : e.report().problems[0];
-    } catch (const EmbedError& e) {
-      failure = e.what();
+      tries.insert(tries.begin(), std::move(net));
     }
+    std::string split_failure;
+    for (size_t k = 0; failure.empty() && k < tries.size(); ++k) {
+      std::string why;
+      try {
+        const Embedding e = embed(mesh, tries[k].rig);
+        if (e.report().ok) {
+          if (k > 0)
+            c.say("the net is kept without its middle nodes: the net split by them does not embed: " +
+                  split_failure);
+          node_weights(c, NodeWeightOptions::from(opt), rings, active, e, all_joints, tries[k]);
+          finish(c, rings, active, tries[k], st, ringless, skipped, e.report().components, all_joints, result);
+          return result;
+        }
+        why = e.report().problems.empty() ? "not ok" : e.report().problems[0];
+      } catch (const EmbedError& e) {
+        why = e.what();
+      }
+      if (k + 1 < tries.size())
+        split_failure = why;
+      else
+        failure = why; // the whole net's: what the repairs act on
+    }
+    net = std::move(tries.back());
     repair_net(c, ring_options, rings, ringless, net, failure, st);
   }
 }
