@@ -26,4 +26,10 @@ render docs/images/quality_fist.png "$tmp/fist" LBS DQS "dq:dq (default)" harmon
 build/bin/deform_quality --ply "$tmp/flex" "hand flex" > /dev/null
 render docs/images/quality_flex.png "$tmp/flex" rest LBS DQS "dq:dq (default)" harmonic gradient \
   --view 0 1 0 --up 1 0 0 --focus -0.02 0 -0.11 0.05 --panel 300 300
+# CesiumMan's walk through the starter net with and without its middle nodes (docs/starter.md).
+build/bin/deform_quality --ply "$tmp/cesium" "cesium man walk" > /dev/null
+CURVENET_MIDDLE_NODES=0 build/bin/deform_quality --ply "$tmp/cesium_whole" "cesium man walk" > /dev/null
+cp "$tmp/cesium_whole/dq.ply" "$tmp/cesium/dq_whole.ply"
+render docs/images/starter_middle_nodes.png "$tmp/cesium" LBS DQS "dq_whole:dq, no middle nodes" \
+  "dq:dq, middle nodes" --view 0 -1 0.2 --up 0 0 1 --focus 0 -0.05 0.45 0.55 --panel 300 420
 rm -rf "$tmp"
