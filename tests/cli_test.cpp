@@ -289,9 +289,10 @@ TEST(Cli, StarterTakesTheWeightRule) {
   // With the skin, each profile along the bone has a node at its middle,
   // which takes the skin's weights there; --no-middle-nodes leaves them out.
   const Rig with_skin = read_rig(own.string());
-  EXPECT_EQ(with_skin.nodes.size(), a.nodes.size() + 4) << "4 profiles along the one bone between the 2 rings";
-  EXPECT_TRUE(std::any_of(with_skin.nodes.begin(), with_skin.nodes.end(),
-                          [](const Node& n) { return n.id.find("_mid") != std::string::npos; }));
+  const auto middles = std::count_if(with_skin.nodes.begin(), with_skin.nodes.end(),
+                                     [](const Node& n) { return n.id.find("_mid") != std::string::npos; });
+  EXPECT_GE(middles, 4) << "4 profiles along the one bone between the 2 rings, and the rings' arcs";
+  EXPECT_EQ(with_skin.nodes.size(), a.nodes.size() + static_cast<size_t>(middles));
   const fs::path plain = dir / "plain.cnrig.json";
   r = run("starter " + gltf + " --no-middle-nodes -o " + plain.string(), dir);
   ASSERT_EQ(r.code, 0) << r.err;

@@ -592,7 +592,7 @@ std::string check_net(const StarterContext& c, const NetOptions& no, const NetRe
   return {};
 }
 
-void split_longitudinal_profiles(NetResult& net) {
+void split_profiles_at_middle(const StarterContext& c, const NetOptions& no, NetResult& net) {
   std::vector<Profile> out;
   out.reserve(net.rig.profiles.size());
   for (Profile& pr : net.rig.profiles) {
@@ -601,7 +601,9 @@ void split_longitudinal_profiles(NetResult& net) {
     double length = 0;
     for (size_t i = 1; i < pts.size(); ++i)
       length += (pts[i] - pts[i - 1]).norm();
-    if (kind != 'l' || !(length >= net.scale.at(pr.id)) || pts.size() < 2) {
+    const bool split = (kind == 'l' || (kind == 'a' && net.scale.at(pr.id) >= no.arc_middle_radius * c.diag)) &&
+                       length >= net.scale.at(pr.id) && pts.size() >= 2;
+    if (!split) {
       out.push_back(std::move(pr));
       continue;
     }
@@ -619,7 +621,7 @@ void split_longitudinal_profiles(NetResult& net) {
     const std::string node = pr.id + "_mid";
     net.rig.nodes.push_back({node, mid});
     net.node_ring.push_back(ring);
-    net.node_middle.push_back(1);
+    net.node_middle.push_back(kind == 'l' ? 1 : 0); // an arc's middle is one more node of its ring
     Profile a, b;
     a.id = pr.id + "_a";
     a.from = pr.from;

@@ -110,6 +110,8 @@ struct RingOptions {
 struct NetOptions {
   int nodes_per_ring = 4;
   bool middle_nodes = true; ///< StarterOptions::middle_nodes
+  /// The smallest ring (radius, as a fraction of the diagonal) whose arcs get middle nodes.
+  double arc_middle_radius = 0.02;
   /// A join's new node keeps this fraction of its ring's radius from the
   /// ring's own nodes; profiles that share no node keep half of it.
   double ring_gap = 0.25;
@@ -216,7 +218,7 @@ struct NetResult {
   std::map<std::string, double> scale; ///< profile -> the radius of the limb it is on
   std::vector<int> unjoined;           ///< child rings with no join left
   std::vector<int> node_ring;          ///< per node of `rig`, the ring it lies on (a middle node: its chain's child ring)
-  std::vector<char> node_middle;       ///< per node of `rig`, whether it is the middle of a longitudinal profile
+  std::vector<char> node_middle;       ///< per node of `rig`, whether it is the middle of a profile along a bone
   int joins = 0;
   std::string failure; ///< the first reason the net cannot be used, or empty
 };
@@ -231,12 +233,16 @@ NetResult build_net(const StarterContext& c, const NetOptions& no, const std::ve
 /// node part at a clear angle. The first fault, or empty.
 std::string check_net(const StarterContext& c, const NetOptions& no, const NetResult& net);
 
-/// Each longitudinal profile at least as long as its limb's radius split in
-/// two at half its length, by a node of its own (`<profile>_mid`, the
-/// halves `<profile>_a` and `<profile>_b`): the curve's weights are
-/// interpolated along each profile between its end nodes, so without it the
-/// middle of a bone blends the joints at both ends.
-void split_longitudinal_profiles(NetResult& net);
+/// Each profile along a bone and each arc of a ring, at least as long as
+/// its limb's radius, split in two at half its length by a node of its own
+/// (`<profile>_mid`, the halves `<profile>_a` and `<profile>_b`): the
+/// curve's weights are interpolated along each profile between its end
+/// nodes, so without it the middle of a bone blends the joints at both
+/// ends, and the middle of an arc the weights of two sides of the limb.
+/// Arcs only on rings of radius `NetOptions::arc_middle_radius` of the
+/// diagonal or more: an ear's eight nodes on a few faces of a coarse
+/// decimation fold.
+void split_profiles_at_middle(const StarterContext& c, const NetOptions& no, NetResult& net);
 
 // ---- stage 7: repairs ----------------------------------------------------
 

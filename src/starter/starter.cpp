@@ -276,7 +276,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     // (which passed the same checks) if the split one does not embed.
     std::vector<NetResult> tries{net};
     if (failure.empty() && net_options.middle_nodes && opt.skin != nullptr) {
-      split_longitudinal_profiles(net);
+      split_profiles_at_middle(c, net_options, net);
       tries.insert(tries.begin(), std::move(net));
     }
     std::string split_failure;
