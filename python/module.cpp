@@ -1165,13 +1165,15 @@ PYBIND11_MODULE(_curvenet, m) {
           "input vertex, or None for all of the correction")
       .def(
           "region_mask",
-          [](const CurveLayer& l, const std::map<std::string, double>& values, double others) {
-            const std::vector<double> m = l.region_mask(values, others);
+          [](const CurveLayer& l, const std::map<std::string, double>& values, double others, double falloff) {
+            const std::vector<double> m = l.region_mask(values, others, falloff);
             return py::array_t<double>(static_cast<py::ssize_t>(m.size()), m.data());
           },
-          py::arg("values"), py::arg("others") = 1.0,
+          py::arg("values"), py::arg("others") = 1.0, py::arg("falloff") = 0.0,
           "A mask by region, for with_mask: {region key: 0 to 1} (the keys of binding.embedding.report, "
-          "\"profile:L|profile:R\"), every other region `others`; a vertex takes the largest value around it")
+          "\"profile:L|profile:R\"), every other region `others`; a vertex takes the largest value around it. "
+          "`falloff` (a fraction of the diagonal): a region's value rises smoothly towards a larger one over that "
+          "distance from their curves")
       .def_property_readonly(
           "mask",
           [](const CurveLayer& l) {

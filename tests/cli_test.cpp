@@ -958,6 +958,16 @@ TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
   r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(),
           dir);
   EXPECT_NE(r.err.find("regions.json: /others: expected a number from 0 to 1"), std::string::npos) << r.err;
+  write(dir / "regions.json", R"({"regions": {}, "falloff": -1})");
+  r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --mask " + (dir / "regions.json").string(),
+          dir);
+  EXPECT_NE(r.err.find("regions.json: /falloff: expected a number from 0 to 1"), std::string::npos) << r.err;
+  // A falloff with every region at 0 changes nothing: there is no curve between two values.
+  write(dir / "regions.json", R"({"regions": {}, "others": 0, "falloff": 0.05})");
+  r = run("pose " + gltf + " " + rig + " " + pose + " -o " + (dir / "soft.obj").string() + " --over-skin --mask " +
+              (dir / "regions.json").string(),
+          dir);
+  EXPECT_EQ(r.code, 0) << r.err;
   // Every region at 0 is the skin: the same file as the envelope at 0.
   write(dir / "regions.json", R"({"regions": {}, "others": 0})");
   r = run("pose " + gltf + " " + rig + " " + pose + " -o " + (dir / "none.obj").string() + " --over-skin --mask " +
@@ -969,6 +979,8 @@ TEST(Cli, ALayerOverTheSkinRefusesWhatItCannotLayerInOneLine) {
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(read(dir / "none.obj").empty());
   EXPECT_EQ(read(dir / "none.obj"), read(dir / "skin.obj"));
+  EXPECT_EQ(read(dir / "soft.obj"), read(dir / "skin.obj"));
+  fs::remove(dir / "soft.obj");
   fs::remove(dir / "none.obj");
   fs::remove(dir / "skin.obj");
   r = run("pose " + gltf + " " + rig + " " + pose + out + " --over-skin --binding-cache " + (dir / "c").string(), dir);

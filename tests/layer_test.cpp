@@ -396,6 +396,66 @@ TEST(Layer, ARegionMaskedOutKeepsItsBaseAndTheOthersStillMove) {
   EXPECT_THROW((void)layer.region_mask({{list[held].key(), 1.5}}), InputError);
 }
 
+TEST(Layer, ARegionMaskWithAFalloffRisesSmoothlyToItsCurvesAndIsExactBeyondIt) {
+  // The same region masked with 0, with a falloff of 2 % of the diagonal:
+  // on its curves the mask is 1 (they follow the net), inside it falls
+  // with the distance from them, no value rises as the distance grows, and
+  // beyond the falloff it is 0 exactly, so the region's inside is the base
+  // there. The open regions keep 1.
+  const PulledTube tube;
+  const auto& [mesh, rig, layer, diag, node, pull] = tube;
+  const Embedding& e = layer.binding().embedding();
+  const RawMesh cut = e.cut_mesh();
+  std::vector<std::set<int>> regions_at(cut.positions.size());
+  for (size_t f = 0; f + 1 < cut.face_offsets.size(); ++f)
+    for (int k = cut.face_offsets[f]; k < cut.face_offsets[f + 1]; ++k)
+      regions_at[cut.face_vertices[k]].insert(e.face_regions()[f]);
+  const auto& list = e.report().region_list;
+  const int held = 0;
+  const double falloff = 0.02;
+  const std::vector<double> hard = layer.region_mask({{list[held].key(), 0.0}});
+  const std::vector<double> soft = layer.region_mask({{list[held].key(), 0.0}}, 1.0, falloff);
+  // Each welded vertex's distance from the region's curves, straight (a
+  // lower bound on the distance along the surface).
+  std::vector<Vec3> curve;
+  for (size_t v = 0; v < cut.positions.size(); ++v)
+    if (regions_at[v].count(held) && regions_at[v].size() > 1)
+      curve.push_back(cut.positions[v]);
+  ASSERT_FALSE(curve.empty());
+  int ramped = 0, exact = 0;
+  std::vector<std::pair<double, double>> inside; // (distance, value)
+  for (size_t i = 0; i < soft.size(); ++i) {
+    const int v = mesh.input_to_welded[i];
+    EXPECT_GE(soft[i], hard[i]) << "a falloff only raises the mask";
+    EXPECT_LE(soft[i], 1.0);
+    const auto& at = regions_at[v];
+    if (!(at.size() == 1 && *at.begin() == held)) {
+      EXPECT_EQ(soft[i], hard[i]) << "outside the region, as without a falloff: vertex " << i;
+      continue;
+    }
+    double d = INFINITY;
+    for (const Vec3& q : curve)
+      d = std::min(d, (cut.positions[v] - q).norm());
+    if (d >= falloff * diag * 1.0001) {
+      EXPECT_EQ(soft[i], 0.0) << "beyond the falloff, the region's value exactly: vertex " << i;
+      ++exact;
+    } else if (soft[i] > 0) {
+      ++ramped;
+    }
+    inside.emplace_back(d, soft[i]);
+  }
+  EXPECT_GT(ramped, 10);
+  EXPECT_GT(exact, 10);
+  // The value is the smoothstep of the distance along the surface, which is
+  // no shorter than the straight one: never above the smoothstep of that.
+  for (const auto& [d, x] : inside) {
+    const double t = std::min(d / (falloff * diag), 1.0);
+    EXPECT_LE(x, 1 - t * t * (3 - 2 * t) + 1e-12) << "at " << d;
+  }
+  EXPECT_THROW((void)layer.region_mask({{list[held].key(), 0.0}}, 1.0, -0.1), InputError);
+  EXPECT_THROW((void)layer.region_mask({{list[held].key(), 0.0}}, 1.0, std::nan("")), InputError);
+}
+
 TEST(Layer, APoseFileOfVersionTwoGivesNodeOffsetsAndVersionOneReadsAsBefore) {
   const std::string v1 = R"({"format": "curvenet-pose", "version": 1,
     "joints": {"mid": {"rotation": [0.8660254037844387, 0, 0, 0.5]}}})";

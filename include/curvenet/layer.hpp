@@ -61,9 +61,14 @@ public:
   /// EmbedReport::region_list gives it, "profile:L|profile:R") takes its
   /// value, from 0 to 1, and every other region `others`. A vertex takes the
   /// largest value of the regions around it, so the curves between a masked
-  /// region and an open one still follow the net.
-  /// 	hrow InputError naming a key no region has, or a value outside [0, 1].
-  [[nodiscard]] std::vector<double> region_mask(const std::map<std::string, double>& values, double others = 1) const;
+  /// region and an open one still follow the net. With a `falloff` (a
+  /// fraction of the bounding-box diagonal), a region's value rises towards
+  /// a larger one across its curves smoothly over that distance along the
+  /// surface, inside the region with the smaller value; beyond it every
+  /// vertex has its region's value exactly.
+  /// \throw InputError naming a key no region has, or a value outside [0, 1].
+  [[nodiscard]] std::vector<double> region_mask(const std::map<std::string, double>& values, double others = 1,
+                                                double falloff = 0) const;
 
   /// The base moved by `skinning` (one matrix per joint, as Binding::deform
   /// takes them), plus `envelope` times the masked correction. Output in

@@ -441,10 +441,12 @@ class CurveLayer:
     """The net's own binding (its report, weights, embedding)."""
     mask: FloatArray
     """(n,): how much of the correction each input vertex takes; empty for all of it."""
-    def region_mask(self, values: Mapping[str, float], others: float = 1.0) -> npt.NDArray[np.float64]:
+    def region_mask(self, values: Mapping[str, float], others: float = 1.0, falloff: float = 0.0) -> npt.NDArray[np.float64]:
         """A mask by region, for with_mask: {region key: 0 to 1} (the keys of binding.embedding.report["region_list"],
         "profile:L|profile:R"), every other region `others`. A vertex takes the largest value of the regions
-        around it. Raises InputError naming an unknown key or a value outside [0, 1]."""
+        around it. `falloff` (a fraction of the diagonal): inside a region, the value rises smoothly towards a
+        larger one across its curves over that distance along the surface; beyond it, the region's value exactly.
+        Raises InputError naming an unknown key or a value outside [0, 1]."""
     def with_mask(self, mask: Optional[Sequence[float]]) -> CurveLayer:
         """The same layer with another mask (one value from 0 to 1 per input vertex, or None), sharing its binding:
         nothing is solved again (a vertex group edited in Blender). Raises InputError naming a bad vertex."""

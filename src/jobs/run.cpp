@@ -79,11 +79,13 @@ std::vector<double> read_mask(const std::string& path, const std::string& text, 
 }
 
 /// A mask by region: a JSON object {"regions": {region key: 0 to 1, ...},
-/// "others": 0 to 1 (default 1)}, the keys as the embed report lists them;
+/// "others": 0 to 1 (default 1), "falloff": a fraction of the diagonal
+/// (default 0)}, the keys as the embed report lists them;
 /// read_region_mask gives none for a text that is not a JSON object.
 struct RegionMask {
   std::map<std::string, double> values;
   double others = 1;
+  double falloff = 0;
 };
 std::optional<RegionMask> read_region_mask(const std::string& path, const std::string& text) {
   const auto first = text.find_first_not_of(" \t\r\n");
@@ -99,13 +101,15 @@ std::optional<RegionMask> read_region_mask(const std::string& path, const std::s
   for (const auto& [key, x] : j.items()) {
     if (key == "others") {
       m.others = number(x, "/others");
+    } else if (key == "falloff") {
+      m.falloff = number(x, "/falloff");
     } else if (key == "regions") {
       if (!x.is_object())
         throw InputError(path, "/regions", "expected an object of region keys and numbers from 0 to 1");
       for (const auto& [region, v] : x.items())
         m.values[region] = number(v, "region '" + region + "'");
     } else {
-      throw InputError(path, "/" + key, "unknown member: a region mask has \"regions\" and \"others\"");
+      throw InputError(path, "/" + key, "unknown member: a region mask has \"regions\", \"others\" and \"falloff\"");
     }
   }
   return m;
@@ -151,7 +155,7 @@ CurveLayer layer_of(const Scene& s, const LayerSpec& spec, const BindOptions& op
   }
   if (by_region) {
     try {
-      return layer->with_mask(layer->region_mask(by_region->values, by_region->others));
+      return layer->with_mask(layer->region_mask(by_region->values, by_region->others, by_region->falloff));
     } catch (const InputError& e) { // the mask file, and the region it names
       throw InputError(spec.mask, e.element(), e.reason());
     }

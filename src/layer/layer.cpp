@@ -18,8 +18,10 @@
 
 #include <algorithm>
 #include <array>
-
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <queue>
 
 namespace curvenet {
 
@@ -92,12 +94,15 @@ CurveLayer CurveLayer::with_mask(std::vector<double> mask) const {
 std::span<const double> CurveLayer::mask() const {
   return mask_ ? std::span<const double>(*mask_) : std::span<const double>();
 }
-std::vector<double> CurveLayer::region_mask(const std::map<std::string, double>& values, double others) const {
+std::vector<double> CurveLayer::region_mask(const std::map<std::string, double>& values, double others,
+                                            double falloff) const {
   const Binding& b = impl_->binding;
   if (!b.has_embedding())
     throw Error("region_mask: the layer's binding has no embedding");
   if (!(others >= 0 && others <= 1))
     throw InputError("mask", "other regions", "expected a number from 0 to 1");
+  if (!(falloff >= 0 && falloff <= 1))
+    throw InputError("mask", "falloff", "expected a fraction of the bounding-box diagonal from 0 to 1");
   const Embedding& e = b.embedding();
   const auto& list = e.report().region_list;
   std::map<std::string, int> by_key;
@@ -114,17 +119,65 @@ std::vector<double> CurveLayer::region_mask(const std::map<std::string, double>&
       throw InputError("mask", "region '" + key + "'", "expected a number from 0 to 1");
     value[it->second] = x;
   }
-  // Per welded vertex (the cut mesh's first vertices), the largest value
-  // of the faces around it; outside a local net, `others`.
-  const size_t welded = impl_->welded_input.size();
-  std::vector<double> at(welded, -1);
+  // Per cut vertex, the largest and the smallest value of the faces around
+  // it (outside a local net, `others`); a welded vertex takes the largest.
   const RawMesh cut = e.cut_mesh();
   const std::vector<int>& region = e.face_regions();
+  const size_t nv = cut.positions.size(), welded = impl_->welded_input.size();
+  std::vector<double> high(nv, -1), low(nv, 2);
   for (size_t f = 0; f + 1 < cut.face_offsets.size(); ++f) {
     const double x = region[f] >= 0 ? value[region[f]] : others;
-    for (int k = cut.face_offsets[f]; k < cut.face_offsets[f + 1]; ++k)
-      if (const int v = cut.face_vertices[k]; v >= 0 && static_cast<size_t>(v) < welded)
-        at[v] = std::max(at[v], x);
+    for (int k = cut.face_offsets[f]; k < cut.face_offsets[f + 1]; ++k) {
+      const auto v = static_cast<size_t>(cut.face_vertices[k]);
+      high[v] = std::max(high[v], x);
+      low[v] = std::min(low[v], x);
+    }
+  }
+  std::vector<double> at(high.begin(), high.begin() + static_cast<std::ptrdiff_t>(welded));
+  if (falloff > 0) {
+    // From every vertex where two values meet (a curve between them), the
+    // nearest such vertex along the cut mesh's edges (Dijkstra, up to the
+    // falloff's distance), and its larger value.
+    Eigen::AlignedBox3d box;
+    for (const Vec3& p : cut.positions)
+      box.extend(p);
+    const double reach = falloff * box.diagonal().norm();
+    std::vector<std::vector<int>> next(nv);
+    for (size_t f = 0; f + 1 < cut.face_offsets.size(); ++f)
+      for (int k = cut.face_offsets[f]; k < cut.face_offsets[f + 1]; ++k) {
+        const int a = cut.face_vertices[k];
+        const int c = cut.face_vertices[k + 1 < cut.face_offsets[f + 1] ? k + 1 : cut.face_offsets[f]];
+        next[a].push_back(c);
+        next[c].push_back(a);
+      }
+    std::vector<double> dist(nv, std::numeric_limits<double>::infinity()), from(nv, 0);
+    using Item = std::pair<double, int>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+    for (size_t v = 0; v < nv; ++v)
+      if (high[v] > low[v]) {
+        dist[v] = 0;
+        from[v] = high[v];
+        queue.emplace(0.0, static_cast<int>(v));
+      }
+    while (!queue.empty()) {
+      const auto [d, v] = queue.top();
+      queue.pop();
+      if (d > dist[v])
+        continue;
+      for (const int w : next[v]) {
+        const double dw = d + (cut.positions[w] - cut.positions[v]).norm();
+        if (dw < dist[w] && dw < reach) {
+          dist[w] = dw;
+          from[w] = from[v];
+          queue.emplace(dw, w);
+        }
+      }
+    }
+    for (size_t v = 0; v < welded; ++v)
+      if (dist[v] < reach && from[v] > at[v]) {
+        const double t = dist[v] / reach, fade = 1 - t * t * (3 - 2 * t); // smoothstep down to 0 at the reach
+        at[v] = at[v] + (from[v] - at[v]) * fade;
+      }
   }
   std::vector<double> mask(impl_->input_to_welded.size());
   for (size_t i = 0; i < mask.size(); ++i) {

@@ -664,6 +664,12 @@ def test_a_layer_takes_another_mask_without_binding_again_and_bakes_its_keyed_en
     assert np.array_equal(held[by_region == 0], base[by_region == 0])
     assert np.array_equal(held[by_region == 1], full[by_region == 1])
     assert np.array_equal(layer.region_mask({}, others=0.0), np.zeros(n))
+    # with a falloff, the held region's value rises towards its curves, and only there
+    soft = layer.region_mask({keys[0]: 0.0}, falloff=0.05)
+    assert np.all(soft >= by_region) and np.all(soft[by_region == 1] == 1)
+    assert 0 < np.count_nonzero((soft > 0) & (soft < 1))
+    with pytest.raises(curvenet.InputError, match="falloff"):
+        layer.region_mask({keys[0]: 0.0}, falloff=2.0)
     with pytest.raises(curvenet.InputError, match="no region of the net has this key"):
         layer.region_mask({"nope:L": 0.0})
 
