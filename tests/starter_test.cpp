@@ -723,12 +723,13 @@ TEST(Starter, WithTheMeshsSkinEachNodeTakesTheSkinsWeightsWhereItLies) {
   }
 }
 
-TEST(Starter, WithASkinEachProfileAlongABoneIsSplitAtItsMiddleByANodeOfItsOwn) {
+TEST(Starter, WithASkinEachProfileAlongABoneAndEachArcIsSplitAtItsMiddleByANodeOfItsOwn) {
   // The weights of a profile's curve are interpolated between its end
   // nodes: a profile from the hip's ring to the knee's would move the middle
   // of the thigh half with the shin. With the skin, each profile along a
-  // bone has a node at half its length, which takes the skin's weights
-  // there (checked above with every node); its two halves meet at it.
+  // bone, and each arc of a ring round the body or a limb, has a node at
+  // half its length, which takes the skin's weights there (checked above
+  // with every node); its two halves meet at it.
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
   const std::string path = test::data("cesium_man/CesiumMan.glb");
@@ -752,18 +753,30 @@ TEST(Starter, WithASkinEachProfileAlongABoneIsSplitAtItsMiddleByANodeOfItsOwn) {
     if (n.id.size() < 4 || n.id.compare(n.id.size() - 4, 4, "_mid") != 0)
       continue;
     ++middles;
-    const std::string whole = n.id.substr(0, n.id.size() - 4);
-    ASSERT_TRUE(by_id.count(whole + "_a") && by_id.count(whole + "_b")) << n.id;
-    const Profile &a = *by_id[whole + "_a"], &b = *by_id[whole + "_b"];
-    EXPECT_EQ(a.to, n.id);
-    EXPECT_EQ(b.from, n.id);
+    // Exactly two profiles meet at it, the halves X_a (ending there) and X_b (starting there).
+    std::vector<const Profile*> at;
+    for (const Profile& p : r.rig.profiles)
+      if (p.from == n.id || p.to == n.id)
+        at.push_back(&p);
+    ASSERT_EQ(at.size(), 2u) << n.id;
+    const Profile& a = at[0]->to == n.id ? *at[0] : *at[1];
+    const Profile& b = at[0]->to == n.id ? *at[1] : *at[0];
+    ASSERT_EQ(a.to, n.id);
+    ASSERT_EQ(b.from, n.id);
+    ASSERT_GT(a.id.size(), 2u);
+    const std::string whole = a.id.substr(0, a.id.size() - 2);
+    EXPECT_EQ(a.id, whole + "_a");
+    EXPECT_EQ(b.id, whole + "_b");
+    // Named by the profile along a chain, by its ends for an arc of a ring.
+    EXPECT_TRUE(n.id == whole + "_mid" || n.id == a.from + "-" + b.to + "_mid") << n.id;
     EXPECT_EQ(a.curve.points.back(), n.position);
     EXPECT_EQ(b.curve.points.front(), n.position);
     EXPECT_NEAR(length(a), length(b), 1e-9 * mesh.bbox_diagonal()) << n.id;
     EXPECT_FALSE(by_id.count(whole)) << whole << " is there whole as well as split";
     EXPECT_TRUE(r.rig.weights.count(n.id)) << n.id;
   }
-  // Four per bone with rings at both ends: most of the skeleton's bones.
+  // Four per bone with rings at both ends, on most of the skeleton's bones,
+  // and the arcs of the rings round the body and the thighs.
   EXPECT_GE(middles, 4 * 12);
   // Without the skin, or when asked not to, none: the net is as before.
   auto count_middles = [](const StarterResult& res) {

@@ -618,7 +618,10 @@ void split_profiles_at_middle(const StarterContext& c, const NetOptions& no, Net
     const double seg = (pts[i] - pts[i - 1]).norm();
     const double t = seg > 0 ? std::clamp((length / 2 - before) / seg, 0.0, 1.0) : 0.0;
     const Vec3 mid = pts[i - 1] + t * (pts[i] - pts[i - 1]);
-    const std::string node = pr.id + "_mid";
+    // Named by what stays the same on another tessellation: a profile along
+    // a chain by its id, an arc by its end nodes (an arc's number depends
+    // on how many joins land on its ring before it).
+    const std::string node = (kind == 'a' ? pr.from + "-" + pr.to : pr.id) + "_mid";
     net.rig.nodes.push_back({node, mid});
     net.node_ring.push_back(ring);
     net.node_middle.push_back(kind == 'l' ? 1 : 0); // an arc's middle is one more node of its ring
