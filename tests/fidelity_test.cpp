@@ -3,6 +3,7 @@
 // each point moved to its closest surface point, against the chain's
 // polyline, both ways), so it does not take the report's word for it.
 
+#include "core/plane_section.hpp"
 #include "core/polyline_distance.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
@@ -12,7 +13,6 @@
 #include "embed/embedding_impl.hpp"
 #include "helpers.hpp"
 #include "sample/sampling.hpp"
-#include "core/plane_section.hpp"
 #include "trace/trace_mesh.hpp"
 
 #include <gtest/gtest.h>

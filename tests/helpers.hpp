@@ -111,8 +111,7 @@ public:
 };
 
 inline TempDir temp_dir(const std::string& name) {
-  return TempDir(std::filesystem::temp_directory_path() /
-                 ("curvenet_test_" + name + "_" + std::to_string(::getpid())));
+  return TempDir(std::filesystem::temp_directory_path() / ("curvenet_test_" + name + "_" + std::to_string(::getpid())));
 }
 
 } // namespace curvenet::test

@@ -61,7 +61,8 @@ TEST(PlaneSection, APathThroughThreePointsFollowsTheSectionTheyLieOnThroughTheMi
     EXPECT_EQ(path->front(), a);
     EXPECT_EQ(path->back(), b);
     EXPECT_NEAR(length(*path), half, 1e-12) << through;
-    EXPECT_TRUE(std::any_of(path->begin(), path->end(), [&](const Vec3& q) { return (q - ring[through]).norm() < 1e-12; }))
+    EXPECT_TRUE(
+        std::any_of(path->begin(), path->end(), [&](const Vec3& q) { return (q - ring[through]).norm() < 1e-12; }))
         << "the path passes through the middle point " << through;
     for (const Vec3& q : *path)
       EXPECT_NEAR(q.y(), 2.05, 1e-12);

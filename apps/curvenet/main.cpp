@@ -125,7 +125,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 16));
   starter->add_flag("!--no-middle-nodes", starter_args.middle_nodes,
-                    "With the mesh's skin, no node at the middle of each profile along a bone (docs/starter.md)");
+                    "Leave out the nodes that, with the mesh's skin, split each profile along a bone and each ring's "
+                    "arc at its middle (docs/starter.md)");
   starter
       ->add_option("--first-angle", starter_args.first_angle,
                    "Angle of node 0 from each chain's reference direction (its root joint's local X), in degrees")

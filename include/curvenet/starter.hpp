@@ -24,11 +24,12 @@ struct StarterOptions {
   /// more spread along the bone.
   int rings_per_bone = 1;
   /// With the mesh's skin (`skin`): a node at the middle of each profile
-  /// along a bone (one at least as long as its limb's radius), which takes
-  /// the skin's weights where it lies. The weights of a profile's curve are
-  /// interpolated between its end nodes, so without it the middle of a bone
-  /// moves with the joints at both ends where the skin moves it with one.
-  /// Without a skin there is nothing to sample there, and none is made.
+  /// along a bone and of each arc of a ring (docs/starter.md, step 8),
+  /// which takes the skin's weights where it lies. The weights of a
+  /// profile's curve are interpolated between its end nodes, so without it
+  /// the middle of a bone moves with the joints at both ends where the skin
+  /// moves it with one. Without a skin there is nothing to sample there,
+  /// and none is made.
   bool middle_nodes = true;
   Coverage coverage = Coverage::Full;
   /// Angle of node 0 from its ring's reference direction (carried from the

@@ -5,10 +5,10 @@
 #include "curvenet/quality.hpp"
 
 #include "core/dual_quaternion.hpp"
+#include "core/plane_section.hpp"
 #include "core/polyline_distance.hpp"
 #include "core/predicates.hpp"
 #include "curvenet/errors.hpp"
-#include "core/plane_section.hpp"
 
 #include <Eigen/SVD>
 

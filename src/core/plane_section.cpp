@@ -185,10 +185,12 @@ std::optional<std::vector<Vec3>> section_path_through(const SectionMesh& mesh, c
     const auto count = static_cast<long long>(p.size());
     const auto wrap = [&](long long j) { return p[static_cast<size_t>(((j % count) + count) % count)]; };
     if (fwd) // the vertices with keys in (ka, ka + span]
-      for (long long j = static_cast<long long>(std::floor(ka)) + 1; j <= static_cast<long long>(std::floor(ka + span)); ++j)
+      for (long long j = static_cast<long long>(std::floor(ka)) + 1; j <= static_cast<long long>(std::floor(ka + span));
+           ++j)
         path.push_back(wrap(j));
     else // the vertices with keys in [ka - span, ka)
-      for (long long j = static_cast<long long>(std::ceil(ka)) - 1; j >= static_cast<long long>(std::ceil(ka - span)); --j)
+      for (long long j = static_cast<long long>(std::ceil(ka)) - 1; j >= static_cast<long long>(std::ceil(ka - span));
+           --j)
         path.push_back(wrap(j));
     path.push_back(b);
     // Without repeated points.

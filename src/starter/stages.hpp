@@ -10,11 +10,11 @@
 //   check     (net.cpp)       clearances and angles between profiles, and the embedding
 //   weights   (starter.cpp)   automatic weights on every node
 
+#include "core/plane_section.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/rig.hpp"
 #include "curvenet/starter.hpp"
 #include "curvenet/surface_mesh.hpp"
-#include "core/plane_section.hpp"
 
 #include <functional>
 #include <map>
@@ -217,8 +217,10 @@ struct NetResult {
   std::map<std::string, std::pair<char, int>> owner;
   std::map<std::string, double> scale; ///< profile -> the radius of the limb it is on
   std::vector<int> unjoined;           ///< child rings with no join left
-  std::vector<int> node_ring;          ///< per node of `rig`, the ring it lies on (a middle node: its chain's child ring)
-  std::vector<char> node_middle;       ///< per node of `rig`, whether it is the middle of a profile along a bone
+  /// Per node of `rig`, the ring it lies on (the middle of a profile along
+  /// a chain: the chain's child ring), and whether it is such a middle.
+  std::vector<int> node_ring;
+  std::vector<char> node_middle;
   int joins = 0;
   std::string failure; ///< the first reason the net cannot be used, or empty
 };

@@ -286,8 +286,7 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
         const Embedding e = embed(mesh, tries[k].rig);
         if (e.report().ok) {
           if (k > 0)
-            c.say("the net is kept without its middle nodes: the net split by them does not embed: " +
-                  split_failure);
+            c.say("the net is kept without its middle nodes: the net split by them does not embed: " + split_failure);
           node_weights(c, NodeWeightOptions::from(opt), rings, active, e, all_joints, tries[k]);
           finish(c, rings, active, tries[k], st, ringless, skipped, e.report().components, all_joints, result);
           return result;

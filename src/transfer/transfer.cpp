@@ -417,7 +417,8 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         Curve::Kind::Polyline) // a Bezier or NURBS curve keeps its shape, mapped; the embedding places it
       return;
     const Vec3 &a = out.nodes[node_index.at(p.from)].position, &b = out.nodes[node_index.at(p.to)].position;
-    p.curve.points = placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0, mapped[i]);
+    p.curve.points =
+        placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0, mapped[i]);
     // Where even closest points fold it (a limb a few faces across), the
     // plane section through its ends and its placed middle: a section
     // cannot fold, and it keeps to the side of the limb the curve was on.
