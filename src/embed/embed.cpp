@@ -433,6 +433,15 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
           << f.distance / tol.diagonal << " of the diagonal) from its curve near sample " << f.sample << " at ("
           << f.at.x() << ", " << f.at.y() << ", " << f.at.z() << "), over the tolerance of " << Tolerances::fidelity_rel
           << " of the diagonal";
+      // A rig drawn on another tessellation of the shape: its nodes lie off
+      // this one, and its curves with them.
+      double off = 0;
+      for (size_t i = 0; i < rig.nodes.size(); ++i)
+        off = std::max(off, (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).stableNorm());
+      if (off > tol.fidelity())
+        msg << "; the rig's nodes lie up to " << 100 * off / tol.diagonal
+            << "% of the diagonal off this surface: a rig made on another tessellation goes onto this one with "
+               "`curvenet transfer`";
       throw EmbedError(msg.str());
     }
   }
