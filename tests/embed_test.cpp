@@ -472,6 +472,23 @@ TEST(Embed, ARigFarOffTheMeshSaysByHowMuch) {
   }
 }
 
+TEST(Embed, ARigThatStraysFromAnotherTessellationSaysToTransferIt) {
+  // The tube net's curves lie on the exact cylinder; a tube of six sides
+  // lies up to 13 % of its radius inside it. Its nodes land off the
+  // surface, its curves stray from it, and the refusal says what to do.
+  try {
+    embed(test::tube(6, 12, 2, true), make_tube_net());
+    FAIL() << "curves far off a hexagonal tube were embedded";
+  } catch (const EmbedError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("strays"), std::string::npos) << what;
+    EXPECT_NE(what.find("off this surface: a rig made on another tessellation goes onto this one with `curvenet "
+                        "transfer`"),
+              std::string::npos)
+        << what;
+  }
+}
+
 TEST(Embed, MessagesSayWhatIsWrongInTheRiggersTerms) {
   const SurfaceMesh quad = make_surface_mesh(test::grid(1, 1), "quad");
   // A full-coverage net on a mesh with a hole: the mesh is open.
