@@ -109,7 +109,7 @@ struct Traced {
 void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options,
                      const Tolerances& tol, bool cage, Embedding::Impl& impl, Traced& traced, EmbedReport& rep,
                      const std::function<void(std::string_view, double)>& progress) {
-  const double h = mesh.mean_edge_length();
+  const double h = tm.mean_edge_length();
   std::vector<TraceInput>& tin = traced.tin;
   std::vector<ProfileCurve>& curves = traced.curves;
   // Nodes, in the mesh's object space.
@@ -246,21 +246,25 @@ void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& ri
 }
 
 namespace {
-Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig& rig, const EmbedOptions& options);
+Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig& rig, const EmbedOptions& options,
+                     std::optional<CutMesh> uncut);
 } // namespace
 
 Embedding embed(const SurfaceMesh& mesh, const Rig& rig, const EmbedOptions& options) {
-  return embed_with(mesh, nullptr, rig, options);
+  return embed_with(mesh, nullptr, rig, options, std::nullopt);
 }
 
-Embedding detail::embed_on(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options) {
-  return embed_with(mesh, &tm, rig, options);
+Embedding detail::embed_on(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options,
+                           std::optional<CutMesh> uncut) {
+  return embed_with(mesh, &tm, rig, options, std::move(uncut));
 }
 
 namespace {
 
-/// The embedding, on `given` (the trace mesh of `mesh`) or on one built here.
-Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig& rig, const EmbedOptions& options) {
+/// The embedding, on `given` (the trace mesh of `mesh`) or on one built
+/// here; `uncut`, when given, is CutMesh::from_surface(mesh).
+Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig& rig, const EmbedOptions& options,
+                     std::optional<CutMesh> uncut) {
   auto impl = std::make_shared<Embedding::Impl>();
   EmbedReport& rep = impl->report;
   auto progress = [&](std::string_view stage, double f) {
@@ -287,7 +291,6 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
     }
   }
   const Tolerances tol = Tolerances::for_model(mesh.bbox_diagonal());
-  const double h = mesh.mean_edge_length();
   // A rig that transfer placed on a control cage says so.
   const bool cage = options.cage || rig.extensions.count("x_cage") > 0;
   rep.input_vertices = mesh.num_vertices();
@@ -298,7 +301,7 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
   rep.notes = mesh.notes;
 
   // Build the surface structures.
-  impl->cut = CutMesh::from_surface(mesh);
+  impl->cut = uncut ? std::move(*uncut) : CutMesh::from_surface(mesh);
   std::vector<int> face_component;
   const auto comps = input_components(impl->cut, face_component);
   clock.lap("halfedges");
@@ -353,7 +356,7 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
                                      : "profiles '" + in.profile_ids[p] + "' and '" + in.profile_ids[q] + "'";
       auto retrace = [&](int x) {
         rep.refinements -= in.traces[x].refinements;
-        in.traces[x] = trace_profile(tm, tin[x], h, tol);
+        in.traces[x] = trace_profile(tm, tin[x], tm.mean_edge_length(), tol);
         rep.refinements += in.traces[x].refinements;
       };
       const std::vector<int> both = p == q ? std::vector<int>{p} : std::vector<int>{p, q};

@@ -6,6 +6,8 @@
 #include "cut/cutter.hpp"
 #include "regions/regions.hpp"
 
+#include <optional>
+
 namespace curvenet {
 
 struct Embedding::Impl {
@@ -27,7 +29,10 @@ class TraceMesh;
 /// embed() on the trace mesh of `mesh` already built (TraceMesh(mesh,
 /// CutMesh::from_surface(mesh))): the transfer builds one of each mesh for
 /// placing, and building them is a large part of an embedding's cost.
-Embedding embed_on(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options);
+/// `uncut`, when given, is that CutMesh::from_surface(mesh), handed over
+/// so that it is not built again (it is the embedding's first cut mesh).
+Embedding embed_on(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options,
+                   std::optional<CutMesh> uncut = std::nullopt);
 } // namespace detail
 
 } // namespace curvenet

@@ -7,6 +7,8 @@
 
 #include <embree3/rtcore.h>
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -66,7 +68,8 @@ bool point_query(RTCPointQueryFunctionArguments* args) {
 }
 } // namespace
 
-TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut) : mesh_(mesh) {
+TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut)
+    : mesh_(mesh), mean_edge_length_(mesh.mean_edge_length()) {
   std::vector<std::pair<int, int>> pairs;
   pairs.reserve(2 * static_cast<size_t>(cut.num_edges()));
   edge_ends_.reserve(cut.num_edges());
@@ -368,18 +371,20 @@ bool TraceMesh::segment_blocked(const Vec3& a, const Vec3& b, double skip) const
 }
 
 SmoothNormals::SmoothNormals(const TraceMesh& mesh) : mesh_(mesh), vertex_(mesh.mesh().positions.size(), Vec3::Zero()) {
-  for (int t = 0; t < mesh.num_triangles(); ++t) {
-    const auto& c = mesh.tri(t);
-    const Vec3 area = (mesh.position(c[1]) - mesh.position(c[0])).cross(mesh.position(c[2]) - mesh.position(c[0]));
-    if (!(area.norm() > 0))
-      continue; // a sliver of a polygon with collinear corners
-    const Vec3 n = area.normalized();
-    for (int k = 0; k < 3; ++k) {
+  // Each vertex sums its triangles in their order (the order of
+  // vertex_triangles): the same sums on any thread count.
+  tbb::parallel_for(0, static_cast<int>(vertex_.size()), [&](int v) {
+    for (const int t : mesh.vertex_triangles(v)) {
+      const auto& c = mesh.tri(t);
+      const Vec3 area = (mesh.position(c[1]) - mesh.position(c[0])).cross(mesh.position(c[2]) - mesh.position(c[0]));
+      if (!(area.norm() > 0))
+        continue; // a sliver of a polygon with collinear corners
+      const int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
       const Vec3 a = mesh.position(c[(k + 1) % 3]) - mesh.position(c[k]);
       const Vec3 b = mesh.position(c[(k + 2) % 3]) - mesh.position(c[k]);
-      vertex_[c[k]] += std::atan2(a.cross(b).norm(), a.dot(b)) * n;
+      vertex_[v] += std::atan2(a.cross(b).norm(), a.dot(b)) * area.normalized();
     }
-  }
+  });
 }
 
 Vec3 SmoothNormals::at(int t, const std::array<double, 3>& bary) const {

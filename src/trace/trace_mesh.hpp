@@ -65,6 +65,8 @@ public:
   /// three sides for a triangle inside a polygon with no input edge).
   [[nodiscard]] double edge_length(int t) const;
   [[nodiscard]] const SurfaceMesh& mesh() const { return mesh_; }
+  /// mesh().mean_edge_length(), computed once.
+  [[nodiscard]] double mean_edge_length() const { return mean_edge_length_; }
   /// The two ends of input edge e, in the direction of its half-edge 2e.
   [[nodiscard]] const std::array<int, 2>& edge_ends(int e) const { return edge_ends_[e]; }
   /// Input edges around input vertex v.
@@ -113,6 +115,7 @@ public:
 
 private:
   const SurfaceMesh& mesh_;
+  double mean_edge_length_;
   std::vector<std::array<int, 2>> edge_ends_;
   Adjacency vertex_edges_;
   std::vector<std::array<int, 3>> tri_;

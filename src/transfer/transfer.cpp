@@ -29,6 +29,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <utility>
 #include <sstream>
 
 namespace curvenet {
@@ -125,7 +126,7 @@ public:
   /// point counts as off the target).
   Projector(const TraceMesh& source, const TraceMesh& target, const Mat4& source_to_target, double max_reach)
       : stm_(source), normals_(source), ttm_(target), map_(source_to_target),
-        normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mesh().mean_edge_length()),
+        normal_map_(source_to_target.topLeftCorner<3, 3>().inverse().transpose()), h_(target.mean_edge_length()),
         max_reach_(max_reach) {}
 
   /// The target point for a point in the source mesh's space, and its
@@ -168,7 +169,7 @@ private:
 /// (`mapped`); the last point (the end node) is always kept, and takes back
 /// the kept points it would double back over.
 constexpr int kReplacements = 8;      ///< re-placements of the profiles a target's embedding names
-constexpr int kRegionSamples = 5000;  ///< faces per region the agreement is measured on, at most
+constexpr int kRegionSamples = 1500;  ///< faces per region the agreement is measured on, at most
 constexpr double kMinAngle =
     10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
 constexpr double kKeptAngle = 0.5;     ///< a node whose curves keep less of their angle than this is placed again
@@ -227,7 +228,7 @@ public:
       : rig_(rig), target_(target), source_cage_(source_cage),
         source_to_target_(opt.target_frame.inverse() * opt.source_frame), to_target_(source_to_target_ * rig.frame),
         scale_(std::cbrt(std::abs(to_target_.topLeftCorner<3, 3>().determinant()))),
-        diag_(target.mesh().bbox_diagonal()), h_(target.mesh().mean_edge_length()), max_off_(opt.max_offset * diag_),
+        diag_(target.mesh().bbox_diagonal()), h_(target.mean_edge_length()), max_off_(opt.max_offset * diag_),
         project_(source, target, opt.target_frame.inverse() * opt.source_frame, max_off_) {}
 
   /// A rig point in the source surface's space.
@@ -646,16 +647,18 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const SurfaceMesh& target_surface = target_cage ? target_cage->limit() : target;
   // The trace meshes: a cage map holds its own; a plain mesh gets one here.
   auto trace_of = [](const SurfaceMesh& m) { return std::make_unique<TraceMesh>(m, CutMesh::from_surface(m)); };
-  // Built side by side: most of the building is serial.
+  // Built side by side: most of the building is serial. Each half-edge
+  // mesh they are built from goes on to be its embedding's first cut mesh.
   std::unique_ptr<TraceMesh> source_trace, target_trace;
+  std::optional<CutMesh> source_uncut, target_uncut;
   tbb::parallel_invoke(
       [&] {
         if (!source_cage)
-          source_trace = trace_of(source);
+          source_trace = std::make_unique<TraceMesh>(source, source_uncut.emplace(CutMesh::from_surface(source)));
       },
       [&] {
         if (!target_cage)
-          target_trace = trace_of(target);
+          target_trace = std::make_unique<TraceMesh>(target, target_uncut.emplace(CutMesh::from_surface(target)));
       });
   const TraceMesh& source_placed = source_cage ? source_cage->limit_trace() : *source_trace;
   const TraceMesh& target_placed = target_cage ? target_cage->limit_trace() : *target_trace;
@@ -671,7 +674,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   tbb::parallel_invoke(
       [&] {
         source_embedding.emplace(source_cage ? embed(source, rig, source_embed)
-                                             : embed_on(source, *source_trace, rig, source_embed));
+                                             : embed_on(source, *source_trace, rig, source_embed,
+                                                        std::exchange(source_uncut, std::nullopt)));
         const Embedding& src = *source_embedding;
         rep.source = src.report();
         if (!rep.source.ok)
@@ -695,7 +699,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
                                          by_closest, by_section, sections ? &*sections : nullptr, offset);
             rep.max_node_offset = offset;
             placed.emplace(target_cage ? embed(target, result.rig, target_embed)
-                                       : embed_on(target, *target_trace, result.rig, target_embed));
+                                       : embed_on(target, *target_trace, result.rig, target_embed,
+                                                  std::exchange(target_uncut, std::nullopt)));
             return;
           } catch (const EmbedError& e) {
             const std::string what = e.what();
@@ -811,14 +816,19 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     }
   });
   double total = 0, agreeing = 0; // summed in face order: the same on any thread count
+  std::vector<std::pair<double, double>> by_region(keys.size(), {0.0, 0.0});
   for (int f = 0; f < cm.num_faces(); ++f) {
     const int r = tgt.face_regions()[f];
     if (r < 0)
       continue;
-    by_key[keys[r]].first += face_area[f].first;
-    by_key[keys[r]].second += face_area[f].second;
+    by_region[r].first += face_area[f].first;
+    by_region[r].second += face_area[f].second;
     total += face_area[f].first;
     agreeing += face_area[f].second;
+  }
+  for (size_t r = 0; r < keys.size(); ++r) { // regions of one key (none on a valid net) summed in region order
+    by_key[keys[r]].first += by_region[r].first;
+    by_key[keys[r]].second += by_region[r].second;
   }
   for (const auto& [key, v] : by_key)
     rep.regions.push_back({key, v.first, v.first > 0 ? v.second / v.first : 0});
