@@ -169,7 +169,7 @@ private:
 /// (`mapped`); the last point (the end node) is always kept, and takes back
 /// the kept points it would double back over.
 constexpr int kReplacements = 8;      ///< re-placements of the profiles a target's embedding names
-constexpr int kRegionSamples = 1500;  ///< faces per region the agreement is measured on, at most
+constexpr int kRegionSamples = 500;   ///< faces inside a region the agreement is measured on, at most
 constexpr double kMinAngle =
     10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
 constexpr double kKeptAngle = 0.5;     ///< a node whose curves keep less of their angle than this is placed again
@@ -441,12 +441,13 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         p.curve.points = std::move(*section);
     }
   };
-  for (size_t i = 0; i < out.profiles.size(); ++i) {
+  // Each profile on its own, in parallel (the placer only reads).
+  tbb::parallel_for(size_t{0}, out.profiles.size(), [&](size_t i) {
     if (out.profiles[i].curve.kind != Curve::Kind::Polyline)
       for (auto& q : out.profiles[i].curve.points)
         q = apply(to_target, q);
     place(i);
-  }
+  });
   // The angles at each node, on the source (mapped) and placed: the worst
   // ratio of a pair's placed angle to its source angle.
   std::vector<std::vector<std::pair<size_t, bool>>> at_node(out.nodes.size()); // (profile, leaves from its start)
@@ -647,14 +648,23 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const SurfaceMesh& target_surface = target_cage ? target_cage->limit() : target;
   // The trace meshes: a cage map holds its own; a plain mesh gets one here.
   auto trace_of = [](const SurfaceMesh& m) { return std::make_unique<TraceMesh>(m, CutMesh::from_surface(m)); };
-  // Built side by side: most of the building is serial. Each half-edge
-  // mesh they are built from goes on to be its embedding's first cut mesh.
+  // Two lines of work side by side, twice, as most of an embedding is
+  // serial. First the source's trace mesh and its embedding beside the
+  // target's trace mesh; then the placing and the target's embedding beside
+  // the shape distance, measured at every vertex of each mesh (the corners
+  // of its triangles) on the trace meshes built for placing, where the
+  // frames leave the source where it is. The half-edge mesh each trace mesh
+  // is built from goes on to be its embedding's first cut mesh.
   std::unique_ptr<TraceMesh> source_trace, target_trace;
   std::optional<CutMesh> source_uncut, target_uncut;
+  std::optional<Embedding> source_embedding, placed;
   tbb::parallel_invoke(
       [&] {
         if (!source_cage)
           source_trace = std::make_unique<TraceMesh>(source, source_uncut.emplace(CutMesh::from_surface(source)));
+        source_embedding.emplace(source_cage ? embed(source, rig, source_embed)
+                                             : embed_on(source, *source_trace, rig, source_embed,
+                                                        std::exchange(source_uncut, std::nullopt)));
       },
       [&] {
         if (!target_cage)
@@ -663,24 +673,14 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const TraceMesh& source_placed = source_cage ? source_cage->limit_trace() : *source_trace;
   const TraceMesh& target_placed = target_cage ? target_cage->limit_trace() : *target_trace;
   const TraceMesh& source_located = source_cage ? source_cage->cage_trace() : *source_trace;
-  // Two lines of work side by side, as most of the embedding is serial:
-  // the source's embedding (a plain mesh on the trace mesh built here),
-  // the placing and the target's embedding; and the shape distance,
-  // measured at every vertex of each (the corners of its triangles), on
-  // the trace meshes built for placing where the frames leave the source
-  // where it is.
-  std::optional<Embedding> source_embedding, placed;
+  rep.source = source_embedding->report();
+  if (!rep.source.ok)
+    throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
+                     (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
   std::string unplaced; // the target's embedding's last refusal, when the placing gives up
   tbb::parallel_invoke(
       [&] {
-        source_embedding.emplace(source_cage ? embed(source, rig, source_embed)
-                                             : embed_on(source, *source_trace, rig, source_embed,
-                                                        std::exchange(source_uncut, std::nullopt)));
         const Embedding& src = *source_embedding;
-        rep.source = src.report();
-        if (!rep.source.ok)
-          throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
-                           (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
         // Placed along the source's normals; where the target's embedding
         // then finds two profiles crossing or a profile straying (a thin
         // limb of a coarse target, whose few faces the normals cross at
@@ -776,13 +776,25 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     return r < 0 ? 0 : source_identity[r];
   };
   // Per cut face, in parallel: its area, and the part of it whose source
-  // region has its key. A region of many faces is measured on an even
-  // share of them (every k-th, up to kRegionSamples faces), each standing
-  // for k: the fraction is the same to well under a percent, at a fraction
-  // of the cost on a large mesh.
+  // region has its key. Two regions can only disagree where their borders
+  // do, so the faces along the curves (a side on a chain) are all
+  // measured, and the faces inside a region on an even share of them
+  // (every k-th, up to kRegionSamples), each standing for k: the same
+  // fraction to well under a percent, at a fraction of the cost on a large
+  // mesh.
+  std::vector<char> border(cm.num_faces(), 0);
+  tbb::parallel_for(0, cm.num_faces(), [&](int f) {
+    const Halfedge h0 = cm.halfedge(Face(f));
+    int sides = 0;
+    for (Halfedge hh = h0; sides == 0 || hh != h0; hh = cm.next(hh), ++sides)
+      if (cm.tag(hh).is_curve() || cm.tag(CutMesh::twin(hh)).is_curve() || sides > 1 << 20) {
+        border[f] = 1;
+        break;
+      }
+  });
   std::vector<int> region_faces(keys.size(), 0), nth(cm.num_faces(), 0);
   for (int f = 0; f < cm.num_faces(); ++f)
-    if (const int r = tgt.face_regions()[f]; r >= 0)
+    if (const int r = tgt.face_regions()[f]; r >= 0 && !border[f])
       nth[f] = region_faces[r]++;
   std::vector<int> stride(keys.size(), 1);
   for (size_t r = 0; r < keys.size(); ++r)
@@ -790,8 +802,9 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   std::vector<std::pair<double, double>> face_area(cm.num_faces(), {0.0, 0.0});
   tbb::parallel_for(0, cm.num_faces(), [&](int f) {
     const int r = tgt.face_regions()[f];
-    if (r < 0 || nth[f] % stride[r] != 0)
+    if (r < 0 || (!border[f] && nth[f] % stride[r] != 0))
       return;
+    const int weight = border[f] ? 1 : stride[r];
     thread_local std::vector<Vec3> corners;
     corners.clear();
     const Halfedge h0 = cm.halfedge(Face(f));
@@ -811,8 +824,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       Vec3 at = apply(to_source, target_cage ? target_cage->to_limit(centroid) : centroid);
       if (source_cage)
         at = source_cage->to_cage(at);
-      face_area[f].first += stride[r] * area;
-      face_area[f].second += source_identity_at(at) == target_identity[r] ? stride[r] * area : 0;
+      face_area[f].first += weight * area;
+      face_area[f].second += source_identity_at(at) == target_identity[r] ? weight * area : 0;
     }
   });
   double total = 0, agreeing = 0; // summed in face order: the same on any thread count
