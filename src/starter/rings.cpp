@@ -433,6 +433,26 @@ std::optional<Ring> cap_ring(const StarterContext& c, const RingOptions& ro, int
         stack.push_back(v);
       }
     }
+  // And the far ends of the edges the ring crosses: a tail's tip is a cone
+  // of long thin faces, whose vertices beyond the ring lie many mean edge
+  // lengths from it.
+  for (int v = 0; v < nv; ++v) {
+    if (seen[v] || !beyond(v))
+      continue;
+    for (int k = c.next_offset[v]; k < c.next_offset[v + 1] && !seen[v]; ++k) {
+      const int u = c.next_vertex[k];
+      const double du = (P[u] - own.centre).dot(n), dv = (P[v] - own.centre).dot(n);
+      if (!(du <= 0))
+        continue;
+      const Vec3 x = P[u] + (du / (du - dv)) * (P[v] - P[u]); // where the edge crosses the ring's plane
+      double d = 0;
+      closest_on_loop(own, x, &d);
+      if (d <= c.tol) {
+        seen[v] = 1;
+        stack.push_back(v);
+      }
+    }
+  }
   const Vec3& o = c.sk.origin[j];
   int far = -1;
   while (!stack.empty()) {
