@@ -29,8 +29,8 @@
 #include <memory>
 #include <optional>
 #include <set>
-#include <utility>
 #include <sstream>
+#include <utility>
 
 namespace curvenet {
 
@@ -785,12 +785,13 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   std::vector<char> border(cm.num_faces(), 0);
   tbb::parallel_for(0, cm.num_faces(), [&](int f) {
     const Halfedge h0 = cm.halfedge(Face(f));
-    int sides = 0;
-    for (Halfedge hh = h0; sides == 0 || hh != h0; hh = cm.next(hh), ++sides)
-      if (cm.tag(hh).is_curve() || cm.tag(CutMesh::twin(hh)).is_curve() || sides > 1 << 20) {
-        border[f] = 1;
+    Halfedge hh = h0;
+    for (int sides = 0; sides < 1 << 20 && !border[f]; ++sides) {
+      border[f] = cm.tag(hh).is_curve() || cm.tag(CutMesh::twin(hh)).is_curve();
+      hh = cm.next(hh);
+      if (hh == h0)
         break;
-      }
+    }
   });
   std::vector<int> region_faces(keys.size(), 0), nth(cm.num_faces(), 0);
   for (int f = 0; f < cm.num_faces(); ++f)
