@@ -4,7 +4,7 @@
 //
 //   build/bin/deform_quality [CASE...]        the table; cases by name prefix (cylinder, hand, cesium, horse, ...)
 //   build/bin/deform_quality --ply DIR CASE   also writes rest and each deformation of a case's last frame as PLY
-//   (checker colours)
+//   (checker colours); --ply-frame N writes frame N instead
 //   build/bin/deform_quality --layer [CASE...]  the skins, the net and the layer over each skin only, with the
 //   change of the surface's detail away from the curves (docs/deform.md, "A layer over the skin")
 //
@@ -29,10 +29,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -366,7 +367,7 @@ void write_ply(const std::string& path, const SurfaceMesh& mesh, const std::vect
   std::fclose(f);
 }
 
-void run(Case c, const std::string& ply_dir, bool layer_only) {
+void run(Case c, const std::string& ply_dir, size_t ply_frame, bool layer_only) {
   c.dominant = dominant_of(c.mesh, c.skin);
   if (c.quality.bone_joints.empty()) {
     // Bones to joints that carry skin weight (IK helpers and poles do not).
@@ -476,7 +477,7 @@ void run(Case c, const std::string& ply_dir, bool layer_only) {
       const auto posed = c.mesh.welded(m.pose(f));
       const auto M = frame_matrices(c, c.skin_joints, f);
       worst_of(r.worst, measure_deformation(c.mesh, posed, c.skin_joints, M, c.dominant, c.quality), f == 0);
-      if (!ply_dir.empty() && f + 1 == frames_of(c)) {
+      if (!ply_dir.empty() && f == std::min(ply_frame, frames_of(c) - 1)) {
         std::filesystem::create_directories(ply_dir);
         std::string file = m.name.substr(0, m.name.find(" ("));
         std::replace(file.begin(), file.end(), ' ', '_');
@@ -520,11 +521,14 @@ void run(Case c, const std::string& ply_dir, bool layer_only) {
 int main(int argc, char** argv) {
   std::vector<std::string> wanted;
   std::string ply_dir;
+  size_t ply_frame = std::numeric_limits<size_t>::max(); // the last
   bool layer_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--ply" && i + 1 < argc)
       ply_dir = argv[++i];
+    else if (a == "--ply-frame" && i + 1 < argc)
+      ply_frame = std::strtoul(argv[++i], nullptr, 10);
     else if (a == "--layer")
       layer_only = true;
     else
@@ -544,7 +548,7 @@ int main(int argc, char** argv) {
     if (!take)
       continue;
     try {
-      run(make(), ply_dir, layer_only);
+      run(make(), ply_dir, ply_frame, layer_only);
     } catch (const Error& e) {
       std::printf("| %s | (refused) | %s |\n", name.c_str(), e.what());
     }
