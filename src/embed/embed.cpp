@@ -106,8 +106,8 @@ struct Traced {
   std::vector<ProfileCurve> curves; ///< tin[p] points at curves[p]
 };
 
-void place_and_trace(const SurfaceMesh& mesh, const TraceMesh& tm, const Rig& rig, const EmbedOptions& options,
-                     const Tolerances& tol, bool cage, Embedding::Impl& impl, Traced& traced, EmbedReport& rep,
+void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& options, const Tolerances& tol, bool cage,
+                     Embedding::Impl& impl, Traced& traced, EmbedReport& rep,
                      const std::function<void(std::string_view, double)>& progress) {
   const double h = tm.mean_edge_length();
   std::vector<TraceInput>& tin = traced.tin;
@@ -327,7 +327,7 @@ Embedding embed_with(const SurfaceMesh& mesh, const TraceMesh* given, const Rig&
   clock.lap("bvh");
 
   Traced traced;
-  place_and_trace(mesh, tm, rig, options, tol, cage, *impl, traced, rep, progress);
+  place_and_trace(tm, rig, options, tol, cage, *impl, traced, rep, progress);
   CutInput& in = impl->input;
   std::vector<TraceInput>& tin = traced.tin;
   const int np = static_cast<int>(rig.profiles.size());
@@ -588,7 +588,7 @@ std::vector<std::vector<Vec3>> trace_profiles(const SurfaceMesh& mesh, const Rig
   impl.cut = CutMesh::from_surface(mesh);
   const TraceMesh tm(mesh, impl.cut);
   Traced traced;
-  place_and_trace(mesh, tm, rig, options, tol, cage, impl, traced, impl.report, [&](std::string_view s, double f) {
+  place_and_trace(tm, rig, options, tol, cage, impl, traced, impl.report, [&](std::string_view s, double f) {
     if (options.progress)
       options.progress(s, f);
   });
