@@ -51,7 +51,7 @@ void expect_family_passes(const std::string& family, const std::vector<std::stri
 
 TEST(Transfer, GivesTheSameRigAndReportOnAnyThreadCount) {
   // Large enough that the region agreement measures only a share of the
-  // faces inside each region, and the profiles are placed in parallel.
+  // faces inside each region.
   const SurfaceMesh quads = test::tube(48, 48, 6, false), tris = test::tube(120, 110, 12, true);
   auto run = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);

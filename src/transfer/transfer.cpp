@@ -441,13 +441,12 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         p.curve.points = std::move(*section);
     }
   };
-  // Each profile on its own, in parallel (the placer only reads).
-  tbb::parallel_for(size_t{0}, out.profiles.size(), [&](size_t i) {
+  for (size_t i = 0; i < out.profiles.size(); ++i) {
     if (out.profiles[i].curve.kind != Curve::Kind::Polyline)
       for (auto& q : out.profiles[i].curve.points)
         q = apply(to_target, q);
     place(i);
-  });
+  }
   // The angles at each node, on the source (mapped) and placed: the worst
   // ratio of a pair's placed angle to its source angle.
   std::vector<std::vector<std::pair<size_t, bool>>> at_node(out.nodes.size()); // (profile, leaves from its start)
