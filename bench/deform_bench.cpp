@@ -1,7 +1,8 @@
 // Binding and per-frame cost of each deformation mode, against plain linear
 // blend skinning and dual-quaternion skinning (4 influences, the library's
 // own skin_positions), on capped tubes of about 5k, 50k and 500k vertices
-// with a 5-joint skeleton and a 13-ring net. One run; medians of 21 frames.
+// with a 5-joint skeleton and a 13-ring net. One run; medians of 21 frames,
+// and of three binds (one above 200k vertices).
 //
 //   build/bin/deform_bench [max_vertices]
 //
@@ -9,7 +10,9 @@
 // The layer's rows (docs/deform.md, "A layer over the skin"): over the LBS
 // skin above with envelope 1, and over the net's own deformation with one
 // node of the middle ring pulled by 2 % of the diagonal. Set CURVENET_ONLY_LAYER
-// to skip the modes.
+// to skip the modes, CURVENET_ONLY_DQ to keep only the default mode, and
+// CURVENET_BIND_STAGES to print the bind's stages (of its last run, on two
+// threads).
 
 #include "curvenet/bake.hpp"
 #include "curvenet/deform.hpp"
@@ -69,6 +72,23 @@ template <class F> double median_ms(int threads, const std::vector<std::vector<M
   }
   return median(t);
 }
+/// A bind's wall time on one thread and on two: medians of three runs each
+/// (one each above 200k vertices).
+template <class F> std::pair<double, double> bind_ms(int vertices, F&& run) {
+  const int reps = vertices > 200000 ? 1 : 3;
+  double out[2];
+  for (const int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<double> t;
+    for (int r = 0; r < reps; ++r) {
+      const double s = now_ms();
+      run();
+      t.push_back(now_ms() - s);
+    }
+    out[threads - 1] = median(t);
+  }
+  return {out[0], out[1]};
+}
 } // namespace
 
 int main(int argc, char** argv) {
@@ -82,8 +102,8 @@ int main(int argc, char** argv) {
   Rig rig = make_tube_net(ns);
   rig.joints = joints;
   rig.has_skeleton = true;
-  std::printf("| vertices | faces | mode | bind ms | frame ms, 1 thread | frame ms, 2 threads | influences per vertex | "
-              "peak MB |\n|---|---|---|---|---|---|---|---|\n");
+  std::printf("| vertices | faces | mode | bind ms, 1 thread | bind ms, 2 threads | frame ms, 1 thread | frame ms, 2 threads | "
+              "influences per vertex | peak MB |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const int around : {64, 200, 640}) {
     TubeSpec ts;
     ts.around = around;
@@ -139,17 +159,13 @@ int main(int argc, char** argv) {
       const NodeOffsets pulled{{rig.nodes[6 * ns.nodes_per_ring].id, Vec3(0.02 * diagonal, 0, 0)}};
       for (const bool over_skin : {true, false}) {
         LayerOptions lo;
-        double bind_ms = 0;
         std::unique_ptr<CurveLayer> layer;
-        {
-          tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-          const double t0 = now_ms();
+        auto [bind1, bind2] = bind_ms(mesh.num_vertices(), [&] {
           layer = std::make_unique<CurveLayer>(bind_layer(mesh, rig, over_skin ? &skinned : nullptr, lo));
-          bind_ms = now_ms() - t0;
-        }
+        });
         auto frame = [&](const std::vector<Mat4>& M) { layer->deform(M, out, 1, over_skin ? nullptr : &pulled); };
-        std::printf("| %d | %d | %s | %.1f | %.3f | %.3f | | %ld |\n", mesh.num_vertices(), mesh.num_faces(),
-                    over_skin ? "layer over LBS (dq curves)" : "layer over dq, one node pulled", bind_ms,
+        std::printf("| %d | %d | %s | %.1f | %.1f | %.3f | %.3f | | %ld |\n", mesh.num_vertices(), mesh.num_faces(),
+                    over_skin ? "layer over LBS (dq curves)" : "layer over dq, one node pulled", bind1, bind2,
                     median_ms(1, frames, frame), median_ms(2, frames, frame), peak_mb());
         std::fflush(stdout);
       }
@@ -161,18 +177,13 @@ int main(int argc, char** argv) {
         continue;
       BindOptions o;
       o.method = m;
-      double bind_ms = 0;
       std::unique_ptr<Binding> b;
-      {
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-        const double t0 = now_ms();
-        b = std::make_unique<Binding>(bind(mesh, rig, o));
-        bind_ms = now_ms() - t0;
-      }
+      auto [bind1, bind2] = bind_ms(mesh.num_vertices(), [&] { b = std::make_unique<Binding>(bind(mesh, rig, o)); });
       auto frame = [&](const std::vector<Mat4>& M) { b->deform(M, out); };
       const double one = median_ms(1, frames, frame), two = median_ms(2, frames, frame);
-      std::printf("| %d | %d | %s%s | %.1f | %.3f | %.3f | %.2f | %ld |\n", mesh.num_vertices(), mesh.num_faces(),
-                  to_string(m), m == DeformMethod::DualQuaternion ? " (default)" : "", bind_ms, one, two,
+      std::printf("| %d | %d | %s%s | %.1f | %.1f | %.3f | %.3f | %.2f | %ld |\n", mesh.num_vertices(),
+                  mesh.num_faces(), to_string(m), m == DeformMethod::DualQuaternion ? " (default)" : "", bind1, bind2,
+                  one, two,
                   b->report().mean_influences, peak_mb());
       if (std::getenv("CURVENET_BIND_STAGES"))
       {

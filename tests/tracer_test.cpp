@@ -6,6 +6,7 @@
 #include "trace/tracer.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstdint>
@@ -118,6 +119,21 @@ TEST(TraceMesh, NearestIsTheClosestTriangleLowestFirstWhateverCameBefore) {
       ASSERT_EQ(n.tri, best) << "query (" << q.transpose() << ")";
       EXPECT_NEAR((n.point - q).norm(), best_d, 1e-12);
     }
+  }
+}
+
+TEST(TraceMesh, LeavesTheProcessThreadCountAlone) {
+  // Embree on TBB turns a device's "threads=N" into a process-wide
+  // tbb::global_control: every parallel loop of an embed, bind or transfer
+  // ran on one thread while its trace mesh lived.
+  using tbb::global_control;
+  const size_t before = global_control::active_value(global_control::max_allowed_parallelism);
+  Fixture f(test::grid(10, 10, true));
+  EXPECT_EQ(global_control::active_value(global_control::max_allowed_parallelism), before);
+  {
+    const global_control two(global_control::max_allowed_parallelism, 2);
+    Fixture g(test::grid(10, 10, true));
+    EXPECT_EQ(global_control::active_value(global_control::max_allowed_parallelism), 2u);
   }
 }
 

@@ -3,6 +3,7 @@
 #include "core/tolerances.hpp"
 #include "curvenet/embed.hpp"
 #include "curvenet/errors.hpp"
+#include "curvenet/io.hpp"
 #include "curvenet/transfer.hpp"
 #include "generate/tube.hpp"
 #include "helpers.hpp"
@@ -11,6 +12,7 @@
 #include "transfer_check.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
 
@@ -46,6 +48,26 @@ void expect_family_passes(const std::string& family, const std::vector<std::stri
   expect_rows_pass(got);
 }
 } // namespace
+
+TEST(Transfer, GivesTheSameRigAndReportOnAnyThreadCount) {
+  // Large enough that the region agreement measures only a share of the
+  // faces inside each region.
+  const SurfaceMesh quads = test::tube(48, 48, 6, false), tris = test::tube(120, 110, 12, true);
+  auto run = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    return transfer(make_tube_net(), quads, tris);
+  };
+  const TransferResult one = run(1), two = run(2);
+  ASSERT_TRUE(one.report.ok);
+  EXPECT_EQ(rig_to_json(one.rig), rig_to_json(two.rig));
+  EXPECT_EQ(one.report.agreement, two.report.agreement);
+  EXPECT_GT(one.report.agreement, 0.99);
+  EXPECT_EQ(one.report.shape.mean, two.report.shape.mean);
+  EXPECT_EQ(one.report.shape.max, two.report.shape.max);
+  ASSERT_EQ(one.report.regions.size(), two.report.regions.size());
+  for (size_t i = 0; i < one.report.regions.size(); ++i)
+    EXPECT_EQ(one.report.regions[i].agree, two.report.regions[i].agree) << one.report.regions[i].key;
+}
 
 TEST(Transfer, TubeNetFromQuadsToTriangles) {
   const SurfaceMesh quads = test::tube(16, 16, 4, false), tris = test::tube(30, 24, 7, true);

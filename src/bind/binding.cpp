@@ -20,8 +20,8 @@
 #include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
@@ -33,6 +33,7 @@
 #include <fstream>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <string_view>
 #include <type_traits>
@@ -491,27 +492,30 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   // mesh, whose rays tell which bones a vertex sees).
   const bool bone_interior = opt.method == DeformMethod::DualQuaternion && opt.interior == InteriorWeights::BoneHeat;
   BoneHeat heat;
+  std::optional<CutMesh> base;
+  std::optional<TraceMesh> surface;
+  std::vector<char> deforming;
+  // Runs beside the embedding and the harmonic factor, and is waited for
+  // where its weights are read (declared after what it reads, so that an
+  // exception waits for it before those go).
+  tbb::task_group heat_task;
   if (bone_interior) {
-    const CutMesh base = CutMesh::from_surface(mesh);
-    const TraceMesh surface(mesh, base);
-    const std::vector<char> deforming = deforming_joints(mesh, rig, impl->joints, joint_index);
-    tbb::parallel_invoke([&] { impl->embedding = embed_on(mesh, surface, rig, opt.embed); },
-                         [&] {
-                           const Eigen::SparseMatrix<double> Lb = cut_mesh_laplacian(
-                               base, opt.laplacian == LaplacianChoice::Uniform ? LaplacianKind::Uniform
-                                                                               : LaplacianKind::IntrinsicDelaunay);
-                           BoneHeatInput bi;
-                           bi.cut = &base;
-                           bi.laplacian = &Lb;
-                           bi.surface = &surface;
-                           bi.joints = &impl->joints;
-                           bi.rule = opt.weights;
-                           bi.deforming = deforming;
-                           heat = bone_heat(bi);
-                         });
-    if (heat.blind > 0)
-      rep.notes.push_back(std::to_string(heat.blind) +
-                          " vertices see no bone through the surface and take bone heat from the nearest bone");
+    base.emplace(CutMesh::from_surface(mesh));
+    surface.emplace(mesh, *base);
+    deforming = deforming_joints(mesh, rig, impl->joints, joint_index);
+    heat_task.run([&] {
+      const Eigen::SparseMatrix<double> Lb = cut_mesh_laplacian(
+          *base, opt.laplacian == LaplacianChoice::Uniform ? LaplacianKind::Uniform : LaplacianKind::IntrinsicDelaunay);
+      BoneHeatInput bi;
+      bi.cut = &*base;
+      bi.laplacian = &Lb;
+      bi.surface = &*surface;
+      bi.joints = &impl->joints;
+      bi.rule = opt.weights;
+      bi.deforming = deforming;
+      heat = bone_heat(bi);
+    });
+    impl->embedding = embed_on(mesh, *surface, rig, opt.embed);
   } else {
     impl->embedding = embed(mesh, rig, opt.embed);
   }
@@ -635,6 +639,10 @@ Binding bind(const SurfaceMesh& mesh, const Rig& input_rig, const BindOptions& o
   }
   lap("factor");
 
+  heat_task.wait();
+  if (heat.blind > 0)
+    rep.notes.push_back(std::to_string(heat.blind) +
+                        " vertices see no bone through the surface and take bone heat from the nearest bone");
   // Bone heat at the cut mesh's vertices (a curve's vertex inside an input
   // edge or face: interpolated there). The inside of each region is then
   // B_j + H(w_j - B_j), which is w_j on the curves.

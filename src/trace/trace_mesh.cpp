@@ -8,6 +8,7 @@
 #include <embree3/rtcore.h>
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -154,7 +155,12 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut)
 
   // Embree BVH over the triangles, for closest-point queries.
   bvh_ = std::make_unique<Bvh>();
-  bvh_->device = rtcNewDevice("threads=1");
+  // No thread count in the configuration: Embree built on TBB (Debian's)
+  // turns "threads=N" into a process-wide tbb::global_control that holds
+  // every TBB loop of the process to N threads for as long as the device
+  // lives, which was the whole of each embed, bind and transfer. The build
+  // is kept on one thread by the arena below instead.
+  bvh_->device = rtcNewDevice(nullptr);
   if (!bvh_->device)
     throw Error("Embree: cannot create a device");
   bvh_->scene = rtcNewScene(bvh_->device);
@@ -193,7 +199,10 @@ TraceMesh::TraceMesh(const SurfaceMesh& mesh, const CutMesh& cut)
   rtcCommitGeometry(geom);
   rtcAttachGeometry(bvh_->scene, geom);
   rtcReleaseGeometry(geom);
-  rtcCommitScene(bvh_->scene);
+  // On one thread, so that the tree, and with it the order in which
+  // queries meet tied triangles, does not depend on the thread count.
+  tbb::task_arena one(1);
+  one.execute([&] { rtcCommitScene(bvh_->scene); });
 }
 
 TraceMesh::~TraceMesh() = default;
