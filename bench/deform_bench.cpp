@@ -134,7 +134,7 @@ int main(int argc, char** argv) {
     for (const auto method : {Skinning::Linear, Skinning::DualQuaternion}) {
       std::vector<Vec3> posed;
       auto frame = [&](const std::vector<Mat4>& M) { posed = skin_positions(skin, rest, M, method); };
-      std::printf("| %d | %d | %s | | %.3f | %.3f | 4 | |\n", mesh.num_vertices(), mesh.num_faces(),
+      std::printf("| %d | %d | %s | | | %.3f | %.3f | 4 | |\n", mesh.num_vertices(), mesh.num_faces(),
                   method == Skinning::Linear ? "LBS (baseline)" : "DQS (baseline)", median_ms(1, frames, frame),
                   median_ms(2, frames, frame));
     }
