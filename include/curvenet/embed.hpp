@@ -34,7 +34,9 @@ struct EmbedOptions {
   long long max_samples = 20'000'000;
   /// Overrides the rig's coverage when set.
   std::optional<Coverage> coverage;
-  /// Called with a stage name and the fraction done, for progress display.
+  /// Called with a stage name and the fraction done, for progress display:
+  /// one call at a time, from the calling thread or a worker, with each
+  /// stage's fraction going up.
   std::function<void(std::string_view stage, double fraction)> progress;
 };
 

@@ -17,6 +17,7 @@
 #include <functional>
 #include <iomanip>
 #include <map>
+#include <mutex>
 #include <numeric>
 #include <optional>
 #include <set>
@@ -201,7 +202,15 @@ void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& op
   in.traces.resize(np);
   std::vector<std::exception_ptr> errors(np);
   std::atomic<int> done{0};
-  progress("trace", 0.0);
+  // Profiles finish on any thread: one report at a time, never going back.
+  std::mutex progress_mutex;
+  double reported = -1;
+  auto report = [&](double f) {
+    std::lock_guard lock(progress_mutex);
+    if (f > reported)
+      progress("trace", reported = f);
+  };
+  report(0.0);
   // Sample and trace every profile (independent, so in parallel); report
   // the first failure in profile order.
   tbb::parallel_for(0, np, [&](int p) {
@@ -229,7 +238,7 @@ void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& op
     }
     const int d = ++done;
     if (options.progress && d % 16 == 0)
-      progress("trace", static_cast<double>(d) / np);
+      report(static_cast<double>(d) / np);
   });
   for (auto& e : errors)
     if (e)
@@ -242,7 +251,7 @@ void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& op
     rep.samples += static_cast<int>(tin[p].samples.size());
     rep.refinements += in.traces[p].refinements;
   }
-  progress("trace", 1.0);
+  report(1.0);
 }
 
 namespace {
