@@ -14,15 +14,19 @@
 #include "sample/sampling.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <numbers>
 #include <random>
 #include <set>
+#include <thread>
 
 using namespace curvenet;
 
@@ -224,6 +228,38 @@ TEST(Embed, DenserTubeNetsFollowEuler) {
   // V = 5*6 + 2 = 32, E = 30 + 24 + 12 = 66, F = 2 - 32 + 66 = 36.
   expect_counts(embed(test::tube(40, 30, 8, true), rig).report(), 32, 66, 36);
   expect_counts(embed(test::tube(36, 28, 6, false), rig).report(), 32, 66, 36);
+}
+
+TEST(Embed, ReportsProgressOneCallAtATimeAndOnlyUpwards) {
+  // 13 rings of 8 nodes: 201 profiles, traced on two threads, each thread
+  // reporting as it finishes one. A slow callback lets two calls overlap
+  // if nothing keeps them apart.
+  TubeNetSpec spec;
+  spec.ring_heights.clear();
+  for (int i = 0; i < 13; ++i)
+    spec.ring_heights.push_back(0.3 + 3.4 * i / 12);
+  spec.nodes_per_ring = 8;
+  const Rig rig = make_tube_net(spec);
+  const tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+  std::atomic<int> inside{0}, overlaps{0}, calls{0};
+  std::map<std::string, double> last;
+  bool backwards = false;
+  EmbedOptions opt;
+  opt.progress = [&](std::string_view stage, double f) {
+    if (inside++ > 0)
+      ++overlaps;
+    ++calls;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    const auto [it, fresh] = last.try_emplace(std::string(stage), f);
+    backwards = backwards || (!fresh && f < it->second);
+    it->second = f;
+    --inside;
+  };
+  ASSERT_TRUE(embed(test::tube(48, 120, 8, true), rig, opt).report().ok);
+  EXPECT_GT(calls.load(), 10);
+  EXPECT_EQ(overlaps.load(), 0);
+  EXPECT_FALSE(backwards);
+  EXPECT_EQ(last.at("trace"), 1.0);
 }
 
 TEST(Embed, RandomTubeNetsOnRandomTessellations) {
