@@ -90,6 +90,54 @@ TEST(SurfaceMesh, RefusesNonFiniteCoordinates) {
   }
 }
 
+TEST(SurfaceMesh, NamesTheFirstBadVertexAndFaceOfALargeMesh) {
+  // Checked in parallel chunks: the lowest bad index is named, not the
+  // first one a thread meets.
+  RawMesh r = test::grid(300, 300, true); // 90,601 vertices, 180,000 triangles
+  r.positions[90000].x() = INFINITY;
+  r.positions[70001].z() = std::nan("");
+  try {
+    make_surface_mesh(r, "big.obj");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "vertex 70001");
+  }
+  RawMesh f = test::grid(300, 300, true);
+  f.face_vertices[3 * 170000 + 1] = -1;
+  f.face_vertices[3 * 120000 + 2] = static_cast<int>(f.positions.size());
+  try {
+    make_surface_mesh(f, "big.obj");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "face 120000");
+    EXPECT_NE(std::string(e.what()).find("refers to vertex 90601"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SurfaceMesh, ARawMeshHandedOverGivesTheSameSurfaceAsOneCopied) {
+  // make_surface_mesh(RawMesh&&) takes the arrays over where they are kept
+  // as they are; wherever it must repair, it reads them as the copy does.
+  RawMesh sliver;
+  sliver.positions = {{0, 0, 0}, {2, 0, 0}, {1, 0, 0}, {1, 1, 0}, {1, -1, 0}};
+  sliver.add_face(std::vector<int>{0, 1, 3});
+  sliver.add_face(std::vector<int>{0, 4, 2});
+  sliver.add_face(std::vector<int>{2, 4, 1});
+  sliver.add_face(std::vector<int>{0, 2, 1}); // no area
+  RawMesh split = test::grid(3, 2);
+  split.positions.push_back(split.positions[0]); // a vertex to weld
+  split.face_vertices[0] = static_cast<int>(split.positions.size()) - 1;
+  for (const RawMesh& raw : {test::grid(20, 10, true), test::box(), sliver, split}) {
+    const SurfaceMesh copied = make_surface_mesh(raw, "m");
+    RawMesh given = raw;
+    const SurfaceMesh moved = make_surface_mesh(std::move(given), "m");
+    EXPECT_EQ(copied.positions, moved.positions);
+    EXPECT_EQ(copied.face_offsets, moved.face_offsets);
+    EXPECT_EQ(copied.face_vertices, moved.face_vertices);
+    EXPECT_EQ(copied.input_to_welded, moved.input_to_welded);
+    EXPECT_EQ(copied.notes, moved.notes);
+  }
+}
+
 TEST(SurfaceMesh, RefusesDegenerateFaces) {
   RawMesh r;
   r.positions = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};

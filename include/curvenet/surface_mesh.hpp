@@ -76,5 +76,8 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
 ///   component. An orientation that is merely inconsistent is repaired, and
 ///   the repair is recorded in `notes`.
 SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source);
+/// The same, taking over `raw`'s arrays where they become the mesh's as
+/// they are (no copy of a large mesh that needs no repair).
+SurfaceMesh make_surface_mesh(RawMesh&& raw, const std::string& source);
 
 } // namespace curvenet

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -118,17 +119,26 @@ namespace {
 
 /// The undirected edges of a polygon soup, with the faces that use them: a
 /// flat table sorted by edge (no node-based map). Edge e's uses are
-/// use_face[start[e] .. start[e + 1]), in face order.
+/// use_face(i) for i in [start[e], start[e + 1]), in face order.
 struct EdgeTable {
+  /// One use of an edge: a face side, as its larger vertex and the corner it starts at.
+  struct Use {
+    int hi;
+    int corner; ///< an index into the face vertices
+  };
   std::vector<std::uint64_t> key; ///< per edge: (smaller vertex << 32) | larger
   std::vector<int> start;         ///< per edge + 1
-  std::vector<int> use_face;
-  std::vector<int> use_corner;   ///< the corner the face's side starts at (an index into the face vertices)
-  std::vector<char> use_forward; ///< the face runs smaller -> larger
+  std::vector<Use> use;           ///< per use, by edge
+  std::vector<char> use_forward;  ///< the face runs smaller -> larger
+  int uniform = 0;                ///< corners per face where every face has as many, else 0
+  std::vector<int> corner_face;   ///< the face of each corner, where not uniform
   [[nodiscard]] int num_edges() const { return static_cast<int>(key.size()); }
   [[nodiscard]] int uses(int e) const { return start[e + 1] - start[e]; }
   [[nodiscard]] int lo(int e) const { return static_cast<int>(key[e] >> 32); }
   [[nodiscard]] int hi(int e) const { return static_cast<int>(key[e] & 0xffffffffu); }
+  [[nodiscard]] int use_corner(int i) const { return use[i].corner; }
+  /// By division where every face has as many corners (a triangle or quad mesh), else from a table.
+  [[nodiscard]] int use_face(int i) const { return uniform ? use[i].corner / uniform : corner_face[use[i].corner]; }
 };
 
 std::uint64_t edge_key(int a, int b) {
@@ -142,33 +152,32 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
   // no comparisons), then each small bucket ordered by the larger vertex;
   // sides enter their bucket in corner order and the insertion sort is
   // stable, so each edge's uses stay in face order. A side is its larger
-  // vertex and its corner (8 bytes: the scatter into buckets is what costs).
-  struct Use {
-    int hi;
-    int corner;
-  };
+  // vertex and its corner (8 bytes: the scatter into buckets is what costs,
+  // with the first touch of each new array, so the uses stay where they
+  // were scattered and a use's face is worked out when asked).
+  using Use = EdgeTable::Use;
+  EdgeTable t;
   int nv = 0;
   for (int v : verts)
     nv = std::max(nv, v + 1);
   const size_t nf = offsets.empty() ? 0 : offsets.size() - 1;
-  // The face of each corner: by division where every face has as many
-  // corners (a triangle or quad mesh), else from a table.
-  int uniform = nf > 0 ? offsets[1] : 0;
-  for (size_t f = 1; f < nf && uniform; ++f)
-    if (offsets[f + 1] - offsets[f] != uniform)
-      uniform = 0;
-  std::vector<int> corner_face(uniform ? 0 : verts.size());
-  if (!uniform)
+  t.uniform = nf > 0 ? offsets[1] : 0;
+  for (size_t f = 1; f < nf && t.uniform; ++f)
+    if (offsets[f + 1] - offsets[f] != t.uniform)
+      t.uniform = 0;
+  if (!t.uniform) {
+    t.corner_face.resize(verts.size());
     for (size_t f = 0; f < nf; ++f)
-      std::fill(corner_face.begin() + offsets[f], corner_face.begin() + offsets[f + 1], static_cast<int>(f));
-  auto face_of = [&](int k) { return uniform ? k / uniform : corner_face[k]; };
+      std::fill(t.corner_face.begin() + offsets[f], t.corner_face.begin() + offsets[f + 1], static_cast<int>(f));
+  }
   std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
   for (size_t f = 0; f < nf; ++f)
     for (int k = offsets[f]; k < offsets[f + 1]; ++k)
       ++bucket[std::min(verts[k], verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]) + 1];
   for (int v = 0; v < nv; ++v)
     bucket[v + 1] += bucket[v];
-  std::vector<Use> all(verts.size());
+  std::vector<Use>& all = t.use;
+  all.resize(verts.size());
   {
     std::vector<int> fill(bucket.begin(), bucket.end() - 1);
     for (size_t f = 0; f < nf; ++f)
@@ -177,29 +186,39 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
         all[fill[std::min(a, b)]++] = {std::max(a, b), k};
       }
   }
-  EdgeTable t;
-  t.key.reserve(all.size() / 2 + 1);
-  t.start.reserve(all.size() / 2 + 2);
-  t.use_face.resize(all.size());
-  t.use_corner.resize(all.size());
-  t.use_forward.resize(all.size());
-  for (int v = 0; v < nv; ++v) {
-    const int b = bucket[v], e = bucket[v + 1];
-    for (int i = b + 1; i < e; ++i) // insertion sort by the larger vertex (stable)
-      for (int j = i; j > b && all[j - 1].hi > all[j].hi; --j)
-        std::swap(all[j - 1], all[j]);
-    for (int i = b; i < e; ++i) {
-      if (i == b || all[i].hi != all[i - 1].hi) {
-        t.key.push_back(edge_key(v, all[i].hi));
-        t.start.push_back(i);
-      }
-      const int k = all[i].corner;
-      t.use_face[i] = face_of(k);
-      t.use_corner[i] = k;
-      t.use_forward[i] = static_cast<char>(verts[k] == v); // the side runs from its smaller vertex
+  // Each bucket ordered and its edges counted, then written at its offset:
+  // both in parallel over the buckets (each bucket is a vertex's own).
+  std::vector<int> edges_before(static_cast<size_t>(nv) + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, nv, 8192), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const int b = bucket[v], e = bucket[v + 1];
+      for (int i = b + 1; i < e; ++i) // insertion sort by the larger vertex (stable)
+        for (int j = i; j > b && all[j - 1].hi > all[j].hi; --j)
+          std::swap(all[j - 1], all[j]);
+      int count = 0;
+      for (int i = b; i < e; ++i)
+        count += i == b || all[i].hi != all[i - 1].hi;
+      edges_before[v + 1] = count;
     }
-  }
-  t.start.push_back(static_cast<int>(all.size()));
+  });
+  for (int v = 0; v < nv; ++v)
+    edges_before[v + 1] += edges_before[v];
+  t.key.resize(static_cast<size_t>(edges_before[nv]));
+  t.start.resize(static_cast<size_t>(edges_before[nv]) + 1);
+  t.use_forward.resize(all.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, nv, 8192), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) {
+      int edge = edges_before[v];
+      for (int i = bucket[v]; i < bucket[v + 1]; ++i) {
+        if (i == bucket[v] || all[i].hi != all[i - 1].hi) {
+          t.key[edge] = edge_key(v, all[i].hi);
+          t.start[edge++] = i;
+        }
+        t.use_forward[i] = static_cast<char>(verts[all[i].corner] == v); // the side runs from its smaller vertex
+      }
+    }
+  });
+  t.start.back() = static_cast<int>(all.size());
   return t;
 }
 
@@ -222,8 +241,8 @@ std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, 
     if (edges.uses(e) == 2) {
       const int s = edges.start[e];
       for (const int v : {edges.lo(e), edges.hi(e)})
-        parent[find(corner_at(edges.use_corner[s], edges.use_face[s], v))] =
-            find(corner_at(edges.use_corner[s + 1], edges.use_face[s + 1], v));
+        parent[find(corner_at(edges.use_corner(s), edges.use_face(s), v))] =
+            find(corner_at(edges.use_corner(s + 1), edges.use_face(s + 1), v));
     }
   // Unions join only corners of one vertex, so each fan's root is one of its own corners.
   std::vector<int> fans(static_cast<size_t>(nv), 0);
@@ -342,8 +361,8 @@ int orient_consistently(SurfaceMesh& mesh, const EdgeTable& edges) {
   std::vector<int> adj_start(static_cast<size_t>(nf) + 1, 0);
   for (int e = 0; e < edges.num_edges(); ++e)
     if (edges.uses(e) == 2) {
-      ++adj_start[edges.use_face[edges.start[e]] + 1];
-      ++adj_start[edges.use_face[edges.start[e] + 1] + 1];
+      ++adj_start[edges.use_face(edges.start[e]) + 1];
+      ++adj_start[edges.use_face(edges.start[e] + 1) + 1];
     }
   for (int f = 0; f < nf; ++f)
     adj_start[f + 1] += adj_start[f];
@@ -352,7 +371,7 @@ int orient_consistently(SurfaceMesh& mesh, const EdgeTable& edges) {
     std::vector<int> fill(adj_start.begin(), adj_start.end() - 1);
     for (int e = 0; e < edges.num_edges(); ++e)
       if (edges.uses(e) == 2) {
-        const int k = edges.start[e], f = edges.use_face[k], g = edges.use_face[k + 1];
+        const int k = edges.start[e], f = edges.use_face(k), g = edges.use_face(k + 1);
         const bool conflict = edges.use_forward[k] == edges.use_forward[k + 1];
         adj[fill[f]++] = {g, conflict};
         adj[fill[g]++] = {f, conflict};
@@ -412,7 +431,7 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
   };
   for (int e = 0; e < edges.num_edges(); ++e)
     if (edges.uses(e) == 2) {
-      const int a = find(edges.use_face[edges.start[e]]), b = find(edges.use_face[edges.start[e] + 1]);
+      const int a = find(edges.use_face(edges.start[e])), b = find(edges.use_face(edges.start[e] + 1));
       if (a != b)
         parent[std::max(a, b)] = std::min(a, b);
     }
@@ -438,7 +457,7 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
       }
   }
   for (int e = 0; e < edges.num_edges(); ++e) {
-    const int c = comp[edges.use_face[edges.start[e]]];
+    const int c = comp[edges.use_face(edges.start[e])];
     nedges[c]++;
     if (edges.uses(e) == 1)
       open[c] = 1;
@@ -452,15 +471,47 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
   return out;
 }
 
+namespace {
+/// make_surface_mesh, moving `raw`'s arrays out of `steal` (which is `raw`)
+/// where they are kept as they are.
+SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::string& source);
+} // namespace
+
 SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
+  return surface_mesh_of(raw, nullptr, source);
+}
+
+SurfaceMesh make_surface_mesh(RawMesh&& raw, const std::string& source) { return surface_mesh_of(raw, &raw, source); }
+
+namespace {
+SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::string& source) {
   const int nin = static_cast<int>(raw.positions.size());
   const int nraw = static_cast<int>(raw.face_offsets.size()) - 1;
   if (nraw <= 0)
     throw InputError(source, "", "the mesh has no faces");
-  for (int v = 0; v < nin; ++v)
-    if (!raw.positions[v].allFinite())
-      throw InputError(source, "vertex " + std::to_string(v), "non-finite coordinate " + vec_str(raw.positions[v]));
-  for (int f = 0; f < nraw; ++f) {
+  // The first bad vertex and the first bad face, found in parallel.
+  auto first_where = [](int count, auto&& bad) {
+    return tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, count, 16384), count,
+        [&](const tbb::blocked_range<int>& r, int first) {
+          for (int i = r.begin(); i < r.end() && i < first; ++i)
+            if (bad(i))
+              return i;
+          return first;
+        },
+        [](int a, int b) { return std::min(a, b); });
+  };
+  if (const int v = first_where(nin, [&](int i) { return !raw.positions[i].allFinite(); }); v < nin)
+    throw InputError(source, "vertex " + std::to_string(v), "non-finite coordinate " + vec_str(raw.positions[v]));
+  const int bad_face = first_where(nraw, [&](int f) {
+    if (raw.face_offsets[f + 1] - raw.face_offsets[f] < 3)
+      return true;
+    for (int k = raw.face_offsets[f]; k < raw.face_offsets[f + 1]; ++k)
+      if (raw.face_vertices[k] < 0 || raw.face_vertices[k] >= nin)
+        return true;
+    return false;
+  });
+  for (int f = bad_face; f < nraw; ++f) { // the first bad face's message
     const int n = raw.face_offsets[f + 1] - raw.face_offsets[f];
     if (n < 3)
       throw InputError(source, "face " + std::to_string(f),
@@ -527,8 +578,14 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   int dropped = 0;
   std::string first_reason; // of the first degenerate face, for a mesh with no other
   if (raw.face_offsets.front() == 0 && std::all_of(kind.begin(), kind.end(), [](char k) { return k == kKept; })) {
-    offsets = raw.face_offsets; // every face kept: one copy
-    verts.assign(raw.face_vertices.begin(), raw.face_vertices.begin() + raw.face_offsets.back());
+    if (steal) { // every face kept: the arrays as they are (the rest of raw.face_* is not read again)
+      offsets = std::move(steal->face_offsets);
+      verts = std::move(steal->face_vertices);
+      verts.resize(static_cast<size_t>(offsets.back()));
+    } else { // one copy
+      offsets = raw.face_offsets;
+      verts.assign(raw.face_vertices.begin(), raw.face_vertices.begin() + raw.face_offsets.back());
+    }
   } else {
     offsets.reserve(static_cast<size_t>(nraw) + 1);
     offsets.push_back(0);
@@ -715,8 +772,8 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   std::vector<Vec3> welded_pos;
   int followers = 0;
   bool renumbered = false;
-  if (nw == nin) { // nothing welded and every vertex used: the ids as given
-    welded_pos = raw.positions;
+  if (nw == nin) { // nothing welded and every vertex used: the ids as given (raw.positions is not read again)
+    welded_pos = steal ? std::move(steal->positions) : raw.positions;
   } else {
     welded_pos.resize(nw);
     for (int v = 0; v < nin; ++v)
@@ -768,5 +825,6 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
     mesh.notes.push_back("repaired inconsistent orientation: reversed " + std::to_string(flipped) + " faces");
   return mesh;
 }
+} // namespace
 
 } // namespace curvenet
