@@ -20,6 +20,7 @@
 #include "trace/trace_mesh.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 #include <nlohmann/json.hpp>
 #include <tbb/task_arena.h>
 
@@ -741,6 +742,19 @@ TEST(DualQuaternion, TheHandPosesTheSameOnItsRefinement) {
               100 * sum / mesh.num_vertices() / diagonal, 100 * worst / diagonal);
   EXPECT_LT(worst, 0.01 * diagonal);
   EXPECT_LT(sum / mesh.num_vertices(), 0.001 * diagonal);
+}
+
+TEST(DualQuaternion, TheBindDoesNotDependOnTheThreadCount) {
+  // Bone heat runs beside the embedding and the harmonic factor, and its
+  // rays in parallel: the tables come out the same on one thread and on two.
+  const SurfaceMesh m = test::tube(64, 60, 8, true);
+  auto tables = [&](int threads) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    return bind(m, make_tube_net()).cache_bytes("tube.cache");
+  };
+  const std::string one = tables(1), two = tables(2);
+  EXPECT_GT(one.size(), 1000u);
+  EXPECT_TRUE(one == two);
 }
 
 TEST(DualQuaternion, FramesDoNotDependOnTheThreadCount) {
