@@ -9,6 +9,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
@@ -237,17 +238,28 @@ std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, 
   };
   // The corner at vertex v of the side that starts at corner k of face f.
   auto corner_at = [&](int k, int f, int v) { return verts[k] == v ? k : (k + 1 < offsets[f + 1] ? k + 1 : offsets[f]); };
-  for (int e = 0; e < edges.num_edges(); ++e)
-    if (edges.uses(e) == 2) {
-      const int s = edges.start[e];
-      for (const int v : {edges.lo(e), edges.hi(e)})
-        parent[find(corner_at(edges.use_corner(s), edges.use_face(s), v))] =
-            find(corner_at(edges.use_corner(s + 1), edges.use_face(s + 1), v));
-    }
-  // Unions join only corners of one vertex, so each fan's root is one of its own corners.
+  // Unions join only corners of one vertex, so each fan's root is one of
+  // its own corners, and vertices can be split into blocks that share
+  // nothing: each block reads every edge and every corner, and joins and
+  // counts those of its own vertices (one block per thread; the counts do
+  // not depend on how many).
   std::vector<int> fans(static_cast<size_t>(nv), 0);
-  for (size_t k = 0; k < verts.size(); ++k)
-    fans[verts[k]] += find(static_cast<int>(k)) == static_cast<int>(k);
+  const int blocks = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), 8));
+  tbb::parallel_for(0, blocks, [&](int block) {
+    const int lo = static_cast<int>(static_cast<long long>(nv) * block / blocks),
+              hi = static_cast<int>(static_cast<long long>(nv) * (block + 1) / blocks);
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) == 2) {
+        const int s = edges.start[e];
+        for (const int v : {edges.lo(e), edges.hi(e)})
+          if (v >= lo && v < hi)
+            parent[find(corner_at(edges.use_corner(s), edges.use_face(s), v))] =
+                find(corner_at(edges.use_corner(s + 1), edges.use_face(s + 1), v));
+      }
+    for (size_t k = 0; k < verts.size(); ++k)
+      if (const int v = verts[k]; v >= lo && v < hi)
+        fans[v] += find(static_cast<int>(k)) == static_cast<int>(k);
+  });
   std::vector<int> bad;
   for (int v = 0; v < nv; ++v)
     if (fans[v] > 1)
