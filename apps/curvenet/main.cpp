@@ -15,6 +15,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <malloc.h>
@@ -52,13 +53,22 @@ namespace {
 /// time (374 to 326 ms, the median of 20 runs on one core); with 2 MB
 /// pages, 2k faults. Skipped where it cannot
 /// help: the kernel's huge pages turned off, a user's own choice in
-/// GLIBC_TUNABLES, or a sanitizer's allocator in place of glibc's.
-void start_again_with_huge_pages(char** argv) {
+/// GLIBC_TUNABLES, or a sanitizer's allocator in place of glibc's. Skipped
+/// too for the commands that bind, where it costs more than it saves: the
+/// kernel clears each 2 MB page the factorisations touch, a third of a
+/// bind's time in perf. On the 146k-face hand, interleaved runs on two
+/// cores: `embed` 297 ms with huge pages against 330 ms without, `bind`
+/// 1.99 s against 1.79 s, `pose` 2.45-2.79 s against 2.01-2.26 s.
+void start_again_with_huge_pages(int argc, char** argv) {
 #if defined(__SANITIZE_ADDRESS__)
+  (void)argc;
   (void)argv;
 #else
   if (std::getenv("CURVENET_HEAP") != nullptr)
     return; // this is the second start, or the user turned it off
+  for (const char* binds : {"bind", "pose", "animate", "bake", "farm"})
+    if (argc > 1 && std::strcmp(argv[1], binds) == 0)
+      return;
   std::ifstream thp("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string modes;
   std::getline(thp, modes);
@@ -83,7 +93,7 @@ void start_again_with_huge_pages(char** argv) {
 } // namespace
 
 int main(int argc, char** argv) {
-  start_again_with_huge_pages(argv);
+  start_again_with_huge_pages(argc, argv);
   // One process, one job, in stages that each free large arrays the next
   // allocates again: keep freed memory in the heap (no mmap for big blocks,
   // no trimming back to the kernel), so a stage reuses pages the last one
