@@ -157,16 +157,23 @@ int main(int argc, char** argv) {
       }
       const double diagonal = mesh.bbox_diagonal();
       const NodeOffsets pulled{{rig.nodes[6 * ns.nodes_per_ring].id, Vec3(0.02 * diagonal, 0, 0)}};
-      for (const bool over_skin : {true, false}) {
+      // Over LBS with dq curves (the default), with harmonic curves (the
+      // precomputed sum) and the same solved every frame; over the net.
+      for (const int row : {0, 1, 2, 3}) {
+        const bool over_skin = row < 3;
         LayerOptions lo;
+        if (row == 1 || row == 2)
+          lo.bind.method = DeformMethod::Harmonic;
+        lo.precompute_linear = row != 2;
         std::unique_ptr<CurveLayer> layer;
         auto [bind1, bind2] = bind_ms(mesh.num_vertices(), [&] {
           layer = std::make_unique<CurveLayer>(bind_layer(mesh, rig, over_skin ? &skinned : nullptr, lo));
         });
         auto frame = [&](const std::vector<Mat4>& M) { layer->deform(M, out, 1, over_skin ? nullptr : &pulled); };
+        const char* name[] = {"layer over LBS (dq curves)", "layer over LBS (harmonic curves, precomputed sum)",
+                              "layer over LBS (harmonic curves, solved each frame)", "layer over dq, one node pulled"};
         std::printf("| %d | %d | %s | %.1f | %.1f | %.3f | %.3f | | %ld |\n", mesh.num_vertices(), mesh.num_faces(),
-                    over_skin ? "layer over LBS (dq curves)" : "layer over dq, one node pulled", bind1, bind2,
-                    median_ms(1, frames, frame), median_ms(2, frames, frame), peak_mb());
+                    name[row], bind1, bind2, median_ms(1, frames, frame), median_ms(2, frames, frame), peak_mb());
         std::fflush(stdout);
       }
     }

@@ -434,10 +434,20 @@ void run(Case c, const std::string& ply_dir, size_t ply_frame, bool layer_only) 
     skin_file.vertex_weight.push_back(w);
   }
   std::vector<std::unique_ptr<CurveLayer>> layers;
-  for (const Skinning s : {Skinning::Linear, Skinning::DualQuaternion}) {
+  // Over LBS and DQS with the curves posed as dual quaternions (the
+  // default), and over LBS with the curves posed linearly (the harmonic
+  // method: a frame is a precomputed sum, docs/deform.md).
+  for (const int which : {0, 1, 2}) {
+    if (which == 2 && !layer_only)
+      continue;
+    const Skinning s = which == 1 ? Skinning::DualQuaternion : Skinning::Linear;
     LayerOptions o;
     o.skinning = s;
-    const std::string label = s == Skinning::Linear ? "layer over LBS" : "layer over DQS";
+    if (which == 2)
+      o.bind.method = DeformMethod::Harmonic;
+    const std::string label = which == 0   ? "layer over LBS"
+                              : which == 1 ? "layer over DQS"
+                                           : "layer over LBS, linear curves";
     try {
       layers.push_back(std::make_unique<CurveLayer>(bind_layer(c.mesh, c.rig, &skin_file, o)));
     } catch (const Error& e) {

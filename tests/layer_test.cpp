@@ -214,6 +214,63 @@ TEST(Layer, TheCorrectionIsHarmonicOffTheChainsAndTheSameOnAnyThreadCount) {
   EXPECT_LT(worst, 1e-9 * scale) << "the correction is harmonic off the chains";
 }
 
+TEST(Layer, OverALinearSkinWithLinearCurvesTheFrameIsAPrecomputedSumEqualToTheSolve) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Hand h;
+  const double diag = h.mesh.bbox_diagonal();
+  LayerOptions fast;
+  fast.bind.method = DeformMethod::Harmonic;
+  LayerOptions solved = fast;
+  solved.precompute_linear = false;
+  const CurveLayer a = bind_layer(h.mesh, h.rig, &h.skin, fast);
+  const CurveLayer b = bind_layer(h.mesh, h.rig, &h.skin, solved);
+  const std::vector<Vec3> rest = h.rest();
+  std::vector<Vec3> skin(rest.size()), out_a(rest.size()), out_b(rest.size()), cut;
+  std::vector<double> mask(rest.size());
+  for (size_t i = 0; i < mask.size(); ++i)
+    mask[i] = 0.25 + 0.5 * static_cast<double>(i % 3) / 2; // 0.25, 0.5, 0.75
+  const CurveLayer a_masked = a.with_mask(mask), b_masked = b.with_mask(mask);
+  // Every clip's last key, at two envelopes and with a mask: the sum and
+  // the solve agree to rounding, and the correction is real.
+  double apart = 0, largest = 0, cut_off = 0;
+  for (int clip = 0; clip < h.clips.num_clips(); clip += 5) {
+    const std::vector<Mat4> M = clip_skinning_matrices(a.joints(), h.clips, clip, h.clips.clip_range(clip).second);
+    a.deform(M, skin, 0.0);
+    for (const double envelope : {1.0, 0.4}) {
+      a.deform(M, out_a, envelope);
+      b.deform(M, out_b, envelope);
+      apart = std::max(apart, max_apart(out_a, out_b));
+      largest = std::max(largest, max_apart(out_a, skin));
+      a_masked.deform(M, out_a, envelope);
+      b_masked.deform(M, out_b, envelope);
+      apart = std::max(apart, max_apart(out_a, out_b));
+    }
+    // The posed cut mesh, which always solves, has every input vertex where
+    // the sum puts it (the chains' own on the linearly posed curves).
+    a.deform(M, out_a);
+    a.deform_cut(M, cut);
+    for (size_t i = 0; i < rest.size(); ++i) {
+      const int v = h.mesh.input_to_welded[i];
+      cut_off = std::max(cut_off, (out_a[i] - cut[v]).norm());
+    }
+  }
+  EXPECT_GT(largest, 1e-3 * diag) << "the layer corrects the skin";
+  EXPECT_LT(apart, 1e-12 * diag) << "the precomputed sum is the solve";
+  EXPECT_LT(cut_off, 1e-12 * diag);
+  // The same on any thread count, and the rest is the rest.
+  const std::vector<Mat4> M = clip_skinning_matrices(a.joints(), h.clips, h.clips.find_clip("Grip"), 1 / 24.0);
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    a.deform(M, out_a);
+  }
+  a.deform(M, out_b);
+  EXPECT_EQ(out_a, out_b);
+  const std::vector<Mat4> I(a.joints().size(), Mat4::Identity());
+  a.deform(I, out_a);
+  EXPECT_LT(max_apart(out_a, rest), 1e-12 * diag);
+}
+
 TEST(Layer, ThePosedCutMeshShowsTheCurvesBetweenACoarseMeshsVertices) {
   // A coarse tube (8 around, 6 along), bent 90 degrees at its middle joint.
   // Posed, the tube is a chord between its own vertices; its cut mesh, whose

@@ -32,6 +32,11 @@ struct LayerOptions {
   /// Per input vertex, 0 to 1: how much of the correction it takes (empty:
   /// all of it). A region left out of the correction is masked with 0.
   std::vector<double> mask;
+  /// Over a linear skin with the curves posed linearly (`bind.method`
+  /// harmonic), solve the correction once per joint at bind time, so that a
+  /// frame is a skin-like sum over joints instead of a solve (the same
+  /// result, to rounding). Off: solve every frame, as the other cases do.
+  bool precompute_linear = true;
 };
 
 class CurveLayer {
@@ -102,6 +107,7 @@ public:
 private:
   void deform_impl(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope, const NodeOffsets* offsets,
                    std::vector<Vec3>* cut) const;
+  void linear_frame(std::span<const Mat4> skinning, std::span<Vec3> out, double envelope) const;
   std::shared_ptr<const Impl> impl_;
   std::shared_ptr<const std::vector<double>> mask_; ///< per input vertex; null: 1
 };

@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -65,6 +66,24 @@ struct CurveLayer::Impl {
   };
   std::vector<Part> parts;
   int num_welded = 0, num_free = 0;
+  /// Over a linear skin, with the curves posed linearly (the harmonic
+  /// method), the displacement on the chains is linear in the joints'
+  /// matrices, and so is its harmonic extension: the correction at a welded
+  /// vertex is a sum over joints of M_j times a homogeneous vector, solved
+  /// for once at bind time (joint -1: the identity, for the skin's vertices
+  /// that no joint of the rig moves). A frame is then a skin-like sum, not a
+  /// solve. Node offsets and the posed cut mesh still solve.
+  struct LinearSum {
+    // Per input vertex, in one pass: the skin's influences on the rig's
+    // joints, then the correction's terms.
+    std::vector<int> skin_begin; ///< per input vertex, and one past the last
+    std::vector<int> skin_joint; ///< the rig's joint; -1: none of the rig's (the identity)
+    std::vector<double> skin_weight;
+    std::vector<int> begin; ///< per input vertex, and one past the last
+    std::vector<int> joint;
+    std::vector<Eigen::Vector4d> vector;
+  };
+  std::unique_ptr<LinearSum> linear;
 };
 
 CurveLayer::CurveLayer(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
@@ -249,6 +268,101 @@ Rig on_skin_skeleton(const Rig& rig, const SkinnedMesh& skin) {
   return with_skeleton(rig, std::move(joints), skin.source);
 }
 
+/// The displacement on a chain vertex as a sum over joints of M_j times a
+/// homogeneous vector (joint -1: the identity): the curve, posed linearly
+/// by the chain's weights, minus the linear skin at the input vertices
+/// around it.
+std::vector<std::pair<int, Eigen::Vector4d>> chain_terms(const CurveLayer::Impl& L, const CurveLayer::Impl::Chain& c) {
+  std::vector<std::pair<int, Eigen::Vector4d>> terms;
+  auto add = [&](int j, const Eigen::Vector4d& x) {
+    for (auto& [k, y] : terms)
+      if (k == j) {
+        y += x;
+        return;
+      }
+    terms.emplace_back(j, x);
+  };
+  for (const auto& [j, w] : c.joints)
+    add(j, w * c.rest.homogeneous());
+  for (const auto& [u, w] : c.surface) {
+    const int i = L.welded_input[u];
+    const Eigen::Vector4d x = L.input_rest[i].homogeneous();
+    double total = 0;
+    for (int k = 0; k < 4; ++k) { // as skin_positions() blends them
+      const int j = L.skin.vertex_joint[i][k];
+      const double s = L.skin.vertex_weight[i][k];
+      if (j < 0 || !(s > 0))
+        continue;
+      add(L.skin_to_joint[j], -w * s * x);
+      total += s;
+    }
+    if (!(total > 0))
+      add(-1, -w * x); // a vertex no joint moves stays at rest
+  }
+  std::sort(terms.begin(), terms.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return terms;
+}
+
+/// The correction's precomputed sum (CurveLayer::Impl::LinearSum): each
+/// part solved once for the joints its chains name, four columns each.
+std::unique_ptr<CurveLayer::Impl::LinearSum> linear_sum(const CurveLayer::Impl& L) {
+  using Terms = std::vector<std::pair<int, Eigen::Vector4d>>;
+  std::vector<Terms> on_chain(L.chains.size());
+  tbb::parallel_for(size_t{0}, L.chains.size(), [&](size_t ci) { on_chain[ci] = chain_terms(L, L.chains[ci]); });
+  std::vector<Terms> on_free(static_cast<size_t>(L.num_free));
+  tbb::parallel_for(size_t{0}, L.parts.size(), [&](size_t pi) {
+    const CurveLayer::Impl::Part& part = L.parts[pi];
+    std::vector<int> joints;
+    for (const int ci : part.chains)
+      for (const auto& [j, x] : on_chain[ci])
+        joints.push_back(j);
+    std::sort(joints.begin(), joints.end());
+    joints.erase(std::unique(joints.begin(), joints.end()), joints.end());
+    if (joints.empty())
+      return;
+    const auto column = [&](int j) {
+      return 4 * static_cast<Eigen::Index>(std::lower_bound(joints.begin(), joints.end(), j) - joints.begin());
+    };
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(part.size, 4 * static_cast<Eigen::Index>(joints.size()));
+    for (int k = 0; k < part.size; ++k)
+      for (const auto& [ci, l] : L.fc[part.begin + k])
+        for (const auto& [j, x] : on_chain[ci])
+          rhs.row(k).segment<4>(column(j)) -= l * x.transpose();
+    const Eigen::MatrixXd sol = part.solver->solve(rhs);
+    for (int k = 0; k < part.size; ++k)
+      for (size_t a = 0; a < joints.size(); ++a) {
+        const Eigen::Vector4d x = sol.row(k).segment<4>(4 * static_cast<Eigen::Index>(a)).transpose();
+        if (x != Eigen::Vector4d::Zero())
+          on_free[part.begin + k].emplace_back(joints[a], x);
+      }
+  });
+  auto sum = std::make_unique<CurveLayer::Impl::LinearSum>();
+  sum->begin.push_back(0);
+  sum->skin_begin.push_back(0);
+  for (size_t i = 0; i < L.input_to_welded.size(); ++i) {
+    for (int k = 0; k < 4; ++k) { // in skin_positions()'s order, so that the skin is the same to the last bit
+      const int j = L.skin.vertex_joint[i][k];
+      const double w = L.skin.vertex_weight[i][k];
+      if (j < 0 || !(w > 0))
+        continue;
+      sum->skin_joint.push_back(L.skin_to_joint[j]);
+      sum->skin_weight.push_back(w);
+    }
+    sum->skin_begin.push_back(static_cast<int>(sum->skin_joint.size()));
+    const int v = L.input_to_welded[i];
+    const Terms* t = L.chain_index[v] >= 0  ? &on_chain[L.chain_index[v]]
+                     : L.free_index[v] >= 0 ? &on_free[L.free_index[v]]
+                                            : nullptr;
+    if (t)
+      for (const auto& [j, x] : *t) {
+        sum->joint.push_back(j);
+        sum->vector.push_back(x);
+      }
+    sum->begin.push_back(static_cast<int>(sum->joint.size()));
+  }
+  return sum;
+}
+
 } // namespace
 
 CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh* skin, const LayerOptions& opt,
@@ -377,6 +491,8 @@ CurveLayer bind_layer(const SurfaceMesh& mesh, const Rig& rig, const SkinnedMesh
   for (const auto& part : L.parts)
     if (part.solver->info() != Eigen::Success)
       throw EmbedError("layer: the harmonic system could not be factored on " + mesh.source);
+  if (L.over_skin && L.skinning == Skinning::Linear && !L.dual && opt.precompute_linear)
+    L.linear = linear_sum(L);
   return CurveLayer(impl).with_mask(opt.mask);
 }
 
@@ -400,6 +516,10 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
     throw Error("layer: expected " + std::to_string(joints.size()) + " skinning matrices and room for " +
                 std::to_string(ni) + " positions, got " + std::to_string(M.size()) + " and " +
                 std::to_string(out.size()));
+  if (L.linear && envelope != 0 && !cut && !(offsets && !offsets->empty())) {
+    linear_frame(M, out, envelope);
+    return;
+  }
   // The base.
   if (L.over_skin) {
     std::vector<Mat4> skin_matrices(L.skin_to_joint.size(), Mat4::Identity());
@@ -524,6 +644,45 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
     if (!out[i].allFinite())
       throw InputError("pose", "vertex " + std::to_string(i),
                        "the pose moves it out of range (not a finite number); nothing was written");
+}
+
+void CurveLayer::linear_frame(std::span<const Mat4> M, std::span<Vec3> out, double envelope) const {
+  // The skin and the precomputed sum, vertex by vertex in one pass: the
+  // skin as skin_positions() blends it, so that a vertex masked with 0 is
+  // the skin to the last bit.
+  const Impl& L = *impl_;
+  const Impl::LinearSum& sum = *L.linear;
+  const size_t ni = L.input_to_welded.size();
+  std::atomic<size_t> first_bad = ni;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, ni, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const Eigen::Vector4d x = L.input_rest[i].homogeneous();
+      Eigen::Vector4d acc = Eigen::Vector4d::Zero();
+      for (int k = sum.skin_begin[i]; k < sum.skin_begin[i + 1]; ++k) {
+        const int j = sum.skin_joint[k];
+        acc += sum.skin_weight[k] * (j >= 0 ? Eigen::Vector4d(M[j] * x) : x);
+      }
+      Vec3 p = sum.skin_begin[i] < sum.skin_begin[i + 1] ? Vec3(acc.head<3>()) : L.input_rest[i];
+      const double s = envelope * (mask_ ? (*mask_)[i] : 1.0);
+      if (s != 0 && sum.begin[i] != sum.begin[i + 1]) {
+        Vec3 d = Vec3::Zero();
+        for (int k = sum.begin[i]; k < sum.begin[i + 1]; ++k) {
+          const int j = sum.joint[k];
+          d += j < 0 ? Vec3(sum.vector[k].head<3>()) : Vec3(M[j].topRows<3>() * sum.vector[k]);
+        }
+        p += s * d;
+      }
+      out[i] = p;
+      if (!p.allFinite()) {
+        size_t seen = first_bad.load();
+        while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
+        }
+      }
+    }
+  });
+  if (first_bad < ni)
+    throw InputError("pose", "vertex " + std::to_string(first_bad.load()),
+                     "the pose moves it out of range (not a finite number); nothing was written");
 }
 
 void CurveLayer::rest_correction(std::span<const Mat4> M, std::span<Vec3> out, double envelope,
