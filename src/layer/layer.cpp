@@ -68,7 +68,7 @@ struct CurveLayer::Impl {
   int num_welded = 0, num_free = 0;
   /// Over a linear skin, with the curves posed linearly (the harmonic
   /// method), the displacement on the chains is linear in the joints'
-  /// matrices, and so is its harmonic extension: the correction at a welded
+  /// matrices, and so is its harmonic extension: the correction at a
   /// vertex is a sum over joints of M_j times a homogeneous vector, solved
   /// for once at bind time (joint -1: the identity, for the skin's vertices
   /// that no joint of the rig moves). A frame is then a skin-like sum, not a
@@ -340,7 +340,7 @@ std::unique_ptr<CurveLayer::Impl::LinearSum> linear_sum(const CurveLayer::Impl& 
   sum->begin.push_back(0);
   sum->skin_begin.push_back(0);
   for (size_t i = 0; i < L.input_to_welded.size(); ++i) {
-    for (int k = 0; k < 4; ++k) { // in skin_positions()'s order, so that the skin is the same to the last bit
+    for (int k = 0; k < 4; ++k) { // in skin_positions()'s order
       const int j = L.skin.vertex_joint[i][k];
       const double w = L.skin.vertex_weight[i][k];
       if (j < 0 || !(w > 0))
@@ -647,9 +647,9 @@ void CurveLayer::deform_impl(std::span<const Mat4> M, std::span<Vec3> out, doubl
 }
 
 void CurveLayer::linear_frame(std::span<const Mat4> M, std::span<Vec3> out, double envelope) const {
-  // The skin and the precomputed sum, vertex by vertex in one pass: the
-  // skin as skin_positions() blends it, so that a vertex masked with 0 is
-  // the skin to the last bit.
+  // The skin and the precomputed sum, vertex by vertex in one pass. The
+  // skin is blended with skin_positions()'s arithmetic, in its order, so
+  // that a vertex masked with 0 is the skin.
   const Impl& L = *impl_;
   const Impl::LinearSum& sum = *L.linear;
   const size_t ni = L.input_to_welded.size();
