@@ -226,6 +226,38 @@ TEST(SurfaceMesh, RefusesNonManifoldVertices) {
   }
 }
 
+TEST(SurfaceMesh, FindsTheFansOfAVertexWhateverWayItsFacesRun) {
+  // A closed tetrahedron whose faces run both ways round: vertex 0 is one
+  // closed fan, and no vertex is non-manifold.
+  RawMesh tet;
+  tet.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (const auto& f : std::vector<std::vector<int>>{{0, 2, 1}, {1, 0, 3}, {0, 3, 2}, {2, 3, 1}})
+    tet.add_face(f);
+  try {
+    make_surface_mesh(tet, "tet.obj");
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("fan"), std::string::npos) << e.what();
+  }
+  // The same tetrahedron and an open fan of two triangles at vertex 0, one
+  // of them turned the other way: two fans at vertex 0, one closed and one
+  // open, found from either.
+  for (const bool open_first : {false, true}) {
+    RawMesh r;
+    r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {-1, -1, -1}};
+    std::vector<std::vector<int>> faces{{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    const std::vector<std::vector<int>> open{{0, 4, 5}, {0, 6, 5}};
+    faces.insert(open_first ? faces.begin() : faces.end(), open.begin(), open.end());
+    for (const auto& f : faces)
+      r.add_face(f);
+    try {
+      make_surface_mesh(r, "cone_and_fan.obj");
+      FAIL() << "accepted a closed and an open fan at vertex 0";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.element(), "vertex 0") << e.what();
+    }
+  }
+}
+
 TEST(SurfaceMesh, RefusesAVertexWhereTwoClosedFansMeet) {
   // Two closed tetrahedra sharing one vertex index: every edge is shared by
   // two faces and every vertex has as many edges as faces, so only a walk
