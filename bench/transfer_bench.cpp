@@ -2,8 +2,9 @@
 // capped quad tube, transferred to a triangulated tube of about 2.5 to 3.5
 // times as many faces (placing, embedding on both, region agreement and the
 // shape distance all included), against embedding the transferred rig on
-// the target alone, the two alternated. Prints medians of 5 from one run,
-// and their ratio.
+// the target alone, the two alternated. Prints medians of 21 (of 5 from
+// 50k target faces) from one run, and their ratio; CURVENET_RUNS sets
+// another count.
 //
 //   build/bin/transfer_bench [max_target_faces]
 
@@ -31,7 +32,6 @@ SurfaceMesh tube(int around, int along, int caps, bool triangulate) {
   s.triangulate = triangulate;
   return make_surface_mesh(make_capped_tube(s), "tube");
 }
-constexpr int kRuns = 5;
 } // namespace
 
 int main(int argc, char** argv) {
@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
     // Alternated, so that a busy moment of a shared machine falls on both.
     std::vector<double> ms, embed_ms;
     TransferResult r;
+    const char* runs_env = std::getenv("CURVENET_RUNS");
+    const int kRuns = runs_env ? std::max(1, std::atoi(runs_env)) : to.num_faces() < 50000 ? 21 : 5;
     for (int rep = 0; rep < kRuns; ++rep) {
       double t0 = now_ms();
       r = transfer(net, from, to);
