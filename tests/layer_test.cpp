@@ -258,6 +258,21 @@ TEST(Layer, OverALinearSkinWithLinearCurvesTheFrameIsAPrecomputedSumEqualToTheSo
   EXPECT_GT(largest, 1e-3 * diag) << "the layer corrects the skin";
   EXPECT_LT(apart, 1e-12 * diag) << "the precomputed sum is the solve";
   EXPECT_LT(cut_off, 1e-12 * diag);
+  // A vertex masked with 0 is the skin computed on its own; the others move.
+  {
+    std::vector<double> half(rest.size(), 1.0);
+    for (size_t i = 0; i < half.size(); i += 2)
+      half[i] = 0;
+    const std::vector<Mat4> skin_M =
+        clip_skinning_matrices(h.skin.joints, h.clips, h.clips.find_clip("Grip"), 1 / 24.0);
+    const std::vector<Vec3> own = skin_positions(h.skin, rest, skin_M, Skinning::Linear);
+    a.with_mask(half).deform(clip_skinning_matrices(a.joints(), h.clips, h.clips.find_clip("Grip"), 1 / 24.0), out_a);
+    double masked = 0, open = 0;
+    for (size_t i = 0; i < rest.size(); ++i)
+      (i % 2 ? open : masked) = std::max(i % 2 ? open : masked, (out_a[i] - own[i]).norm());
+    EXPECT_LT(masked, 1e-12 * diag);
+    EXPECT_GT(open, 1e-3 * diag);
+  }
   // The same on any thread count, and the rest is the rest.
   const std::vector<Mat4> M = clip_skinning_matrices(a.joints(), h.clips, h.clips.find_clip("Grip"), 1 / 24.0);
   {
