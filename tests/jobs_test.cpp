@@ -188,6 +188,29 @@ TEST(Jobs, APoseJobReadsTheMeshFileOnceForItsSurfaceAndItsTopology) {
   }
 }
 
+TEST(Jobs, ABakeCountsItsClipsFramesBeforeAnyWorkAndRefusesPastMaxFrames) {
+  // A clip whose keys ran for days was sampled for hours (a fuzzer's hang).
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("bake_max_frames");
+  BakeJob job;
+  job.scene = {test::data("xr_tools_hand/hand_l.gltf"), test::data("xr_tools_hand/example/hand_l.cnrig.json"), "", ""};
+  job.clip_file = test::data("xr_tools_hand/hand_l_poses.glb"); // 35 clips of one frame or two each
+  job.glb = (dir / "hand.glb").string();
+  job.max_frames = 20;
+  try {
+    (void)run(job);
+    ADD_FAILURE() << "35 clips at 24 fps were baked under --max-frames 20";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), job.clip_file);
+    EXPECT_NE(std::string(e.what()).find("more than --max-frames (20)"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(job.glb));
+  job.clip_names = {"Grip"}; // only the carried clips count
+  EXPECT_NO_THROW((void)run(job));
+  EXPECT_TRUE(fs::exists(job.glb));
+}
+
 TEST(Jobs, ABakeReportsEachClipsFidelityToTheRigWorstFirst) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -186,6 +186,7 @@ int run_bake(const BakeArgs& a) {
   BakeJob job{scene_files(a), bind_options(a), a.out, a.weights_csv, a.clip_file, a.clip_names, a.fit};
   job.max_influences = a.max_influences;
   job.fps = a.fps;
+  job.max_frames = a.max_frames;
   job.up = a.up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
   job.weights = a.weights == "harmonic" ? BakeJob::Weights::Harmonic : BakeJob::Weights::Fitted;
   job.layer = layer_spec(a);

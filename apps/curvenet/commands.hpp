@@ -73,12 +73,13 @@ struct BakeArgs : DeformArgs {
   std::vector<std::string> clip_names;
   int max_influences = 4;
   double fps = 24;
+  long long max_frames = 100000;
 };
 int run_bake(const BakeArgs& args);
 
 struct TransferArgs {
   std::string rig, from, to, out, report, source_frame, target_frame;
-  std::string align = "auto"; ///< frames, skeletons or auto (Alignment)
+  std::string align = "auto";     ///< frames, skeletons or auto (Alignment)
   int from_cage = 0, to_cage = 0; ///< Catmull-Clark levels when a mesh is a control cage
   long long max_faces = 4'000'000;
 };

@@ -283,6 +283,10 @@ int main(int argc, char** argv) {
   bake->add_option("--fps", bake_args.fps, "Keys per second for the clips")
       ->capture_default_str()
       ->check(finite_in(0, 1000, true));
+  bake->add_option("--max-frames", bake_args.max_frames,
+                   "Refuse clips (--clip, --fit) that come to more frames than this at --fps")
+      ->capture_default_str()
+      ->check(CLI::Range(1ll, 100000000ll));
   bake->add_option("--up", bake_args.up, "The source's up axis; glTF is Y-up, a Z-up source is turned")
       ->capture_default_str()
       ->check(CLI::IsMember({"y", "z"}));

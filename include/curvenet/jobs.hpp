@@ -222,6 +222,9 @@ struct BakeJob {
   enum class Weights { Fitted, Harmonic } weights = Weights::Harmonic;
   int max_influences = 4;
   double fps = 24;
+  /// Refuse clips (of `clip_file`, and of `fit`) that come to more frames
+  /// than this at `fps`, before anything is bound.
+  long long max_frames = 100000;
   GltfBakeOptions::Up up = GltfBakeOptions::Up::Y;
   /// With `fit`: fit the weights to the layered result (over the mesh's own
   /// skin), not to the net alone.

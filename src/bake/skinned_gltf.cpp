@@ -28,6 +28,11 @@
 namespace curvenet {
 namespace {
 
+/// Keys per clip that a bake writes at most (100 hours at 24 fps): the
+/// jobs refuse long clips before this by --max-frames, and a direct call
+/// of skinned_glb is refused here before it would allocate for them.
+constexpr double kMaxKeys = 1e7;
+
 /// One binary buffer, with a bufferView per block, each 4-byte aligned.
 struct BinaryWriter {
   tinygltf::Model& model;
@@ -447,7 +452,12 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       if (!wanted.empty() && !wanted.count(clips->clip_names[c]))
         continue;
       const auto [t0, t1] = clips->clip_range(c);
-      const int keys = std::max(2, static_cast<int>(std::ceil((t1 - t0) * options.fps - 1e-9)) + 1);
+      const double span = std::ceil((t1 - t0) * options.fps - 1e-9);
+      if (!(span < kMaxKeys))
+        throw InputError(clips->source, "clip '" + clips->clip_names[static_cast<size_t>(c)] + "'",
+                         "it comes to more than " + std::to_string(static_cast<long long>(kMaxKeys)) +
+                             " keys at the fps of the bake");
+      const int keys = std::max(2, static_cast<int>(span) + 1);
       std::vector<float> times;
       for (int i = 0; i < keys; ++i)
         times.push_back(static_cast<float>(std::min(t1, t0 + i / options.fps)));

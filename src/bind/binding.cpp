@@ -30,6 +30,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numeric>
@@ -347,6 +348,14 @@ Binding bind_cached(const SurfaceMesh& mesh, const Rig& rig, const BindOptions& 
                     bool* reused, OutputFiles* outputs) {
   if (opt.method == DeformMethod::Gradient)
     throw InputError(path, "", "the gradient mode keeps no binding cache: bind without one");
+  // A cache is read back and replaced: a FIFO would block the read, and a
+  // device or a folder is not a place to keep one.
+  std::error_code ec;
+  if (const auto st = std::filesystem::status(path, ec);
+      !ec && st.type() != std::filesystem::file_type::not_found && st.type() != std::filesystem::file_type::regular)
+    throw InputError(path, "",
+                     "a binding cache is read back and rewritten: give a regular file, not a device, a FIFO "
+                     "or a folder");
   const std::uint64_t fp = fingerprint(mesh, rig, opt);
   std::string note;
   if (std::ifstream in{path, std::ios::binary}) {

@@ -137,9 +137,9 @@ Trs rest_trs(const tinygltf::Node& node) {
 
 /// The per-vertex attributes of a primitive's `count` vertices read at
 /// `base`: texture coordinates, normals and skin influences.
-void read_vertex_attributes(const tinygltf::Model& model, const tinygltf::Primitive& prim,
-                            const Eigen::Matrix4d& world, const std::string& path, const std::string& what,
-                            bool skinned, int base, size_t count, GltfScene& scene) {
+void read_vertex_attributes(const tinygltf::Model& model, const tinygltf::Primitive& prim, const Eigen::Matrix4d& world,
+                            const std::string& path, const std::string& what, bool skinned, int base, size_t count,
+                            GltfScene& scene) {
   const RawMesh& raw = scene.mesh;
   // Skin influences (JOINTS_0 / WEIGHTS_0), when this primitive is skinned.
   scene.vertex_joint.resize(raw.positions.size(), {-1, -1, -1, -1});
@@ -220,7 +220,8 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   }
   if (!shared)
     read_vertex_attributes(model, prim, world, path, what, skinned, base, pos.count(), scene);
-  std::vector<int> idx;  if (prim.indices >= 0) {
+  std::vector<int> idx;
+  if (prim.indices >= 0) {
     AccessorReader ind(model, prim.indices, path, what + " indices");
     for (size_t i = 0; i < ind.count(); ++i) {
       const double v = ind.get(i, 0);
@@ -624,6 +625,14 @@ GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
     while (!err.empty() && std::isspace(static_cast<unsigned char>(err.back())))
       err.pop_back();
     std::replace(err.begin(), err.end(), '\n', ';'); // one line
+    // The JSON library's own tag ("[json.exception.parse_error.101] ") says
+    // nothing to a user; the line and column after it do.
+    for (size_t at; (at = err.find("[json.exception.")) != std::string::npos;) {
+      const size_t end = err.find("] ", at);
+      if (end == std::string::npos)
+        break;
+      err.erase(at, end + 2 - at);
+    }
     throw InputError(path, "", "cannot read glTF: " + (err.empty() ? std::string("unknown error") : err));
   }
   validate_model(*model, path);

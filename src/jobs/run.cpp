@@ -14,12 +14,12 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <set>
 #include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 
 namespace curvenet {
@@ -465,6 +465,28 @@ BakeSummary run(const BakeJob& job) {
     if (fit->num_clips() == 0)
       throw InputError(job.fit, "/animations", "the file has no animation clips to fit over");
     (void)clip_skinning_matrices(scene.rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
+  }
+  // The frames the bake will sample (keys written, fidelity measured, poses
+  // fitted over), counted before any work: a clip whose keys run for days
+  // is refused by name instead of being sampled for hours.
+  for (const auto* file : {clips ? &*clips : nullptr, fit ? &*fit : nullptr}) {
+    if (!file)
+      continue;
+    long long frames = 0;
+    for (int c = 0; c < file->num_clips(); ++c) {
+      const std::string& name = file->clip_names[static_cast<size_t>(c)];
+      if (file == &*clips && !job.clip_names.empty() &&
+          std::find(job.clip_names.begin(), job.clip_names.end(), name) == job.clip_names.end())
+        continue;
+      const auto [first, last] = clip_frames(*file, c, job.fps);
+      frames += static_cast<long long>(last) - first + 1;
+      if (frames > job.max_frames) {
+        std::ostringstream why;
+        why << "the clips come to " << frames << " frames or more at " << job.fps
+            << " fps (--fps), more than --max-frames (" << job.max_frames << ")";
+        throw InputError(file->source, "clip '" + name + "'", why.str());
+      }
+    }
   }
   OutputFiles files; // all or nothing
   std::optional<CurveLayer> layer;

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 namespace curvenet {
@@ -81,8 +82,7 @@ PoseFile parse_pose_file(const std::string& text, const std::string& source) {
       if (k.key() == "rotation") {
         const auto q = numbers(*k, 4, kp);
         const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-        if (std::abs(norm - 1) > 1e-6)
-        {
+        if (std::abs(norm - 1) > 1e-6) {
           char text[64];
           std::snprintf(text, sizeof text, "%.9g", norm);
           fail(kp, std::string("not a unit quaternion: its norm is ") + text +
@@ -193,7 +193,18 @@ std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const
 
 std::pair<int, int> clip_frames(const SkinnedMesh& clips, int clip, double fps) {
   const auto [t0, t1] = clips.clip_range(clip);
-  return {static_cast<int>(std::floor(t0 * fps + 1e-9)), static_cast<int>(std::ceil(t1 * fps - 1e-9))};
+  const double first = std::floor(t0 * fps + 1e-9), last = std::ceil(t1 * fps - 1e-9);
+  // A frame number is an int: a clip whose keys run to 1e7 s at 24 fps, or
+  // 3e38 s, is refused here instead of wrapping (or sampled for hours).
+  constexpr double lo = std::numeric_limits<int>::min(), hi = std::numeric_limits<int>::max();
+  if (!(first >= lo && last <= hi)) {
+    char text[160];
+    std::snprintf(text, sizeof text,
+                  "its keys run from %g to %g s: frames %.6g to %.6g at %g fps, past what a frame number holds", t0, t1,
+                  first, last, fps);
+    throw InputError(clips.source, "clip '" + clips.clip_names[static_cast<size_t>(clip)] + "'", text);
+  }
+  return {static_cast<int>(first), static_cast<int>(last)};
 }
 
 } // namespace curvenet
