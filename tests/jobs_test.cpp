@@ -326,3 +326,53 @@ TEST(Jobs, AnimatingWithAnotherSkeletonsClipsSaysHowManyJointsItMoves) {
   EXPECT_NE(note.find("Horse.glb: its skeleton has "), std::string::npos) << note;
   EXPECT_NE(note.find(" of the rig's " + std::to_string(skin.joints.size()) + " joints"), std::string::npos) << note;
 }
+
+TEST(Jobs, AnimatingWithAClipFileWhoseSkeletonIsNotTheRigsSaysSo) {
+  // A rig transferred to a mesh exported in other units (or with other
+  // bone axes) keeps its source's skeleton; the target file's clips, taken
+  // against their own rest pose, then move it by other amounts. The run
+  // says which joint differs and how to give the rig that skeleton.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("animate_other_skeleton");
+  const std::string trex = test::data("quaternius/Trex.glb"), rig = (dir / "trex.cnrig.json").string();
+  Rig r = test::skinned_starter(trex);
+  write_rig(r, rig);
+  AnimateJob job;
+  job.scene = {trex, rig, "", ""};
+  job.frames = "0:1";
+  job.pc2 = (dir / "walk.pc2").string();
+  job.clip_file = trex;
+  job.clip = "TRex_Walk";
+  auto note_of = [](const AnimateSummary& s) {
+    for (const auto& n : s.notes)
+      if (n.find("its skeleton is not the rig's") != std::string::npos)
+        return n;
+    return std::string();
+  };
+  EXPECT_EQ(note_of(run(job)), ""); // its own skeleton
+  // The whole skeleton moved, turned and scaled by a similarity (as a
+  // transfer does): still the same bones.
+  Rig similar = r;
+  const Mat4 S = (Eigen::Translation3d(1, 2, 3) * Eigen::AngleAxisd(0.7, Vec3(0, 1, 0)) * Eigen::Scaling(3.0)).matrix();
+  for (Joint& j : similar.joints)
+    j.bind = S * j.bind;
+  write_rig(similar, rig);
+  EXPECT_EQ(note_of(run(job)), "");
+  // Bones a hundred times as long (a file in centimetres): said, by joint.
+  Rig longer = r;
+  for (Joint& j : longer.joints)
+    j.bind.block<3, 1>(0, 3) *= 0.01;
+  write_rig(longer, rig);
+  std::string note = note_of(run(job));
+  EXPECT_NE(note.find("Trex.glb: its skeleton is not the rig's (joint '"), std::string::npos) << note;
+  EXPECT_NE(note.find("rests 100 times as far from its parent"), std::string::npos) << note;
+  EXPECT_NE(note.find("--skeleton " + trex), std::string::npos) << note;
+  // One bone's rest frame turned a quarter turn (other bone axes).
+  Rig turned = r;
+  Joint& k = turned.joints.back();
+  k.bind.block<3, 3>(0, 0) = k.bind.block<3, 3>(0, 0) * Eigen::AngleAxisd(1.5707963267948966, Vec3(1, 0, 0)).matrix();
+  write_rig(turned, rig);
+  note = note_of(run(job));
+  EXPECT_NE(note.find("joint '" + k.name + "' rests turned 90 degrees against the rig's"), std::string::npos) << note;
+}

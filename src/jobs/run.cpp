@@ -25,6 +25,56 @@
 namespace curvenet {
 namespace {
 
+/// Why a clip file's skeleton is not the rig's, or nothing: the rest
+/// transforms of the joints both have, each relative to its parent (a
+/// similarity put round the whole skeleton, as a transfer does, changes
+/// none of them but the roots', which are left out). A bone whose rest
+/// length differs by more than 5 %, or whose rest frame turns by more than
+/// 10 degrees, against the rig's: pose entries of such a clip mean other
+/// motions on the rig (a file exported in other units, or with other bone
+/// axes).
+std::string skeletons_differ(const std::vector<Joint>& rig, const std::vector<Joint>& clip) {
+  std::map<std::string, const Joint*> in_clip, in_rig;
+  for (const Joint& j : clip)
+    in_clip[j.name] = &j;
+  for (const Joint& j : rig)
+    in_rig[j.name] = &j;
+  auto local = [](const std::map<std::string, const Joint*>& all, const Joint& j) -> std::optional<Mat4> {
+    if (!j.parent)
+      return std::nullopt;
+    const auto p = all.find(*j.parent);
+    if (p == all.end())
+      return std::nullopt;
+    return Mat4(p->second->bind.inverse() * j.bind);
+  };
+  double extent = 0;
+  for (const Joint& j : rig)
+    for (const Joint& k : rig)
+      extent = std::max(extent, (j.bind.col(3) - k.bind.col(3)).norm());
+  for (const Joint& j : rig) {
+    const auto c = in_clip.find(j.name);
+    if (c == in_clip.end())
+      continue;
+    const auto a = local(in_rig, j), b = local(in_clip, *c->second);
+    if (!a || !b || !a->allFinite() || !b->allFinite())
+      continue;
+    const double la = a->block<3, 1>(0, 3).norm(), lb = b->block<3, 1>(0, 3).norm();
+    if (la > 1e-3 * extent && !(lb > 0.95 * la && lb < 1.05 * la)) {
+      std::ostringstream why;
+      why << "joint '" << j.name << "' rests " << lb / la << " times as far from its parent";
+      return why.str();
+    }
+    const Eigen::Quaterniond qa(Eigen::Matrix3d(a->block<3, 3>(0, 0).colwise().normalized()));
+    const Eigen::Quaterniond qb(Eigen::Matrix3d(b->block<3, 3>(0, 0).colwise().normalized()));
+    if (const double turn = qa.angularDistance(qb) * 180 / 3.14159265358979323846; turn > 10) {
+      std::ostringstream why;
+      why << "joint '" << j.name << "' rests turned " << std::lround(turn) << " degrees against the rig's";
+      return why.str();
+    }
+  }
+  return "";
+}
+
 JobSummary summary_of(const BoundScene& s) {
   JobSummary j;
   j.bind = s.binding.report();
@@ -318,6 +368,12 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
       scene.notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
                             std::to_string(scene.rig.joints.size()) +
                             " joints (by name); the others stay at their rest pose");
+    if (const std::string why = skeletons_differ(scene.rig.joints, clips.joints); !why.empty())
+      scene.notes.push_back(clips.source + ": its skeleton is not the rig's (" + why +
+                            "): its keys, taken against its own rest pose, move the rig's joints by other amounts "
+                            "or about other axes; a rig transferred to this file's mesh takes its skeleton with "
+                            "--skeleton " +
+                            clips.source);
   }
   OutputFiles files;
   if (layered(job.layer, !job.node_keys.empty()))
