@@ -350,7 +350,8 @@ TEST(Fidelity, RandomNetsOfDisjointRingsAreNeverRefused) {
       }
     }
   }
-  EXPECT_GE(nets, 300);
+  // 70 trials per mesh, a few of which cut nothing: 3 tubes alone, 6 meshes with the shared data.
+  EXPECT_GE(nets, test::have_data() ? 300 : 150);
   std::printf("%d random nets embedded\n", nets);
 }
 

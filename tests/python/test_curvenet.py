@@ -633,6 +633,7 @@ def test_a_layer_over_the_skin_gives_what_the_cli_gives_and_a_pulled_node_moves_
     assert np.array_equal(over_net.deform(M), b.deform(M))
 
 
+@needs_data
 def test_a_layer_takes_another_mask_without_binding_again_and_bakes_its_keyed_envelope_and_offsets(tmp_path):
     mesh_file, rig_file = hand(), example("hand_l.cnrig.json")
     pull = os.path.join(os.path.dirname(__file__), "..", "data", "hand", "fist_pull.pose.json")
