@@ -197,6 +197,123 @@ TEST(SurfaceMesh, ASliverWithNoAreaIsLeftOutAndTheSlitItLeavesIsClosed) {
   }
 }
 
+TEST(SurfaceMesh, CornersOfADegenerateFaceAFewUnitsInTheLastPlaceApartAreWeldedAndLeaveNoSlit) {
+  // An exporter's round trip: a vertex b whose fan is split in two copies,
+  // b and b2, joined by two degenerate triangles (b, x, b2) whose "two
+  // corners at one point" were written a few units in the last place apart.
+  // Left out as faces of no area, with b and b2 kept apart, they would leave
+  // a slit; b2 is welded to b and the surface is the tube again.
+  const SurfaceMesh tube = test::tube(12, 8, 3, true);
+  const int b = tube.face(tube.num_faces() / 2)[0];
+  std::vector<int> fan; // the faces around b, in order
+  auto after_b = [&](int f, int step) {
+    const auto t = tube.face(f);
+    for (int i = 0; i < 3; ++i)
+      if (t[i] == b)
+        return t[(i + step) % 3];
+    return -1;
+  };
+  for (int f = 0; f < tube.num_faces(); ++f)
+    if (after_b(f, 1) >= 0) {
+      fan.push_back(f);
+      break;
+    }
+  while (true) {
+    const int next = after_b(fan.back(), 1);
+    int g = 0;
+    while (g < tube.num_faces() && !(after_b(g, 1) >= 0 && after_b(g, 2) == next))
+      ++g;
+    ASSERT_LT(g, tube.num_faces());
+    if (g == fan.front())
+      break;
+    fan.push_back(g);
+  }
+  ASSERT_GE(fan.size(), 4u);
+  RawMesh raw;
+  raw.positions = tube.positions;
+  Vec3 moved = tube.positions[b];
+  for (int i = 0; i < 3; ++i)
+    for (int ulp = 0; ulp < 3; ++ulp)
+      moved[i] = std::nextafter(moved[i], HUGE_VAL);
+  ASSERT_NE(moved, tube.positions[b]);
+  const int b2 = static_cast<int>(raw.positions.size());
+  raw.positions.push_back(moved);
+  const size_t half = fan.size() / 2;
+  for (int f = 0; f < tube.num_faces(); ++f) {
+    std::array<int, 3> t{tube.face(f)[0], tube.face(f)[1], tube.face(f)[2]};
+    if (std::find(fan.begin(), fan.begin() + static_cast<long>(half), f) != fan.begin() + static_cast<long>(half))
+      std::replace(t.begin(), t.end(), b, b2);
+    raw.add_face(t);
+  }
+  raw.add_face(std::array<int, 3>{b, after_b(fan[half - 1], 1), b2});
+  raw.add_face(std::array<int, 3>{b2, after_b(fan.front(), 2), b});
+  for (const bool handed_over : {false, true}) {
+    RawMesh copy = raw;
+    const SurfaceMesh m = handed_over ? make_surface_mesh(std::move(copy), "round_trip.glb")
+                                      : make_surface_mesh(raw, "round_trip.glb");
+    const std::vector<ComponentInfo> c = mesh_components(m);
+    ASSERT_EQ(c.size(), 1u);
+    EXPECT_TRUE(c[0].closed) << "no slit";
+    EXPECT_EQ(c[0].euler, mesh_components(tube)[0].euler);
+    EXPECT_EQ(m.num_vertices(), tube.num_vertices());
+    EXPECT_EQ(m.num_faces(), tube.num_faces());
+    EXPECT_EQ(m.input_to_welded[b2], m.input_to_welded[b]);
+    ASSERT_FALSE(m.notes.empty());
+    EXPECT_NE(m.notes[0].find("left out 2 degenerate faces"), std::string::npos) << m.notes[0];
+    EXPECT_NE(m.notes[0].find("1 of their corners, a few units in the last place from another, are welded"),
+              std::string::npos)
+        << m.notes[0];
+  }
+}
+
+TEST(SurfaceMesh, DoubledFacesAreLeftOutOnTheirOwnVerticesOrOnTheOriginals) {
+  // Copies of existing faces: on the same vertices (a doubled index list),
+  // on vertices of their own at the same points (an editor's duplicate),
+  // and run the other way round (a double-sided card's back). Each copy is
+  // left out and the surface is the closed tube again, not an open mesh
+  // with the copies kept apart.
+  const SurfaceMesh tube = test::tube(12, 8, 3, true);
+  const int euler = mesh_components(tube)[0].euler;
+  for (const int how : {0, 1, 2}) {
+    SCOPED_TRACE(how == 0 ? "same vertices" : how == 1 ? "own vertices" : "own vertices, reversed");
+    RawMesh raw;
+    raw.positions = tube.positions;
+    for (int f = 0; f < tube.num_faces(); ++f)
+      raw.add_face(std::array<int, 3>{tube.face(f)[0], tube.face(f)[1], tube.face(f)[2]});
+    std::vector<int> copied_vertex;
+    for (const int f : {3, 40, tube.num_faces() - 7}) {
+      std::array<int, 3> t{tube.face(f)[0], tube.face(f)[1], tube.face(f)[2]};
+      if (how > 0)
+        for (int& v : t) {
+          copied_vertex.push_back(v);
+          v = static_cast<int>(raw.positions.size());
+          raw.positions.push_back(tube.positions[copied_vertex.back()]);
+        }
+      if (how == 2)
+        std::swap(t[1], t[2]);
+      raw.add_face(t);
+    }
+    for (const bool handed_over : {false, true}) {
+      RawMesh copy = raw;
+      const SurfaceMesh m =
+          handed_over ? make_surface_mesh(std::move(copy), "doubled.glb") : make_surface_mesh(raw, "doubled.glb");
+      const std::vector<ComponentInfo> c = mesh_components(m);
+      ASSERT_EQ(c.size(), 1u);
+      EXPECT_TRUE(c[0].closed);
+      EXPECT_EQ(c[0].euler, euler);
+      EXPECT_EQ(m.num_faces(), tube.num_faces());
+      EXPECT_EQ(m.num_vertices(), tube.num_vertices());
+      for (size_t i = 0; i < copied_vertex.size(); ++i)
+        EXPECT_EQ(m.input_to_welded[tube.num_vertices() + static_cast<int>(i)], m.input_to_welded[copied_vertex[i]]);
+      EXPECT_NEAR(m.enclosed_volume(m.positions), tube.enclosed_volume(tube.positions),
+                  1e-12 * std::abs(tube.enclosed_volume(tube.positions)));
+      ASSERT_FALSE(m.notes.empty());
+      EXPECT_NE(m.notes[0].find("left out 3 faces that repeat another face's corners"), std::string::npos)
+          << m.notes[0];
+    }
+  }
+}
+
 TEST(SurfaceMesh, RefusesNonManifoldEdges) {
   RawMesh r;
   r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};

@@ -10,6 +10,11 @@ struct Tolerances {
   /// A node closer than this to a mesh vertex or edge is placed on it, so that
   /// no sliver face of near-zero area is cut next to it.
   static constexpr double node_snap_rel = 1e-7;
+  /// Two corners of a degenerate face (one the loader leaves out) closer
+  /// than this are welded into one vertex: an exporter that rewrites a
+  /// face's corners in single precision leaves "two corners at one point"
+  /// a few units in the last place apart, and kept apart they leave a slit.
+  static constexpr double degenerate_weld_rel = 1e-6;
   /// Walking the surface between two samples stops with an error when the
   /// path grows longer than this many times the straight distance plus a few
   /// mean edge lengths (the walk has left the intended part of the surface).

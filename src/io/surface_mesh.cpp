@@ -357,6 +357,49 @@ private:
   std::vector<int> order_;
 };
 
+/// Leaves out every face whose corners, by `id`, are the corners of an
+/// earlier face (a copy of it, either way round; an exporter's doubled
+/// faces, or a double-sided card's back). `extra`, when given, is a corner
+/// array in step with `verts` that loses the same corners. Returns how many
+/// faces were left out. Run only where a mesh has failed a check: it
+/// hashes every face.
+template <typename Id>
+int drop_repeated_faces(std::vector<int>& offsets, std::vector<int>& verts, std::vector<int>* extra, Id&& id) {
+  const int nf = static_cast<int>(offsets.size()) - 1;
+  std::vector<std::vector<int>> key(static_cast<size_t>(nf));
+  for (int f = 0; f < nf; ++f) {
+    for (int k = offsets[f]; k < offsets[f + 1]; ++k)
+      key[f].push_back(id(verts[k]));
+    std::sort(key[f].begin(), key[f].end());
+  }
+  std::vector<int> order(static_cast<size_t>(nf));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return key[a] < key[b]; });
+  std::vector<char> repeat(static_cast<size_t>(nf), 0);
+  int count = 0;
+  for (int i = 1; i < nf; ++i)
+    if (key[order[i]] == key[order[i - 1]]) { // stable: the earlier face in file order stays
+      repeat[order[i]] = 1;
+      ++count;
+    }
+  if (count == 0)
+    return 0;
+  std::vector<int> new_offsets{0}, new_verts, new_extra;
+  for (int f = 0; f < nf; ++f) {
+    if (repeat[f])
+      continue;
+    new_verts.insert(new_verts.end(), verts.begin() + offsets[f], verts.begin() + offsets[f + 1]);
+    if (extra)
+      new_extra.insert(new_extra.end(), extra->begin() + offsets[f], extra->begin() + offsets[f + 1]);
+    new_offsets.push_back(static_cast<int>(new_verts.size()));
+  }
+  offsets = std::move(new_offsets);
+  verts = std::move(new_verts);
+  if (extra)
+    *extra = std::move(new_extra);
+  return count;
+}
+
 /// Makes every component's faces run one way, the way most of them run.
 /// Returns how many faces were reversed. Where every edge two faces share
 /// is run in opposite directions, as in most files, nothing is searched.
@@ -617,6 +660,42 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
   }
   // Vertices at one position (the weld below starts from these groups).
   std::vector<int> group = first_at_same_position(raw.positions);
+  // Corners of a left-out face that lie a few units in the last place apart
+  // are one point written twice: they join one group, and their face is
+  // then one with two corners at one point.
+  int near_welds = 0;
+  if (dropped > 0 && measure_thin) {
+    std::vector<int> joined; // union-find over group representatives, built on the first join
+    auto find = [&](int r) {
+      while (joined[r] != r)
+        r = joined[r] = joined[joined[r]];
+      return r;
+    };
+    for (int f = 0; f < nraw; ++f) {
+      if (kind[f] != kNoArea)
+        continue;
+      const int b = raw.face_offsets[f], n = raw.face_offsets[f + 1] - b;
+      for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+          const int u = raw.face_vertices[b + i], v = raw.face_vertices[b + j];
+          if ((raw.positions[u] - raw.positions[v]).norm() * inv_diag > detail::Tolerances::degenerate_weld_rel)
+            continue;
+          if (joined.empty()) {
+            joined.resize(static_cast<size_t>(nin));
+            std::iota(joined.begin(), joined.end(), 0);
+          }
+          const int ru = find(group[u]), rv = find(group[v]);
+          if (ru != rv) {
+            joined[std::max(ru, rv)] = std::min(ru, rv);
+            ++near_welds;
+          }
+          kind[f] = kSamePoint;
+        }
+    }
+    if (near_welds > 0)
+      for (int v = 0; v < nin; ++v)
+        group[v] = find(group[v]);
+  }
   // A triangle with no area whose corners are three points of one line (b
   // between a and c) leaves a slit when it is left out. The triangle across
   // its long edge a-c is split at b into two, so that the faces across a-b
@@ -691,7 +770,7 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
     }
   }
 
-  const int nf = static_cast<int>(offsets.size()) - 1;
+  int nf = static_cast<int>(offsets.size()) - 1;
   if (nf == 0) {
     const auto colon = first_reason.find(": ");
     throw InputError(source, first_reason.substr(0, colon), first_reason.substr(colon + 2) + ", as is every face");
@@ -701,6 +780,20 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
   // that is non-manifold as given may be mended by welding (a glTF seam can
   // split a fan); that is judged after the weld.
   EdgeTable edges = edge_table(offsets, verts); // as given; then as welded
+  int repeated = 0; // faces left out as copies of another (looked for only where a check fails)
+  auto over_two = [&] {
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) > 2)
+        return true;
+    return false;
+  };
+  if (over_two()) { // copies of faces on the same vertices, or at the same points, are left out
+    repeated = drop_repeated_faces(offsets, verts, nullptr, [&](int v) { return group[v]; });
+    if (repeated > 0) {
+      nf = static_cast<int>(offsets.size()) - 1;
+      edges = edge_table(offsets, verts);
+    }
+  }
   for (int e = 0; e < edges.num_edges(); ++e)
     if (edges.uses(e) > 2)
       throw InputError(source, "edge " + std::to_string(edges.lo(e)) + "-" + std::to_string(edges.hi(e)),
@@ -731,6 +824,28 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
     }
     if (!same || round > 0)
       edges = edge_table(offsets, fverts);
+    if (round == 0 && !same) {
+      // Copies of faces with vertices of their own at the same points (an
+      // exporter's doubled faces) weld onto their original: left out
+      // before any weld is undone for them. Looked for only where the weld
+      // broke manifoldness.
+      bool broken = over_two();
+      if (!broken)
+        for (int f = 0; f < nf && !broken; ++f)
+          for (int i = offsets[f]; i < offsets[f + 1] && !broken; ++i)
+            for (int j = i + 1; j < offsets[f + 1] && !broken; ++j)
+              broken = fverts[i] == fverts[j];
+      if (!broken)
+        broken = !non_manifold_vertices(next, offsets, fverts, edges).empty();
+      if (broken) {
+        const int more = drop_repeated_faces(offsets, fverts, &verts, [](int w) { return w; });
+        if (more > 0) {
+          repeated += more;
+          nf = static_cast<int>(offsets.size()) - 1;
+          edges = edge_table(offsets, fverts);
+        }
+      }
+    }
     std::vector<char> unweld(next, 0);
     bool any = false;
     for (int e = 0; e < edges.num_edges(); ++e)
@@ -821,7 +936,13 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
         (followers > 0 ? "; " + std::to_string(followers) + " of their vertices follow their nearest neighbour" : "") +
         (closed_slits > 0 ? "; the slits " + std::to_string(closed_slits) +
                                 " of them left are closed by splitting the triangle across"
-                          : ""));
+                          : "") +
+        (near_welds > 0 ? "; " + std::to_string(near_welds) +
+                              " of their corners, a few units in the last place from another, are welded to it"
+                        : ""));
+  if (repeated > 0)
+    mesh.notes.push_back("left out " + std::to_string(repeated) +
+                         " faces that repeat another face's corners (doubled faces) of the surface it works on");
   if (nw < nin)
     mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) +
                          " by position");
