@@ -427,6 +427,10 @@ TEST(Transfer, BlubLimitSurfaceToTrianglesAgreesWhenPosed) {
   ASSERT_EQ(refusals.size(), 2u);
   EXPECT_EQ(refusals[0].rfind("fish_control_mesh.obj: ", 0), 0u) << refusals[0];
   EXPECT_EQ(refusals[1].rfind("fish.obj: ", 0), 0u) << refusals[1];
+  // fish.obj's profile 'bend_1_arc2' jumps when projected along the normals;
+  // it is placed again by closest points, and the refusal comes later, from
+  // the cut (it had been refused at the placing).
+  EXPECT_EQ(refusals[1].find("jump"), std::string::npos) << refusals[1];
   for (const auto& r : refusals) {
     std::printf("refused: %s\n", r.c_str());
     EXPECT_TRUE(r.find("profile '") != std::string::npos || r.find("profiles '") != std::string::npos ||

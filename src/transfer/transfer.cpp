@@ -261,8 +261,12 @@ public:
   /// mesh), sampled at half the target's local edge length, each sample
   /// placed; its ends on the given node positions. `mapped_out` gets the
   /// same samples mapped, not placed.
+  /// Where the placed samples jump to another part of the surface, that is
+  /// refused, or, given `jump`, said there (a plane section replaces the
+  /// curve then).
   [[nodiscard]] std::vector<Vec3> place_profile(const Profile& p, const std::vector<Vec3>& pts, const Vec3& from,
-                                                const Vec3& to, bool closest, std::vector<Vec3>& mapped_out) const {
+                                                const Vec3& to, bool closest, std::vector<Vec3>& mapped_out,
+                                                std::string* jump = nullptr) const {
     std::vector<Vec3> samples;
     for (size_t i = 0; i + 1 < pts.size(); ++i) {
       const Vec3 a = mapped_from_mesh(pts[i]), b = mapped_from_mesh(pts[i + 1]);
@@ -297,9 +301,17 @@ public:
       if (i > 0) {
         const double before = (mapped_out.back() - mapped_from_mesh(samples[i])).norm(),
                      after = (placed.back() - point).norm();
-        if (after > 3 * before + 2 * h_)
-          throw EmbedError("transfer: profile '" + p.id + "': the projection jumped " + percent(after / diag_) +
-                           " of the diagonal to another part of the surface (another finger?)");
+        if (after > 3 * before + 2 * h_) {
+          std::string what = "transfer: profile '" + p.id + "': " +
+                             (closest ? "the target's closest points jump " : "the projection jumped ") +
+                             percent(after / diag_) +
+                             " of the diagonal to another part of the surface (the target is thinner, thicker or "
+                             "shaped otherwise here)";
+          if (!jump)
+            throw EmbedError(what);
+          if (jump->empty())
+            *jump = std::move(what);
+        }
         // (rig point, placed point) pairs between the last one kept and this one.
         std::vector<std::pair<Vec3, Vec3>> stack{{samples[i], point}};
         std::pair<Vec3, Vec3> last{rig_at.back(), placed.back()};
@@ -418,12 +430,14 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         Curve::Kind::Polyline) // a Bezier or NURBS curve keeps its shape, mapped; the embedding places it
       return;
     const Vec3 &a = out.nodes[node_index.at(p.from)].position, &b = out.nodes[node_index.at(p.to)].position;
-    p.curve.points =
-        placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0, mapped[i]);
+    const bool sectioned = by_section.count(p.id) && target_sections != nullptr;
+    std::string jump;
+    p.curve.points = placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0,
+                                          mapped[i], sectioned ? &jump : nullptr);
     // Where even closest points fold it (a limb a few faces across), the
     // plane section through its ends and its placed middle: a section
     // cannot fold, and it keeps to the side of the limb the curve was on.
-    if (by_section.count(p.id) && target_sections != nullptr) {
+    if (sectioned) {
       const auto& q = p.curve.points;
       double length = 0, walked = 0;
       for (size_t k = 1; k < q.size(); ++k)
@@ -439,6 +453,8 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
       }
       if (auto section = section_path_through(*target_sections, a, middle, b, detail::Tolerances::fidelity_rel * diag))
         p.curve.points = std::move(*section);
+      else if (!jump.empty())
+        throw EmbedError(jump);
     }
   };
   for (size_t i = 0; i < out.profiles.size(); ++i) {
@@ -704,7 +720,11 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
           } catch (const EmbedError& e) {
             const std::string what = e.what();
             bool more = false;
-            if (attempt < kReplacements && what.rfind("transfer:", 0) != 0)
+            // A profile whose projection jumped is placed again too; the
+            // other refusals of the placing itself are final.
+            const bool jumped = what.rfind("transfer: profile '", 0) == 0 &&
+                                what.find(" jump") != std::string::npos;
+            if (attempt < kReplacements && (what.rfind("transfer:", 0) != 0 || jumped))
               for (const std::string& id : quoted(what)) {
                 if (!ids.count(id))
                   continue;
