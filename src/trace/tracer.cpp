@@ -395,9 +395,11 @@ public:
         }
       }
       if (travelled > max_len || steps > 4 * m_.num_triangles() + 16)
-        fail(sample, "the walk toward it went " + std::to_string(travelled / std::max(len, 1e-300)) +
+        fail(sample, "the path along the surface toward it grew to " +
+                         std::to_string(travelled / std::max(len, 1e-300)) +
                          " times the distance between the samples without reaching " + where(m_, b) +
-                         " (the projection jumped to another part of the surface?)");
+                         ": the curve spans a gap between two parts of the surface, or a part this mesh does not "
+                         "have (draw it on the surface here)");
     }
   }
 
