@@ -356,6 +356,8 @@ public:
 
   [[nodiscard]] double scale() const { return scale_; }
 
+  /// A point already in the target's space at the target's closest point.
+  [[nodiscard]] Vec3 closest_on_target(const Vec3& m) const { return target_.nearest(m).point; }
   /// A point of the source mesh at the target's closest point.
   [[nodiscard]] std::pair<Vec3, double> nearest_on_target(const Vec3& q) const {
     const Vec3 m = mapped_from_mesh(on_source(q));
@@ -424,6 +426,7 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         out.nodes[k].position = placer.place_node(rig.nodes[k], true, offsets[k]);
       }
   std::vector<std::vector<Vec3>> mapped(out.profiles.size());
+  std::vector<std::pair<std::string, std::string>> jumps; // (profile, refusal)
   auto place = [&](size_t i) {
     Profile& p = out.profiles[i];
     if (p.curve.kind !=
@@ -432,26 +435,35 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
     const Vec3 &a = out.nodes[node_index.at(p.from)].position, &b = out.nodes[node_index.at(p.to)].position;
     const bool sectioned = by_section.count(p.id) && target_sections != nullptr;
     std::string jump;
-    p.curve.points = placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0,
-                                          mapped[i], sectioned ? &jump : nullptr);
+    p.curve.points =
+        placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0, mapped[i], &jump);
+    if (!jump.empty() && !sectioned) { // placed again, with every other profile that jumps (below)
+      jumps.emplace_back(p.id, std::move(jump));
+      return;
+    }
     // Where even closest points fold it (a limb a few faces across), the
     // plane section through its ends and its placed middle: a section
     // cannot fold, and it keeps to the side of the limb the curve was on.
     if (sectioned) {
-      const auto& q = p.curve.points;
-      double length = 0, walked = 0;
-      for (size_t k = 1; k < q.size(); ++k)
-        length += (q[k] - q[k - 1]).norm();
-      Vec3 middle = q.front();
-      for (size_t k = 1; k < q.size(); ++k) {
-        const double step = (q[k] - q[k - 1]).norm();
-        if (walked + step >= length / 2) {
-          middle = q[k - 1] + (step > 0 ? (length / 2 - walked) / step : 0.0) * (q[k] - q[k - 1]);
-          break;
+      auto middle_of = [](const std::vector<Vec3>& q) {
+        double length = 0, walked = 0;
+        for (size_t k = 1; k < q.size(); ++k)
+          length += (q[k] - q[k - 1]).norm();
+        for (size_t k = 1; k < q.size(); ++k) {
+          const double step = (q[k] - q[k - 1]).norm();
+          if (walked + step >= length / 2)
+            return Vec3(q[k - 1] + (step > 0 ? (length / 2 - walked) / step : 0.0) * (q[k] - q[k - 1]));
+          walked += step;
         }
-        walked += step;
-      }
-      if (auto section = section_path_through(*target_sections, a, middle, b, detail::Tolerances::fidelity_rel * diag))
+        return q.front();
+      };
+      const double tol = detail::Tolerances::fidelity_rel * diag;
+      auto section = section_path_through(*target_sections, a, middle_of(p.curve.points), b, tol);
+      // Where the placed curve jumped, its middle may lie on another part:
+      // the target's closest point to the source curve's middle instead.
+      if (!section && !jump.empty() && !mapped[i].empty())
+        section = section_path_through(*target_sections, a, placer.closest_on_target(middle_of(mapped[i])), b, tol);
+      if (section)
         p.curve.points = std::move(*section);
       else if (!jump.empty())
         throw EmbedError(jump);
@@ -462,6 +474,18 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
       for (auto& q : out.profiles[i].curve.points)
         q = apply(to_target, q);
     place(i);
+  }
+  // Every profile whose placed samples jumped, named in one refusal, so
+  // that transfer() places them all again at once (a voxel remesh's tail
+  // has a dozen); the first one's words.
+  if (!jumps.empty()) {
+    std::string more;
+    for (size_t k = 1; k < jumps.size(); ++k)
+      more += (k == 1 ? "" : ", ") + ("'" + jumps[k].first + "'");
+    std::string what = jumps.front().second;
+    if (!more.empty())
+      what += "; so do profiles " + more;
+    throw EmbedError(what);
   }
   // The angles at each node, on the source (mapped) and placed: the worst
   // ratio of a pair's placed angle to its source angle.
