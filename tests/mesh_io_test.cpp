@@ -372,3 +372,44 @@ TEST(MeshIo, AnObjFileIsParsedOnceForItsSurfaceAndTopology) {
   EXPECT_EQ(detail::obj_parses() - before, 2);
   fs::remove_all(dir);
 }
+
+TEST(MeshIo, AGltfpackQuantizedFileReadsAsItsSourceWhereItsSkinPutsIt) {
+  // gltfpack's default output (KHR_mesh_quantization): positions stored as
+  // 16-bit integers and normals as bytes, the scale and offset that undo
+  // it folded into the skin's inverse bind matrices. The skin puts each
+  // vertex where the source's skin puts it, at rest and in a clip, to the
+  // quantization's precision; the surface has the source's size in faces.
+  const std::string d = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/";
+  const std::string source = d + "Wolf_decimated_20.glb", packed = d + "Wolf_decimated_20_gltfpack.glb";
+  const SkinnedMesh a = load_skinned_mesh(source), b = load_skinned_mesh(packed);
+  const RawMesh ra = read_raw_mesh(source), rb = read_raw_mesh(packed);
+  const SurfaceMesh sa = load_mesh(source), sb = load_mesh(packed);
+  EXPECT_EQ(sb.num_faces(), sa.num_faces());
+  EXPECT_EQ(sb.num_vertices(), sa.num_vertices());
+  const int wa = a.find_clip("Walk"), wb = b.find_clip("Walk");
+  ASSERT_GE(wa, 0);
+  ASSERT_GE(wb, 0);
+  for (const double t : {-1.0, 0.0, 0.4}) {
+    SCOPED_TRACE(t < 0 ? "rest" : "Walk at " + std::to_string(t) + " s");
+    const auto pa = skin_positions(a, ra.positions, a.skinning_matrices(t < 0 ? -1 : wa, std::max(t, 0.0)));
+    const auto pb = skin_positions(b, rb.positions, b.skinning_matrices(t < 0 ? -1 : wb, std::max(t, 0.0)));
+    Eigen::AlignedBox3d box;
+    for (const auto& p : pa)
+      box.extend(p);
+    const double diagonal = box.diagonal().norm();
+    double worst = 0;
+    for (const auto& q : pb) { // each packed vertex on a source vertex (gltfpack reorders them)
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& p : pa)
+        nearest = std::min(nearest, (p - q).norm());
+      worst = std::max(worst, nearest);
+    }
+    // (gltfpack also resamples the clip and stores its rotations in 16 bits.)
+    EXPECT_LT(worst, (t < 0 ? 1e-4 : 1e-3) * diagonal);
+  }
+  // The stored positions are integers: read as they are, they lie far from the source's.
+  double stored = 0;
+  for (const auto& p : rb.positions)
+    stored = std::max(stored, p.cwiseAbs().maxCoeff());
+  EXPECT_GT(stored, 1000.0);
+}

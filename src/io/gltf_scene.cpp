@@ -5,6 +5,7 @@
 #include "io/file_bytes.hpp"
 #include "io/json_text.hpp"
 
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
@@ -341,8 +342,8 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
       if (++steps > nodes)
         throw InputError(path, "node " + std::to_string(i), "the node hierarchy has a cycle");
   }
-  auto accessor = [&](int a, const std::string& what, std::initializer_list<int> types,
-                      std::initializer_list<int> components) {
+  auto accessor = [&](int a, const std::string& what, const std::vector<int>& types,
+                      const std::vector<int>& components) {
     if (!in_range(a, m.accessors.size()))
       throw InputError(path, what,
                        "refers to accessor " + std::to_string(a) + ", and there are " +
@@ -355,12 +356,24 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
     AccessorReader check(m, a, path, what); // bounds
     return check.count();
   };
-  using T = std::initializer_list<int>;
+  using T = std::vector<int>;
   const T floats{TINYGLTF_COMPONENT_TYPE_FLOAT};
   const T uv_types{TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
                    TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT};
   const T index_types{TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT};
+  // KHR_mesh_quantization: positions, normals and texture coordinates may
+  // be stored as (normalised) integers; their scale and offset are in the
+  // node's transform, or, for a skinned mesh, in its inverse bind matrices.
+  const bool quantized =
+      std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), "KHR_mesh_quantization") != m.extensionsUsed.end() ||
+      std::find(m.extensionsRequired.begin(), m.extensionsRequired.end(), "KHR_mesh_quantization") !=
+          m.extensionsRequired.end();
+  const T position_types = quantized ? T{TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                                         TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                                         TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}
+                                     : floats;
+  const T texcoord_types = quantized ? position_types : uv_types;
   for (size_t mi = 0; mi < m.meshes.size(); ++mi)
     for (size_t pi = 0; pi < m.meshes[mi].primitives.size(); ++pi) {
       const auto& prim = m.meshes[mi].primitives[pi];
@@ -368,9 +381,9 @@ void validate_model(const tinygltf::Model& m, const std::string& path) {
       for (const auto& [name, a] : prim.attributes) {
         const std::string w = what + " " + name;
         if (name == "POSITION")
-          accessor(a, w, {TINYGLTF_TYPE_VEC3}, floats);
+          accessor(a, w, {TINYGLTF_TYPE_VEC3}, position_types);
         else if (name == "TEXCOORD_0")
-          accessor(a, w, {TINYGLTF_TYPE_VEC2}, uv_types);
+          accessor(a, w, {TINYGLTF_TYPE_VEC2}, texcoord_types);
         else if (name == "JOINTS_0")
           accessor(a, w, {TINYGLTF_TYPE_VEC4},
                    {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
@@ -597,6 +610,23 @@ GltfScene read_gltf_scene(const std::string& path) {
 
 namespace {
 
+/// A compression extension the file requires whose data curvenet does not
+/// decode (empty if none): its buffers hold compressed bytes that would
+/// read as garbage, or make the reader fail with a message about sizes.
+std::string compression_required(const std::vector<std::string>& required) {
+  for (const char* name : {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"})
+    if (std::find(required.begin(), required.end(), name) != required.end())
+      return name;
+  return {};
+}
+
+[[noreturn]] void refuse_compression(const std::string& path, const std::string& name) {
+  throw InputError(path, "extensionsRequired",
+                   "the file is compressed with " + name +
+                       ", which curvenet does not decode: write it uncompressed first (`gltf-transform copy IN "
+                       "OUT` decodes it)");
+}
+
 GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
   const std::string ext = detail::lower_extension(path);
   tinygltf::TinyGLTF loader;
@@ -622,6 +652,17 @@ GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
                                 : loader.LoadASCIIFromString(model.get(), &err, &warn, bytes.data(),
                                                              static_cast<unsigned int>(bytes.size()), base_dir);
   if (!ok) {
+    // A compressed file fails on its buffers' sizes or its accessors' views:
+    // said as what it is.
+    if (const auto doc = nlohmann::json::parse(json, nullptr, false);
+        doc.is_object() && doc.contains("extensionsRequired") && doc["extensionsRequired"].is_array()) {
+      std::vector<std::string> required;
+      for (const auto& e : doc["extensionsRequired"])
+        if (e.is_string())
+          required.push_back(e.get<std::string>());
+      if (const std::string name = compression_required(required); !name.empty())
+        refuse_compression(path, name);
+    }
     while (!err.empty() && std::isspace(static_cast<unsigned char>(err.back())))
       err.pop_back();
     std::replace(err.begin(), err.end(), '\n', ';'); // one line
@@ -635,6 +676,8 @@ GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
     }
     throw InputError(path, "", "cannot read glTF: " + (err.empty() ? std::string("unknown error") : err));
   }
+  if (const std::string name = compression_required(model->extensionsRequired); !name.empty())
+    refuse_compression(path, name);
   validate_model(*model, path);
   GltfScene scene;
   scene.path = path;
