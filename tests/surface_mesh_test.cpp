@@ -249,8 +249,8 @@ TEST(SurfaceMesh, CornersOfADegenerateFaceAFewUnitsInTheLastPlaceApartAreWeldedA
   raw.add_face(std::array<int, 3>{b2, after_b(fan.front(), 2), b});
   for (const bool handed_over : {false, true}) {
     RawMesh copy = raw;
-    const SurfaceMesh m = handed_over ? make_surface_mesh(std::move(copy), "round_trip.glb")
-                                      : make_surface_mesh(raw, "round_trip.glb");
+    const SurfaceMesh m =
+        handed_over ? make_surface_mesh(std::move(copy), "round_trip.glb") : make_surface_mesh(raw, "round_trip.glb");
     const std::vector<ComponentInfo> c = mesh_components(m);
     ASSERT_EQ(c.size(), 1u);
     EXPECT_TRUE(c[0].closed) << "no slit";
@@ -310,6 +310,75 @@ TEST(SurfaceMesh, DoubledFacesAreLeftOutOnTheirOwnVerticesOrOnTheOriginals) {
       ASSERT_FALSE(m.notes.empty());
       EXPECT_NE(m.notes[0].find("left out 3 faces that repeat another face's corners"), std::string::npos)
           << m.notes[0];
+    }
+  }
+}
+
+TEST(SurfaceMesh, ASeamWhoseTwoCopiesWereRoundedApartIsClosedAndARealGapIsNot) {
+  // A closed tube written as two parts, each with vertices of its own (as
+  // a glTF file's primitives are), the second part's copies of the seam
+  // moved off the first's: by 1e-5 of the diagonal, as a file whose
+  // primitives were quantized one by one writes them, the seam closes and
+  // the surface is the tube again; by 1e-3, a real gap, it stays open.
+  const SurfaceMesh tube = test::tube(16, 10, 3, true);
+  Vec3 lo = tube.positions[0], hi = lo;
+  for (const Vec3& p : tube.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  int axis = 0;
+  (hi - lo).maxCoeff(&axis);
+  const double middle = 0.5 * (lo[axis] + hi[axis]), diagonal = (hi - lo).norm();
+  const int euler = mesh_components(tube)[0].euler;
+  for (const double gap : {1e-5, 1e-3}) {
+    SCOPED_TRACE("gap " + std::to_string(gap));
+    RawMesh raw;
+    raw.positions = tube.positions;
+    std::vector<int> copy_of(tube.positions.size(), -1);
+    std::vector<char> in_first(tube.positions.size(), 0);
+    std::uint64_t state = 7;
+    for (int f = 0; f < tube.num_faces(); ++f) {
+      std::array<int, 3> t{tube.face(f)[0], tube.face(f)[1], tube.face(f)[2]};
+      const double along = (tube.positions[t[0]][axis] + tube.positions[t[1]][axis] + tube.positions[t[2]][axis]) / 3;
+      if (along <= middle)
+        for (const int v : t)
+          in_first[v] = 1;
+      if (along > middle)
+        for (int& v : t) {
+          if (copy_of[v] < 0) {
+            Vec3 nudge;
+            for (int k = 0; k < 3; ++k) {
+              state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+              nudge[k] = static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5;
+            }
+            copy_of[v] = static_cast<int>(raw.positions.size());
+            raw.positions.push_back(tube.positions[v] + gap * diagonal * nudge.normalized());
+          }
+          v = copy_of[v];
+        }
+      raw.add_face(t);
+    }
+    const SurfaceMesh m = make_surface_mesh(raw, "parts.glb");
+    const std::vector<ComponentInfo> c = mesh_components(m);
+    bool seam_note = false;
+    for (const std::string& n : m.notes)
+      seam_note = seam_note || n.find("closed open seams") != std::string::npos;
+    if (gap < 1e-4) {
+      ASSERT_EQ(c.size(), 1u);
+      EXPECT_TRUE(c[0].closed);
+      EXPECT_EQ(c[0].euler, euler);
+      EXPECT_EQ(m.num_vertices(), tube.num_vertices());
+      EXPECT_TRUE(seam_note);
+    } else {
+      EXPECT_EQ(c.size(), 2u);
+      for (const ComponentInfo& ci : c)
+        EXPECT_FALSE(ci.closed);
+      int seam = 0; // vertices both parts use, written twice
+      for (size_t v = 0; v < copy_of.size(); ++v)
+        seam += copy_of[v] >= 0 && in_first[v];
+      EXPECT_GT(seam, 0);
+      EXPECT_EQ(m.num_vertices(), tube.num_vertices() + seam);
+      EXPECT_FALSE(seam_note);
     }
   }
 }
@@ -407,13 +476,8 @@ TEST(SurfaceMesh, CountsEachEdgeOnceWhateverTheFaceSizes) {
   // every edge is counted once with both its faces.
   RawMesh r;
   r.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}, {0.5, 0, 0}};
-  for (const auto& f : std::vector<std::vector<int>>{{0, 3, 2, 1, 8},
-                                                     {4, 5, 6},
-                                                     {4, 6, 7},
-                                                     {0, 8, 1, 5, 4},
-                                                     {1, 2, 6, 5},
-                                                     {2, 3, 7, 6},
-                                                     {3, 0, 4, 7}})
+  for (const auto& f : std::vector<std::vector<int>>{
+           {0, 3, 2, 1, 8}, {4, 5, 6}, {4, 6, 7}, {0, 8, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}})
     r.add_face(f);
   const SurfaceMesh m = make_surface_mesh(r, "cube.obj");
   const auto parts = mesh_components(m);
@@ -467,7 +531,8 @@ TEST(SurfaceMesh, RefusesASurfaceThatCannotBeOriented) {
   const int n = 12;
   for (int i = 0; i < n; ++i) {
     const double a = 2 * 3.14159265358979 * i / n, t = a / 2;
-    const Vec3 centre(std::cos(a), std::sin(a), 0), out(std::cos(a) * std::cos(t), std::sin(a) * std::cos(t), std::sin(t));
+    const Vec3 centre(std::cos(a), std::sin(a), 0),
+        out(std::cos(a) * std::cos(t), std::sin(a) * std::cos(t), std::sin(t));
     r.positions.push_back(centre - 0.3 * out);
     r.positions.push_back(centre + 0.3 * out);
   }

@@ -27,7 +27,8 @@ struct SceneFiles {
 Rig read_scene_rig(const SceneFiles& files);
 
 /// The repairs made on load that change the surface the engine works on
-/// (degenerate faces left out, faces turned), one line each, naming the file.
+/// (degenerate or doubled faces left out, faces turned, open seams closed),
+/// one line each, naming the file.
 std::vector<std::string> load_notes(const SurfaceMesh& mesh, const std::string& path);
 
 /// The mesh and the rig of a job, each file read once.

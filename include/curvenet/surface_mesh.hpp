@@ -74,7 +74,9 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
 ///   coordinate, a face with fewer than 3 corners or a bad index, a
 ///   degenerate face, a non-manifold edge or vertex, or a non-orientable
 ///   component. An orientation that is merely inconsistent is repaired, and
-///   the repair is recorded in `notes`.
+///   the repair is recorded in `notes`; so are the welds: by exact
+///   position, and on an open mesh, boundary vertices within
+///   Tolerances::seam_weld_rel of the diagonal where that closes a seam.
 SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source);
 /// The same, taking over `raw`'s arrays where they become the mesh's as
 /// they are (no copy of a large mesh that needs no repair).

@@ -15,6 +15,11 @@ struct Tolerances {
   /// face's corners in single precision leaves "two corners at one point"
   /// a few units in the last place apart, and kept apart they leave a slit.
   static constexpr double degenerate_weld_rel = 1e-6;
+  /// Boundary vertices of an open mesh closer than this to another boundary
+  /// vertex are welded to it where that closes the seam: a file whose
+  /// primitives were quantized one by one (Draco's 14 bits over each
+  /// primitive's box) writes a seam's two copies up to about 6e-5 apart.
+  static constexpr double seam_weld_rel = 1e-4;
   /// Walking the surface between two samples stops with an error when the
   /// path grows longer than this many times the straight distance plus a few
   /// mean edge lengths (the walk has left the intended part of the surface).

@@ -22,6 +22,7 @@
 #include <numeric>
 #include <optional>
 #include <sstream>
+#include <tuple>
 
 namespace curvenet {
 
@@ -237,7 +238,9 @@ std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, 
     return x;
   };
   // The corner at vertex v of the side that starts at corner k of face f.
-  auto corner_at = [&](int k, int f, int v) { return verts[k] == v ? k : (k + 1 < offsets[f + 1] ? k + 1 : offsets[f]); };
+  auto corner_at = [&](int k, int f, int v) {
+    return verts[k] == v ? k : (k + 1 < offsets[f + 1] ? k + 1 : offsets[f]);
+  };
   // Unions join only corners of one vertex, so each fan's root is one of
   // its own corners, and vertices can be split into blocks that share
   // nothing: each block reads every edge and every corner, and joins and
@@ -536,7 +539,9 @@ SurfaceMesh make_surface_mesh(const RawMesh& raw, const std::string& source) {
   return surface_mesh_of(raw, nullptr, source);
 }
 
-SurfaceMesh make_surface_mesh(RawMesh&& raw, const std::string& source) { return surface_mesh_of(raw, &raw, source); }
+SurfaceMesh make_surface_mesh(RawMesh&& raw, const std::string& source) {
+  return surface_mesh_of(raw, &raw, source);
+}
 
 namespace {
 SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::string& source) {
@@ -803,86 +808,187 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
   std::vector<int> to_welded;
   std::vector<int> fverts;
   int refused_welds = 0;
-  for (int round = 0;; ++round) {
-    // Welded ids in order of first occurrence.
-    std::vector<int> id_of_rep(nin, -1);
-    to_welded.assign(nin, -1);
-    int next = 0;
-    for (int v = 0; v < nin; ++v) {
-      int r = group[v];
-      if (id_of_rep[r] < 0)
-        id_of_rep[r] = next++;
-      to_welded[v] = id_of_rep[r];
-    }
-    const bool same = next == nin; // nothing welded: ids in order of first occurrence are the input's
-    if (same) { // and so the last round: it ends, or refuses the mesh
-      fverts = std::move(verts);
-    } else {
-      fverts.resize(verts.size());
-      for (size_t k = 0; k < fverts.size(); ++k)
-        fverts[k] = to_welded[verts[k]];
-    }
-    if (!same || round > 0)
-      edges = edge_table(offsets, fverts);
-    if (round == 0 && !same) {
-      // Copies of faces with vertices of their own at the same points (an
-      // exporter's doubled faces) weld onto their original: left out
-      // before any weld is undone for them. Looked for only where the weld
-      // broke manifoldness.
-      bool broken = over_two();
-      if (!broken)
-        for (int f = 0; f < nf && !broken; ++f)
-          for (int i = offsets[f]; i < offsets[f + 1] && !broken; ++i)
-            for (int j = i + 1; j < offsets[f + 1] && !broken; ++j)
-              broken = fverts[i] == fverts[j];
-      if (!broken)
-        broken = !non_manifold_vertices(next, offsets, fverts, edges).empty();
-      if (broken) {
-        const int more = drop_repeated_faces(offsets, fverts, &verts, [](int w) { return w; });
-        if (more > 0) {
-          repeated += more;
-          nf = static_cast<int>(offsets.size()) - 1;
-          edges = edge_table(offsets, fverts);
+  auto weld = [&] {
+    for (int round = 0;; ++round) {
+      // Welded ids in order of first occurrence.
+      std::vector<int> id_of_rep(nin, -1);
+      to_welded.assign(nin, -1);
+      int next = 0;
+      for (int v = 0; v < nin; ++v) {
+        int r = group[v];
+        if (id_of_rep[r] < 0)
+          id_of_rep[r] = next++;
+        to_welded[v] = id_of_rep[r];
+      }
+      const bool same = next == nin; // nothing welded: ids in order of first occurrence are the input's
+      if (same) {                    // and so the last round: it ends, or refuses the mesh
+        fverts = std::move(verts);
+      } else {
+        fverts.resize(verts.size());
+        for (size_t k = 0; k < fverts.size(); ++k)
+          fverts[k] = to_welded[verts[k]];
+      }
+      if (!same || round > 0)
+        edges = edge_table(offsets, fverts);
+      if (round == 0 && !same) {
+        // Copies of faces with vertices of their own at the same points (an
+        // exporter's doubled faces) weld onto their original: left out
+        // before any weld is undone for them. Looked for only where the weld
+        // broke manifoldness.
+        bool broken = over_two();
+        if (!broken)
+          for (int f = 0; f < nf && !broken; ++f)
+            for (int i = offsets[f]; i < offsets[f + 1] && !broken; ++i)
+              for (int j = i + 1; j < offsets[f + 1] && !broken; ++j)
+                broken = fverts[i] == fverts[j];
+        if (!broken)
+          broken = !non_manifold_vertices(next, offsets, fverts, edges).empty();
+        if (broken) {
+          const int more = drop_repeated_faces(offsets, fverts, &verts, [](int w) { return w; });
+          if (more > 0) {
+            repeated += more;
+            nf = static_cast<int>(offsets.size()) - 1;
+            edges = edge_table(offsets, fverts);
+          }
         }
       }
-    }
-    std::vector<char> unweld(next, 0);
-    bool any = false;
-    for (int e = 0; e < edges.num_edges(); ++e)
-      if (edges.uses(e) > 2)
-        unweld[edges.lo(e)] = unweld[edges.hi(e)] = any = true;
-    for (int f = 0; f < nf && !same; ++f) { // a weld that collapses a face (none without a weld)
-      const int b = offsets[f], n = offsets[f + 1] - b;
-      for (int i = 0; i < n; ++i)
-        for (int j = i + 1; j < n; ++j)
-          if (fverts[b + i] == fverts[b + j])
-            unweld[fverts[b + i]] = any = true;
-    }
-    if (!any) {
-      // Non-manifold vertices: undo their weld; one that was never welded is refused.
-      std::vector<int> members(next, 0);
+      std::vector<char> unweld(next, 0);
+      bool any = false;
+      for (int e = 0; e < edges.num_edges(); ++e)
+        if (edges.uses(e) > 2)
+          unweld[edges.lo(e)] = unweld[edges.hi(e)] = any = true;
+      for (int f = 0; f < nf && !same; ++f) { // a weld that collapses a face (none without a weld)
+        const int b = offsets[f], n = offsets[f + 1] - b;
+        for (int i = 0; i < n; ++i)
+          for (int j = i + 1; j < n; ++j)
+            if (fverts[b + i] == fverts[b + j])
+              unweld[fverts[b + i]] = any = true;
+      }
+      if (!any) {
+        // Non-manifold vertices: undo their weld; one that was never welded is refused.
+        std::vector<int> members(next, 0);
+        for (int v = 0; v < nin; ++v)
+          members[to_welded[v]]++;
+        for (int w : non_manifold_vertices(next, offsets, fverts, edges)) {
+          if (members[w] > 1) {
+            unweld[w] = any = true;
+            continue;
+          }
+          int input = 0;
+          while (to_welded[input] != w)
+            ++input;
+          throw InputError(source, "vertex " + std::to_string(input), "non-manifold: its faces form more than one fan");
+        }
+      }
+      if (!any)
+        break;
+      if (round > 64)
+        throw InputError(source, "", "could not weld the mesh into a manifold");
       for (int v = 0; v < nin; ++v)
-        members[to_welded[v]]++;
-      for (int w : non_manifold_vertices(next, offsets, fverts, edges)) {
-        if (members[w] > 1) {
-          unweld[w] = any = true;
-          continue;
+        if (unweld[to_welded[v]] && group[v] != v) {
+          group[v] = v;
+          ++refused_welds;
         }
-        int input = 0;
-        while (to_welded[input] != w)
-          ++input;
-        throw InputError(source, "vertex " + std::to_string(input), "non-manifold: its faces form more than one fan");
+    }
+  };
+  weld();
+
+  // Open seams: vertices on the boundary that lie within
+  // Tolerances::seam_weld_rel of another boundary vertex are one point
+  // written twice, each copy rounded its own way (a file whose primitives
+  // were quantized or compressed one by one: Draco's 14 bits over each
+  // primitive's box). They are welded where that leaves fewer boundary
+  // edges and a manifold; otherwise the exact weld stands. A closed mesh
+  // never comes here.
+  int seam_welds = 0;
+  auto boundary_edges = [&] {
+    int count = 0;
+    for (int e = 0; e < edges.num_edges(); ++e)
+      count += edges.uses(e) == 1;
+    return count;
+  };
+  if (const int open = boundary_edges(); open > 0 && measure_thin) {
+    const double tol = detail::Tolerances::seam_weld_rel / inv_diag;
+    std::vector<char> on_boundary(static_cast<size_t>(*std::max_element(to_welded.begin(), to_welded.end())) + 1, 0);
+    for (int e = 0; e < edges.num_edges(); ++e)
+      if (edges.uses(e) == 1)
+        on_boundary[edges.lo(e)] = on_boundary[edges.hi(e)] = 1;
+    std::map<std::array<long long, 3>, std::vector<int>> cells; // boundary input vertices by cell of side tol
+    auto cell = [&](const Vec3& p) {
+      return std::array<long long, 3>{static_cast<long long>(std::floor(p.x() / tol)),
+                                      static_cast<long long>(std::floor(p.y() / tol)),
+                                      static_cast<long long>(std::floor(p.z() / tol))};
+    };
+    for (int v = 0; v < nin; ++v)
+      if (to_welded[v] >= 0 && on_boundary[to_welded[v]])
+        cells[cell(raw.positions[v])].push_back(v);
+    // Each boundary vertex's shortest edge: two points less than half of it
+    // apart are one point written twice, not two corners of the surface (a
+    // model with edges shorter than the tolerance keeps them).
+    std::vector<double> shortest(on_boundary.size(), std::numeric_limits<double>::infinity());
+    std::vector<int> position_of(on_boundary.size(), -1); // an input vertex of each welded one
+    for (int v = 0; v < nin; ++v)
+      if (to_welded[v] >= 0)
+        position_of[to_welded[v]] = v;
+    for (int f = 0; f < nf; ++f)
+      for (int i = offsets[f], n = offsets[f + 1] - offsets[f]; i < offsets[f + 1]; ++i) {
+        const int a = fverts[i], b = fverts[offsets[f] + (i - offsets[f] + 1) % n];
+        if (!on_boundary[a] && !on_boundary[b])
+          continue;
+        const double length = (raw.positions[position_of[a]] - raw.positions[position_of[b]]).norm();
+        shortest[a] = std::min(shortest[a], length);
+        shortest[b] = std::min(shortest[b], length);
+      }
+    std::vector<int> joined(static_cast<size_t>(nin));
+    std::iota(joined.begin(), joined.end(), 0);
+    auto find = [&](int r) {
+      while (joined[r] != r)
+        r = joined[r] = joined[joined[r]];
+      return r;
+    };
+    int merges = 0;
+    for (const auto& [c, members] : cells)
+      for (const int v : members)
+        for (long long dx = -1; dx <= 1; ++dx)
+          for (long long dy = -1; dy <= 1; ++dy)
+            for (long long dz = -1; dz <= 1; ++dz) {
+              const auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz});
+              if (it == cells.end())
+                continue;
+              for (const int u : it->second) {
+                const double apart = (raw.positions[u] - raw.positions[v]).norm();
+                if (apart > tol || apart >= 0.5 * std::min(shortest[to_welded[u]], shortest[to_welded[v]]))
+                  continue;
+                const int ru = find(group[u]), rv = find(group[v]);
+                if (ru != rv) {
+                  joined[std::max(ru, rv)] = std::min(ru, rv);
+                  ++merges;
+                }
+              }
+            }
+    if (merges > 0) {
+      // The exact weld kept, to go back to.
+      auto kept = std::make_tuple(group, to_welded, fverts, verts, offsets, nf, repeated, refused_welds);
+      const EdgeTable kept_edges = edges;
+      if (verts.empty()) // moved into fverts when nothing welded: the input's ids
+        verts = fverts;
+      for (int v = 0; v < nin; ++v)
+        group[v] = find(group[v]);
+      const int refused_before = refused_welds;
+      bool better = false;
+      try {
+        weld();
+        better = boundary_edges() < open;
+      } catch (const InputError&) {
+      }
+      if (better) {
+        seam_welds = merges - (refused_welds - refused_before);
+        refused_welds = refused_before;
+      } else {
+        std::tie(group, to_welded, fverts, verts, offsets, nf, repeated, refused_welds) = std::move(kept);
+        edges = kept_edges;
       }
     }
-    if (!any)
-      break;
-    if (round > 64)
-      throw InputError(source, "", "could not weld the mesh into a manifold");
-    for (int v = 0; v < nin; ++v)
-      if (unweld[to_welded[v]] && group[v] != v) {
-        group[v] = v;
-        ++refused_welds;
-      }
   }
 
   // Welded vertices that no face uses (a degenerate face's corners away
@@ -943,6 +1049,12 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
   if (repeated > 0)
     mesh.notes.push_back("left out " + std::to_string(repeated) +
                          " faces that repeat another face's corners (doubled faces) of the surface it works on");
+  if (seam_welds > 0) {
+    std::ostringstream note;
+    note << "closed open seams: welded " << seam_welds << " boundary vertices to another within "
+         << detail::Tolerances::seam_weld_rel << " of the diagonal (a file whose parts were rounded apart)";
+    mesh.notes.push_back(note.str());
+  }
   if (nw < nin)
     mesh.notes.push_back("welded " + std::to_string(nin) + " input vertices into " + std::to_string(nw) +
                          " by position");
