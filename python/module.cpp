@@ -885,7 +885,7 @@ PYBIND11_MODULE(_curvenet, m) {
         return make_starter(mesh, joints, o);
       },
       py::arg("mesh"), py::arg("skeleton"), py::kw_only(), py::arg("nodes_per_ring") = 4, py::arg("rings_per_bone") = 1,
-      py::arg("coverage") = "full", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "auto",
+      py::arg("coverage") = "auto", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "auto",
       py::arg("blend") = 0.3, py::arg("deforming") = py::none(), py::arg("middle_nodes") = true);
 
   py::class_<TransferResult>(m, "TransferResult")

@@ -127,6 +127,52 @@ TEST(Starter, MoreNodesAndRingsPerBone) {
   expect_embeds(tube(false), r.rig);
 }
 
+TEST(Starter, OnAnOpenMeshTheNetIsLocalAndSaysSoUnlessFullIsAsked) {
+  // The tube without its top cap: a full net cannot embed in an open
+  // mesh, so by default the starter makes a local one and says why; on
+  // the closed tube the same default makes a full one.
+  TubeSpec spec;
+  spec.triangulate = true;
+  const RawMesh closed = make_capped_tube(spec);
+  RawMesh open;
+  open.positions = closed.positions;
+  for (int f = 0; f + 1 < static_cast<int>(closed.face_offsets.size()); ++f) {
+    std::vector<int> corners(closed.face_vertices.begin() + closed.face_offsets[f],
+                             closed.face_vertices.begin() + closed.face_offsets[f + 1]);
+    if (std::all_of(corners.begin(), corners.end(),
+                    [&](int v) { return closed.positions[v].y() >= spec.length - 1e-9; }))
+      continue;
+    open.add_face(corners);
+  }
+  const SurfaceMesh mesh = make_surface_mesh(open, "open_tube.obj");
+  ASSERT_FALSE(mesh_components(mesh)[0].closed);
+  const std::vector<Joint> skeleton = make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7});
+
+  const StarterResult r = make_starter(mesh, skeleton, StarterOptions{});
+  EXPECT_EQ(r.rig.coverage, Coverage::Local);
+  EXPECT_EQ(r.rings, 5);
+  EXPECT_TRUE(std::any_of(r.messages.begin(), r.messages.end(), [](const std::string& m) {
+    return m.find("the mesh is open (it has a boundary): the net's coverage is local") != std::string::npos;
+  }));
+  const Embedding e = embed(mesh, r.rig);
+  EXPECT_TRUE(e.report().ok) << (e.report().problems.empty() ? "" : e.report().problems[0]);
+
+  EXPECT_EQ(make_starter(make_surface_mesh(closed, "tube.obj"), skeleton, StarterOptions{}).rig.coverage,
+            Coverage::Full);
+
+  StarterOptions full;
+  full.coverage = Coverage::Full;
+  try {
+    const StarterResult f = make_starter(mesh, skeleton, full);
+    EXPECT_EQ(f.rig.coverage, Coverage::Full);
+    EXPECT_FALSE(embed(mesh, f.rig).report().ok);
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("a full-coverage net needs a closed surface; use coverage local or auto"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Starter, RefusesASkeletonOutsideTheMesh) {
   auto far = make_tube_skeleton({0.3, 1.2, 2.1});
   for (auto& j : far)

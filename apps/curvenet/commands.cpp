@@ -39,9 +39,8 @@ namespace {
 /// surface the engine works on (degenerate faces left out, faces turned).
 SurfaceMesh load_mesh_noting(const std::string& path, std::ostream& notes = std::cout) {
   SurfaceMesh m = load_mesh(path);
-  for (const auto& n : m.notes)
-    if (n.rfind("left out", 0) == 0 || n.rfind("repaired", 0) == 0)
-      notes << "note: " << std::filesystem::path(path).filename().string() << ": " << n << "\n";
+  for (const auto& n : load_notes(m, path))
+    notes << "note: " << n << "\n";
   return m;
 }
 
@@ -328,7 +327,7 @@ int run_starter(const StarterArgs& a) {
   opt.rings_per_bone = a.rings_per_bone;
   opt.middle_nodes = a.middle_nodes;
   opt.first_angle_deg = a.first_angle;
-  opt.coverage = a.coverage == "local" ? Coverage::Local : Coverage::Full;
+  opt.coverage = parse_coverage(a.coverage);
   opt.weights = {a.weight_rule == "segment" ? WeightRule::Segment : WeightRule::BlendZone, a.blend};
   // The mesh's own skin weights the nodes where it has one (docs/starter.md).
   std::optional<SkinnedMesh> skin;

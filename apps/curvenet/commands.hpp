@@ -18,7 +18,7 @@ struct EmbedArgs {
 int run_embed(const EmbedArgs& args);
 
 struct StarterArgs {
-  std::string mesh, skeleton, out, coverage = "full", weight_rule = "auto";
+  std::string mesh, skeleton, out, coverage = "auto", weight_rule = "auto";
   int nodes_per_ring = 4;
   int rings_per_bone = 1;
   bool middle_nodes = true;

@@ -152,9 +152,10 @@ int main(int argc, char** argv) {
   starter->add_option("--blend", starter_args.blend, "The blend zone's half-width, as a fraction of each bone")
       ->capture_default_str()
       ->check(finite_in(0, 0.5, true));
-  starter->add_option("--coverage", starter_args.coverage, "Coverage of the net")
+  starter->add_option("--coverage", starter_args.coverage,
+                      "Coverage of the net: auto is full on a closed mesh and local on an open one")
       ->capture_default_str()
-      ->check(CLI::IsMember({"full", "local"}));
+      ->check(CLI::IsMember({"auto", "full", "local"}));
 
   auto deform_options = [](CLI::App* cmd, curvenet::cli::DeformArgs& a) {
     cmd->add_option("MESH", a.mesh, "Mesh file")->required();

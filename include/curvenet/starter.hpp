@@ -31,7 +31,9 @@ struct StarterOptions {
   /// moves it with one. Without a skin there is nothing to sample there,
   /// and none is made.
   bool middle_nodes = true;
-  Coverage coverage = Coverage::Full;
+  /// The net's coverage: Auto is full on a closed mesh and local on an open
+  /// one (with a message saying so); the rig written says which.
+  Coverage coverage = Coverage::Auto;
   /// Angle of node 0 from its ring's reference direction (carried from the
   /// parent ring; a ring with none starts from its chain root's local X
   /// axis), about the bone, in degrees.

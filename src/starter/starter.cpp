@@ -238,12 +238,26 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
   }
   const std::vector<Joint>& joints = work;
   const RingOptions ring_options = RingOptions::from(opt);
-  const NetOptions net_options = NetOptions::from(opt);
+  NetOptions net_options = NetOptions::from(opt);
   const StarterContext c(mesh, joints, [&](const std::string& m) {
     result.messages.push_back(m);
     if (opt.message)
       opt.message(m);
   });
+  if (net_options.coverage == Coverage::Auto) {
+    // Full on a closed mesh; on an open one (a scan, a mesh with holes, a
+    // LOD simplified part by part) a full net cannot embed, and a local
+    // one deforms what the net covers.
+    const std::vector<ComponentInfo> parts = mesh_components(mesh);
+    const auto open = std::count_if(parts.begin(), parts.end(), [](const ComponentInfo& p) { return !p.closed; });
+    net_options.coverage = open == 0 ? Coverage::Full : Coverage::Local;
+    if (open > 0)
+      c.say("the mesh is open (" +
+            (parts.size() == 1 ? std::string("it has a boundary")
+                               : std::to_string(open) + " of its " + std::to_string(parts.size()) +
+                                     " parts have a boundary") +
+            "): the net's coverage is local, as the mesh is");
+  }
 
   // 1 to 4: rings, trunks, clearance, chains.
   RingsResult found = candidate_rings(c, ring_options);
