@@ -253,9 +253,9 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     net_options.coverage = open == 0 ? Coverage::Full : Coverage::Local;
     if (open > 0)
       c.say("the mesh is open (" +
-            (parts.size() == 1 ? std::string("it has a boundary")
-                               : std::to_string(open) + " of its " + std::to_string(parts.size()) +
-                                     " parts have a boundary") +
+            (parts.size() == 1
+                 ? std::string("it has a boundary")
+                 : std::to_string(open) + " of its " + std::to_string(parts.size()) + " parts have a boundary") +
             "): the net's coverage is local, as the mesh is");
   }
 
