@@ -383,6 +383,20 @@ TEST(SurfaceMesh, ASeamWhoseTwoCopiesWereRoundedApartIsClosedAndARealGapIsNot) {
   }
 }
 
+TEST(SurfaceMesh, AnOpenMeshFarFromTheOriginLoadsWithItsSeamCellsInRange) {
+  // Open, so the seam weld runs; at 1e18 from the origin a cell index
+  // counted from the origin would overflow (UBSan's float-cast-overflow).
+  // One square of side 512 at 2^60 (where doubles are 256 apart): its
+  // coordinates over the seam tolerance (1e-4 of its diagonal) pass 2^63.
+  RawMesh r = test::grid(1, 1);
+  const double far = std::ldexp(1.0, 60);
+  for (Vec3& p : r.positions)
+    p = 512 * p + Vec3(far, -far, far);
+  const SurfaceMesh m = make_surface_mesh(r, "far.obj");
+  EXPECT_EQ(m.num_faces(), 1);
+  EXPECT_FALSE(mesh_components(m)[0].closed);
+}
+
 TEST(SurfaceMesh, RefusesNonManifoldEdges) {
   RawMesh r;
   r.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};

@@ -914,10 +914,13 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
       if (edges.uses(e) == 1)
         on_boundary[edges.lo(e)] = on_boundary[edges.hi(e)] = 1;
     std::map<std::array<long long, 3>, std::vector<int>> cells; // boundary input vertices by cell of side tol
+    // Cells counted from the box's corner, in units of the diagonal, so
+    // that a mesh far from the origin stays within a cell index's range.
     auto cell = [&](const Vec3& p) {
-      return std::array<long long, 3>{static_cast<long long>(std::floor(p.x() / tol)),
-                                      static_cast<long long>(std::floor(p.y() / tol)),
-                                      static_cast<long long>(std::floor(p.z() / tol))};
+      const Vec3 q = (p - box.min()) * inv_diag / detail::Tolerances::seam_weld_rel;
+      return std::array<long long, 3>{static_cast<long long>(std::floor(q.x())),
+                                      static_cast<long long>(std::floor(q.y())),
+                                      static_cast<long long>(std::floor(q.z()))};
     };
     for (int v = 0; v < nin; ++v)
       if (to_welded[v] >= 0 && on_boundary[to_welded[v]])
