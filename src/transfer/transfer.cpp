@@ -168,8 +168,8 @@ private:
 /// runs the same way as the step between the same points before placing
 /// (`mapped`); the last point (the end node) is always kept, and takes back
 /// the kept points it would double back over.
-constexpr int kReplacements = 8;      ///< re-placements of the profiles a target's embedding names
-constexpr int kRegionSamples = 500;   ///< faces inside a region the agreement is measured on, at most
+constexpr int kReplacements = 32;   ///< re-placements of the profiles a target's embedding names
+constexpr int kRegionSamples = 500; ///< faces inside a region the agreement is measured on, at most
 constexpr double kMinAngle =
     10 * 3.14159265358979323846 / 180; ///< pairs of curves closer than this on the source are not compared
 constexpr double kKeptAngle = 0.5;     ///< a node whose curves keep less of their angle than this is placed again
@@ -302,8 +302,8 @@ public:
         const double before = (mapped_out.back() - mapped_from_mesh(samples[i])).norm(),
                      after = (placed.back() - point).norm();
         if (after > 3 * before + 2 * h_) {
-          std::string what = "transfer: profile '" + p.id + "': " +
-                             (closest ? "the target's closest points jump " : "the projection jumped ") +
+          std::string what = "transfer: profile '" + p.id +
+                             "': " + (closest ? "the target's closest points jump " : "the projection jumped ") +
                              percent(after / diag_) +
                              " of the diagonal to another part of the surface (the target is thinner, thicker or "
                              "shaped otherwise here)";
@@ -387,7 +387,7 @@ private:
 Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& source, const TraceMesh& target,
                     const TransferOptions& opt, const CageMap* source_cage, const CageMap* target_cage,
                     const std::set<std::string>& by_closest, const std::set<std::string>& by_section,
-                    const SectionMesh* target_sections, double& max_node_offset) {
+                    const std::set<std::string>& by_ends, const SectionMesh* target_sections, double& max_node_offset) {
   // The profiles as the source's embedding traced them, on its surface,
   // without the steps smaller than half the fidelity tolerance (a chain
   // zigzags across the edges near its nodes).
@@ -437,6 +437,14 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
     std::string jump;
     p.curve.points =
         placer.place_profile(rig.profiles[i], chains[i].second, a, b, by_closest.count(p.id) > 0, mapped[i], &jump);
+    // Where neither closest points nor a section keep it clear (a claw or
+    // a toe the coarse target has lost, that its placed samples zigzag
+    // over), its ends alone: the embedding traces it across the target
+    // between them.
+    if (by_ends.count(p.id)) {
+      p.curve.points = {a, b};
+      return;
+    }
     if (!jump.empty() && !sectioned) { // placed again, with every other profile that jumps (below)
       jumps.emplace_back(p.id, std::move(jump));
       return;
@@ -725,8 +733,9 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
         // limb of a coarse target, whose few faces the normals cross at
         // steep angles), the profiles it names go to the target's closest
         // points instead, a few times over.
-        // Then, for those named again, the plane section through their placed ends and middle.
-        std::set<std::string> by_closest, by_section, ids;
+        // Then, for those named again, the plane section through their
+        // placed ends and middle; then their ends alone.
+        std::set<std::string> by_closest, by_section, by_ends, ids;
         std::optional<SectionMesh> sections;
         for (const Profile& p : rig.profiles)
           ids.insert(p.id);
@@ -735,7 +744,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
             double offset = 0;
             result.rig = place_on_target(rig, src, source_placed, target_placed, opt,
                                          source_cage ? &*source_cage : nullptr, target_cage ? &*target_cage : nullptr,
-                                         by_closest, by_section, sections ? &*sections : nullptr, offset);
+                                         by_closest, by_section, by_ends, sections ? &*sections : nullptr, offset);
             rep.max_node_offset = offset;
             placed.emplace(target_cage ? embed(target, result.rig, target_embed)
                                        : embed_on(target, *target_trace, result.rig, target_embed,
@@ -746,8 +755,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
             bool more = false;
             // A profile whose projection jumped is placed again too; the
             // other refusals of the placing itself are final.
-            const bool jumped = what.rfind("transfer: profile '", 0) == 0 &&
-                                what.find(" jump") != std::string::npos;
+            const bool jumped = what.rfind("transfer: profile '", 0) == 0 && what.find(" jump") != std::string::npos;
             if (attempt < kReplacements && (what.rfind("transfer:", 0) != 0 || jumped))
               for (const std::string& id : quoted(what)) {
                 if (!ids.count(id))
@@ -758,6 +766,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
                   more = true;
                   if (!sections)
                     sections.emplace(target_surface);
+                } else if (by_ends.insert(id).second) {
+                  more = true;
                 }
               }
             if (!more) {
@@ -808,7 +818,9 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   // Each region's identity as a number, on both sides; a point outside a
   // local net has the empty identity.
   std::map<std::string, int> identity{{"", 0}};
-  auto identity_of = [&](const std::string& key) { return identity.emplace(key, static_cast<int>(identity.size())).first->second; };
+  auto identity_of = [&](const std::string& key) {
+    return identity.emplace(key, static_cast<int>(identity.size())).first->second;
+  };
   std::vector<int> target_identity(keys.size()), source_identity(a.region_list.size());
   for (size_t r = 0; r < keys.size(); ++r)
     target_identity[r] = identity_of(keys[r]);
