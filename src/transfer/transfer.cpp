@@ -440,8 +440,9 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
     // Where neither closest points nor a section keep it clear (a claw or
     // a toe the coarse target has lost, that its placed samples zigzag
     // over), its ends alone: the embedding traces it across the target
-    // between them.
-    if (by_ends.count(p.id)) {
+    // between them. (Not a loop from a node back to itself: its ends are
+    // one point.)
+    if (by_ends.count(p.id) && p.from != p.to) {
       p.curve.points = {a, b};
       return;
     }
