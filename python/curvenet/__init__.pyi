@@ -304,13 +304,16 @@ def starter(
     *,
     nodes_per_ring: int = 4,
     rings_per_bone: int = 1,
-    coverage: str = "full",
+    coverage: str = "auto",
     first_angle: float = 0.0,
     weight_rule: str = "auto",
     blend: float = 0.3,
     deforming: Optional[list[str]] = None,
 ) -> StarterResult:
     """A starter net for the skeleton (bind matrices in the mesh's object space), checked to embed.
+
+    coverage: 'auto' (the default) makes a full net on a closed mesh and a local one on an open mesh, with a message
+    saying so; 'full' or 'local' forces one.
 
     weight_rule: 'skin' weights each node with the skin's weights where it lies on the surface (the skeleton must be
     a SkinnedMesh, or a skinned file, of this mesh); 'blend-zone' or 'segment' by the bones; 'auto' (the default):
