@@ -309,6 +309,7 @@ def starter(
     weight_rule: str = "auto",
     blend: float = 0.3,
     deforming: Optional[list[str]] = None,
+    middle_nodes: bool = True,
 ) -> StarterResult:
     """A starter net for the skeleton (bind matrices in the mesh's object space), checked to embed.
 
