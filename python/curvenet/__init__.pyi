@@ -346,7 +346,7 @@ def transfer(
     max_offset: float = 0.05,
     source_cage_levels: int = 0,
     target_cage_levels: int = 0,
-    max_faces: int = 20_000_000,
+    max_faces: int = 4_000_000,
     density: float = 5.0,
     align: str = "auto",
     source_skeleton: Optional[Skeleton] = None,
@@ -363,7 +363,7 @@ def transfer(
 def compare(a: Mesh, b: Mesh, *, samples_per_edge: int = 4) -> dict[str, Any]:
     """Symmetric surface distance: the keys of `curvenet compare --json`."""
 
-def subdivide(cage: Mesh, levels: int = 2, *, max_faces: int = 20_000_000) -> Mesh:
+def subdivide(cage: Mesh, levels: int = 2, *, max_faces: int = 4_000_000) -> Mesh:
     """Catmull-Clark refinement of a control cage (OpenSubdiv)."""
 
 class JointPose:

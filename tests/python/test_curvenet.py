@@ -8,6 +8,7 @@ CURVENET_CLI and CURVENET_DATA_DIR set.
 import ast
 import json
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -447,6 +448,37 @@ def test_the_stub_documents_every_public_name():
     documented = {n.name for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
     public = {n for n in dir(curvenet) if not n.startswith("_")}
     assert public - documented == set()
+
+
+def test_the_stubs_defaults_are_the_modules():
+    # Each keyword's default in the stub, against the one pybind11 gives in
+    # the function's signature line (where both are literals).
+    stub = os.path.join(os.path.dirname(curvenet.__file__), "__init__.pyi")
+    tree = ast.parse(open(stub).read())
+    differ = []
+    for node in tree.body:
+        function = getattr(curvenet, getattr(node, "name", ""), None)
+        if not isinstance(node, ast.FunctionDef) or function is None or not function.__doc__:
+            continue
+        signature = function.__doc__.split("\n")[0]
+        a = node.args
+        positional = a.posonlyargs + a.args
+        defaults = list(zip(positional[len(positional) - len(a.defaults):], a.defaults))
+        defaults += [(k, d) for k, d in zip(a.kwonlyargs, a.kw_defaults) if d is not None]
+        for arg, default in defaults:
+            found = re.search(r"\b" + arg.arg + r": [^=,()]+(?:\[[^\]]*\])? = ([^,)]+)", signature)
+            assert found, (node.name, arg.arg, "not in the module's signature")
+            try:
+                module_value, stub_value = ast.literal_eval(found.group(1)), ast.literal_eval(default)
+            except (ValueError, SyntaxError):
+                continue  # not a literal on one side (an object's repr)
+            if stub_value is Ellipsis:
+                continue
+            if isinstance(module_value, (list, tuple)) and isinstance(stub_value, (list, tuple)):
+                module_value, stub_value = list(module_value), list(stub_value)
+            if module_value != stub_value:
+                differ.append((node.name, arg.arg, module_value, stub_value))
+    assert differ == []
 
 
 # --- bad values from Python -------------------------------------------------
