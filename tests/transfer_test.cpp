@@ -393,12 +393,43 @@ TEST(Transfer, NailedHandIsRefusedCleanly) {
   const std::string d = test::data("xr_tools_hand/");
   const SurfaceMesh source = load_mesh(d + "hand_l.gltf");
   const Rig rig = make_starter(source, load_skinned_mesh(d + "hand_l.gltf").joints).rig;
+  // The nails are open shells: the hand's full net is refused before the
+  // work, saying why and what to do.
   try {
-    const TransferResult r = transfer(rig, source, load_mesh(d + "Hand_Nails_L.gltf"));
-    EXPECT_FALSE(r.report.ok);
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("profile '"), std::string::npos) << e.what();
+    transfer(rig, source, load_mesh(d + "Hand_Nails_L.gltf"));
+    FAIL() << "a full net was transferred onto an open mesh";
+  } catch (const EmbedError& e) {
+    EXPECT_NE(std::string(e.what()).find("Hand_Nails_L.gltf is open ("), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("curvenet starter"), std::string::npos) << e.what();
   }
+}
+
+TEST(Transfer, AFullNetIsRefusedOnAnOpenTargetSayingWhatToDo) {
+  // The tube without its top cap: the thesis's full net cannot cover it.
+  TubeSpec spec;
+  spec.triangulate = true;
+  const RawMesh closed = make_capped_tube(spec);
+  RawMesh open;
+  open.positions = closed.positions;
+  for (int f = 0; f + 1 < static_cast<int>(closed.face_offsets.size()); ++f) {
+    std::vector<int> corners(closed.face_vertices.begin() + closed.face_offsets[f],
+                             closed.face_vertices.begin() + closed.face_offsets[f + 1]);
+    if (!std::all_of(corners.begin(), corners.end(),
+                     [&](int v) { return closed.positions[v].y() >= spec.length - 1e-9; }))
+      open.add_face(corners);
+  }
+  const SurfaceMesh source = test::tube(16, 16, 4, false);
+  try {
+    transfer(make_tube_net(), source, make_surface_mesh(open, "open_tube.obj"));
+    FAIL() << "a full net was transferred onto an open mesh";
+  } catch (const EmbedError& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "the target open_tube.obj is open (it has a boundary) where the source tube is closed"),
+              std::string::npos)
+        << e.what();
+  }
+  // Onto the closed tube it goes.
+  EXPECT_TRUE(transfer(make_tube_net(), source, make_surface_mesh(closed, "tube.obj")).report.ok);
 }
 
 TEST(Transfer, SpotQuadsToTrianglesAgreeWhenPosed) {

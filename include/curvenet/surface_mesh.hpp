@@ -69,6 +69,10 @@ struct ComponentInfo {
 /// lowest face. `face_component` receives the component of each face if given.
 std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<int>* face_component = nullptr);
 
+/// Which of the mesh's parts are open, in words for a message ("it has a
+/// boundary", "2 of its 5 parts have a boundary"); empty when all are closed.
+std::string open_parts_words(const SurfaceMesh& mesh);
+
 /// Validates and welds a raw mesh.
 /// \throw InputError naming `source` and the element: a non-finite
 ///   coordinate, a face with fewer than 3 corners or a bad index, a

@@ -529,6 +529,17 @@ std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<
   return out;
 }
 
+std::string open_parts_words(const SurfaceMesh& mesh) {
+  const std::vector<ComponentInfo> parts = mesh_components(mesh);
+  const auto open = std::count_if(parts.begin(), parts.end(), [](const ComponentInfo& p) { return !p.closed; });
+  if (open == 0)
+    return {};
+  if (parts.size() == 1)
+    return "it has a boundary";
+  return std::to_string(open) + " of its " + std::to_string(parts.size()) + " parts " + (open == 1 ? "has" : "have") +
+         " a boundary";
+}
+
 namespace {
 /// make_surface_mesh, moving `raw`'s arrays out of `steal` (which is `raw`)
 /// where they are kept as they are.

@@ -248,15 +248,10 @@ StarterResult make_starter(const SurfaceMesh& mesh, const std::vector<Joint>& al
     // Full on a closed mesh; on an open one (a scan, a mesh with holes, a
     // LOD simplified part by part) a full net cannot embed, and a local
     // one deforms what the net covers.
-    const std::vector<ComponentInfo> parts = mesh_components(mesh);
-    const auto open = std::count_if(parts.begin(), parts.end(), [](const ComponentInfo& p) { return !p.closed; });
-    net_options.coverage = open == 0 ? Coverage::Full : Coverage::Local;
-    if (open > 0)
-      c.say("the mesh is open (" +
-            (parts.size() == 1
-                 ? std::string("it has a boundary")
-                 : std::to_string(open) + " of its " + std::to_string(parts.size()) + " parts have a boundary") +
-            "): the net's coverage is local, as the mesh is");
+    const std::string open = open_parts_words(mesh);
+    net_options.coverage = open.empty() ? Coverage::Full : Coverage::Local;
+    if (!open.empty())
+      c.say("the mesh is open (" + open + "): the net's coverage is local, as the mesh is");
   }
 
   // 1 to 4: rings, trunks, clearance, chains.

@@ -682,6 +682,16 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     throw InputError("target frame", "", "the matrix is singular or not finite");
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
   const Mat4 to_source = source_to_target.inverse();
+  // A full net (or an automatic one on a closed source) cannot cover an
+  // open target: said before the work, with what to do about it.
+  if (rig.coverage != Coverage::Local)
+    if (const std::string open = open_parts_words(target); !open.empty() && open_parts_words(source).empty())
+      throw EmbedError("transfer: the target " + target.source + " is open (" + open + ") where the source " +
+                       source.source +
+                       " is closed, and the rig's net covers the whole surface: close the target's holes (a LOD "
+                       "simplified part by part, as gltfpack -si does a file of several primitives, has cracks "
+                       "between the parts: simplify it as one mesh), or make the target's own net with curvenet "
+                       "starter, which gives an open mesh a local net");
 
   EmbedOptions source_embed = opt.embed, target_embed = opt.embed;
   source_embed.cage = opt.source_cage_levels > 0;
