@@ -82,6 +82,21 @@ inline SurfaceMesh tube(int around, int along, int cap_rings, bool triangulate, 
   return make_surface_mesh(raw, "tube");
 }
 
+/// The faces of a capped tube (generate/tube.hpp) without those of its
+/// top cap (every corner at y = length): an open mesh, as raw input.
+inline RawMesh without_top_cap(const RawMesh& closed, const TubeSpec& spec) {
+  RawMesh open;
+  open.positions = closed.positions;
+  for (int f = 0; f + 1 < static_cast<int>(closed.face_offsets.size()); ++f) {
+    std::vector<int> corners(closed.face_vertices.begin() + closed.face_offsets[f],
+                             closed.face_vertices.begin() + closed.face_offsets[f + 1]);
+    if (!std::all_of(corners.begin(), corners.end(),
+                     [&](int v) { return closed.positions[v].y() >= spec.length - 1e-9; }))
+      open.add_face(corners);
+  }
+  return open;
+}
+
 /// A file's bytes, as they are on disk.
 inline std::string file_bytes(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

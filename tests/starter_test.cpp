@@ -134,17 +134,7 @@ TEST(Starter, OnAnOpenMeshTheNetIsLocalAndSaysSoUnlessFullIsAsked) {
   TubeSpec spec;
   spec.triangulate = true;
   const RawMesh closed = make_capped_tube(spec);
-  RawMesh open;
-  open.positions = closed.positions;
-  for (int f = 0; f + 1 < static_cast<int>(closed.face_offsets.size()); ++f) {
-    std::vector<int> corners(closed.face_vertices.begin() + closed.face_offsets[f],
-                             closed.face_vertices.begin() + closed.face_offsets[f + 1]);
-    if (std::all_of(corners.begin(), corners.end(),
-                    [&](int v) { return closed.positions[v].y() >= spec.length - 1e-9; }))
-      continue;
-    open.add_face(corners);
-  }
-  const SurfaceMesh mesh = make_surface_mesh(open, "open_tube.obj");
+  const SurfaceMesh mesh = make_surface_mesh(test::without_top_cap(closed, spec), "open_tube.obj");
   ASSERT_FALSE(mesh_components(mesh)[0].closed);
   const std::vector<Joint> skeleton = make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7});
 
@@ -972,8 +962,8 @@ struct TubeStages {
   }
   /// Stage 5 again, over the rings and repairs as they now are.
   detail::NetResult net_over(const detail::RingsResult& found, const detail::NetRepairs& st) const {
-    return detail::build_net(c, net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); },
-                             st.join_attempt, st.path_skip);
+    return detail::build_net(
+        c, net, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt, st.path_skip);
   }
 };
 
