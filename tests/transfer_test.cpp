@@ -343,6 +343,36 @@ TEST(Transfer, GameAnimalsGoToTheirLODsExportedInOtherAxesAndUnits) {
   }
 }
 
+TEST(Transfer, ACoarseTargetWhoseThinPartCannotHoldTheCurvesIsRefusedWithWhatToDo) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // The T-rex at an eighth of its faces (226 triangles): its forearm is a
+  // few faces round, and the rings of the upper and lower arm cross
+  // however they are placed. The refusal names the target and the curves,
+  // says that placing again did not help, and what does: the target's own
+  // net, which embeds there.
+  const std::string from = test::data("quaternius/Trex.glb");
+  const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Trex_decimated_12.glb";
+  const SurfaceMesh source_mesh = load_mesh(from), target_mesh = load_mesh(to);
+  TransferOptions opt;
+  opt.alignment = Alignment::Auto;
+  opt.source_skeleton = load_skinned_mesh(from).joints;
+  opt.target_skeleton = load_skinned_mesh(to).joints;
+  try {
+    (void)transfer(test::skinned_starter(from), source_mesh, target_mesh, opt);
+    ADD_FAILURE() << "the transfer onto the 226-triangle T-rex is not refused";
+  } catch (const EmbedError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("Trex_decimated_12.glb"), std::string::npos) << what;
+    EXPECT_NE(what.find("FrontUpLeg.R_arc"), std::string::npos) << what;
+    EXPECT_NE(what.find("the curves it names still meet"), std::string::npos) << what;
+    EXPECT_NE(what.find("curvenet starter"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  const Rig own = test::skinned_starter(to);
+  EXPECT_TRUE(embed(target_mesh, own).report().ok);
+}
+
 TEST(Transfer, HandAuthoredOnceAgreesWhenPosedOnEveryTessellation) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

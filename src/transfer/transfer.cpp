@@ -736,6 +736,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
                      (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
   std::string unplaced; // the target's embedding's last refusal, when the placing gives up
+  int placings = 0;      // how many times the rig was placed
   tbb::parallel_invoke(
       [&] {
         const Embedding& src = *source_embedding;
@@ -783,6 +784,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
               }
             if (!more) {
               unplaced = what;
+              placings = attempt + 1;
               return;
             }
           }
@@ -803,8 +805,17 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       " (the surfaces lie up to " + percent(rep.shape.max / rep.shape.diagonal) + " of the diagonal apart, " +
       percent(rep.shape.mean / rep.shape.diagonal) + " on average" +
       (rep.alignment.rfind("frames (", 0) == 0 ? "; lined up by " + rep.alignment : std::string()) + ")";
-  if (!placed) // named by the target: it is where the placed rig did not embed
-    throw EmbedError((unplaced.rfind("transfer:", 0) == 0 ? unplaced : target.source + ": " + unplaced) + apart);
+  // Named by the target: it is where the placed rig did not embed. Where
+  // placing again could not keep the curves apart, what to do.
+  if (!placed && unplaced.rfind("transfer:", 0) == 0)
+    throw EmbedError(unplaced + apart);
+  if (!placed && placings <= 1)
+    throw EmbedError(target.source + ": " + unplaced + apart);
+  if (!placed)
+    throw EmbedError(target.source + ": " + unplaced + apart + "; placed " + std::to_string(placings) +
+                     " times, the curves it names still meet: the target may have too few faces there for the "
+                     "rig's curves (a thin part a few faces round); a net made on the target (curvenet starter) "
+                     "fits it, with ids of its own");
   const Embedding& src = *source_embedding;
   const Embedding& tgt = *placed;
   rep.target = tgt.report();
