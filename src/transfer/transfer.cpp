@@ -813,7 +813,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     throw EmbedError(target.source + ": " + unplaced + apart);
   if (!placed)
     throw EmbedError(target.source + ": " + unplaced + apart + "; placed " + std::to_string(placings) +
-                     " times, the curves it names still meet: the target may have too few faces there for the "
+                     " times, the curves it names still do not fit: the target may have too few faces there for the "
                      "rig's curves (a thin part a few faces round); a net made on the target (curvenet starter) "
                      "fits it, with ids of its own");
   const Embedding& src = *source_embedding;
