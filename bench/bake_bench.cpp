@@ -7,8 +7,12 @@
 //                                   and CesiumMan, against Robust Skin Weight Transfer (Abdrashitov et al. 2023)
 //                                   of the source's skin to each of them; every result posed by the same poses
 //                                   and compared with the posed source (surface distance, % of the diagonal)
+//   build/bin/bake_bench anchor     the fit without clips against its anchor, the weights-only solve of smooth
+//                                   skinning decomposition (Dem Bones'; weights_anchor.hpp), on the same
+//                                   training poses of the skeleton, measured on the clips neither saw: the hand's
+//                                   35, CesiumMan's walk and the horse's walk and gallop; fidelity, time, sparsity
 //
-// One run on one machine; no timing is reported, only distances.
+// One run on one machine; only the anchor table reports times (wall clock, all cores).
 
 #include "core/polygon.hpp"
 #include "curvenet/bake.hpp"
@@ -23,13 +27,17 @@
 #include "cut/cut_mesh.hpp"
 #include "trace/trace_mesh.hpp"
 #include "transfer_check.hpp"
+#include "weights_anchor.hpp"
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <memory>
 #include <map>
 #include <numbers>
 #include <string>
@@ -554,6 +562,250 @@ void transfer_table() {
   }
 }
 
+
+// --- The fit without clips against its anchor (issue 26) ---
+
+/// The anchor's weights on the binding's input vertices: solved once per
+/// welded vertex (duplicates of a point move alike), on the mesh's faces.
+SkinWeights anchor_skin(const Binding& b, const SurfaceMesh& mesh, const std::vector<Vec3>& rest,
+                        const std::vector<std::vector<Mat4>>& poses, const std::vector<std::vector<Vec3>>& targets,
+                        int nnz, bool grow_labels) {
+  const int nw = mesh.num_vertices();
+  std::vector<int> rep(nw, -1);
+  for (size_t i = 0; i < mesh.input_to_welded.size(); ++i)
+    if (rep[mesh.input_to_welded[i]] < 0)
+      rep[mesh.input_to_welded[i]] = static_cast<int>(i);
+  std::vector<Vec3> wrest(nw);
+  for (int v = 0; v < nw; ++v)
+    wrest[v] = rest[rep[v]];
+  std::vector<std::vector<Vec3>> wframes(targets.size(), std::vector<Vec3>(nw));
+  for (size_t f = 0; f < targets.size(); ++f)
+    for (int v = 0; v < nw; ++v)
+      wframes[f][v] = targets[f][rep[v]];
+  std::vector<std::vector<int>> faces(mesh.num_faces());
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    faces[f].assign(mesh.face(f).begin(), mesh.face(f).end());
+  bench::AnchorOptions o;
+  o.nnz = nnz;
+  o.grow_labels = grow_labels;
+  const auto w = bench::anchor_weights(wrest, faces, poses, wframes, o);
+  SkinWeights out;
+  out.influences = nnz;
+  for (const auto& j : b.joints())
+    out.joints.push_back(j.name);
+  out.joint.assign(rest.size() * nnz, -1);
+  out.weight.assign(rest.size() * nnz, 0.0);
+  for (size_t i = 0; i < rest.size(); ++i) {
+    auto inf = w[mesh.input_to_welded[i]];
+    std::sort(inf.begin(), inf.end(), [](const auto& a, const auto& c) { return a.second > c.second; });
+    for (size_t k = 0; k < inf.size() && static_cast<int>(k) < nnz; ++k) {
+      out.joint[i * nnz + k] = inf[k].first;
+      out.weight[i * nnz + k] = inf[k].second;
+    }
+  }
+  return out;
+}
+
+struct AnchorCase {
+  std::string name;
+  SurfaceMesh mesh;
+  Rig rig;
+  const SkinnedMesh* clips = nullptr;
+  std::vector<std::pair<int, double>> clip_times; ///< the frames measured
+  Mat4 normalise = Mat4::Identity();              ///< the file's armature placement, undone
+};
+
+std::vector<AnchorCase> anchor_cases(std::vector<std::unique_ptr<SkinnedMesh>>& keep) {
+  std::vector<AnchorCase> cases;
+  const std::string d = kData + "/xr_tools_hand/";
+  keep.push_back(std::make_unique<SkinnedMesh>(load_skinned_mesh(d + "hand_l_poses.glb")));
+  const SkinnedMesh* hand_clips = keep.back().get();
+  {
+    AnchorCase c;
+    c.name = "hand, example rig, 35 clips";
+    c.mesh = load_mesh(d + "hand_l.gltf");
+    c.rig = read_rig(d + "example/hand_l.cnrig.json");
+    c.clips = hand_clips;
+    for (int k = 0; k < hand_clips->num_clips(); ++k)
+      c.clip_times.emplace_back(k, hand_clips->clip_range(k).second);
+    cases.push_back(std::move(c));
+  }
+  auto skinned = [&](const std::string& name, const std::string& path, const std::vector<std::string>& clip_names,
+                     int frames_per_clip, const SkinnedMesh* clips) {
+    keep.push_back(std::make_unique<SkinnedMesh>(load_skinned_mesh(path)));
+    const SkinnedMesh& s = *keep.back();
+    AnchorCase c;
+    c.name = name;
+    c.mesh = load_mesh(path);
+    StarterOptions so;
+    so.deforming = weighted_joints(s);
+    so.skin = &s; // as `curvenet starter` does with a skinned file
+    c.rig = make_starter(c.mesh, s.joints, so).rig;
+    c.clips = clips ? clips : &s;
+    if (!clips)
+      c.normalise = s.skinning_matrices(-1, 0)[0].inverse();
+    for (const auto& n : clip_names) {
+      int clip = c.clips->find_clip(n);
+      for (int k = 0; k < c.clips->num_clips() && clip < 0; ++k) {
+        const std::string& cn = c.clips->clip_names[k];
+        const std::string tail = "|" + n;
+        if (cn.size() > tail.size() && cn.compare(cn.size() - tail.size(), tail.size(), tail) == 0)
+          clip = k;
+      }
+      if (clip < 0)
+        throw Error(path + ": no clip named " + n);
+      const auto [t0, t1] = c.clips->clip_range(clip);
+      for (int k = 0; k < frames_per_clip; ++k)
+        c.clip_times.emplace_back(clip, frames_per_clip == 1 ? t1 : t0 + (t1 - t0) * k / frames_per_clip);
+    }
+    cases.push_back(std::move(c));
+  };
+  {
+    std::vector<std::string> all;
+    for (int k = 0; k < hand_clips->num_clips(); ++k)
+      all.push_back(std::to_string(k));
+    skinned("hand, starter net, 35 clips", d + "hand_l.gltf", all, 1, hand_clips);
+  }
+  skinned("CesiumMan, starter net, walk", kData + "/cesium_man/CesiumMan.glb", {"0"}, 24, nullptr);
+  skinned("horse, starter net, walk and gallop", kData + "/quaternius/Horse.glb", {"Walk", "Gallop"}, 12, nullptr);
+  return cases;
+}
+
+/// The anchor, checked: fit to frames that the hand's own artist skin makes
+/// (4 influences, linear) over the training poses, it must play that skin's
+/// 35 clips back. False when it does not.
+bool anchor_self_check() {
+  const std::string d = kData + "/xr_tools_hand/";
+  const SkinnedMesh skin = load_skinned_mesh(d + "hand_l.gltf");
+  const SkinnedMesh clips = load_skinned_mesh(d + "hand_l_poses.glb");
+  const RawMesh raw = read_raw_mesh(d + "hand_l.gltf");
+  const SurfaceMesh mesh = load_mesh(d + "hand_l.gltf");
+  const double diag = mesh.bbox_diagonal();
+  // On the welded mesh, as the table runs it (a file's UV seams would cut the
+  // surface into islands that the labels cannot grow across).
+  std::vector<int> rep(mesh.num_vertices(), -1);
+  for (size_t i = 0; i < mesh.input_to_welded.size(); ++i)
+    if (rep[mesh.input_to_welded[i]] < 0)
+      rep[mesh.input_to_welded[i]] = static_cast<int>(i);
+  auto welded = [&](const std::vector<Vec3>& per_input) {
+    std::vector<Vec3> out(rep.size());
+    for (size_t v = 0; v < rep.size(); ++v)
+      out[v] = per_input[rep[v]];
+    return out;
+  };
+  const auto train = training_poses(skin.joints);
+  std::vector<std::vector<Vec3>> frames;
+  for (const auto& M : train)
+    frames.push_back(welded(skin_positions(skin, raw.positions, M)));
+  std::vector<std::vector<int>> faces(mesh.num_faces());
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    faces[f].assign(mesh.face(f).begin(), mesh.face(f).end());
+  bool ok = true;
+  for (const bool grow : {true, false}) {
+    bench::AnchorOptions o;
+    o.grow_labels = grow;
+    const auto w = bench::anchor_weights(mesh.positions, faces, train, frames, o);
+    Stat s;
+    for (int c = 0; c < clips.num_clips(); ++c) {
+      const auto M = clip_skinning_matrices(skin.joints, clips, c, clips.clip_range(c).second);
+      const auto truth = welded(skin_positions(skin, raw.positions, M));
+      std::vector<Vec3> p(rep.size());
+      for (size_t i = 0; i < p.size(); ++i) {
+        Eigen::Vector4d x = Eigen::Vector4d::Zero();
+        for (const auto& [j, wj] : w[i])
+          x += wj * (M[j] * mesh.positions[i].homogeneous());
+        p[i] = x.head<3>();
+      }
+      s.add(vertex_gap(p, truth));
+    }
+    std::printf("The anchor (%s), checked: fit to the hand's own artist skin (4 influences, linear) over the %zu "
+                "training poses, it plays the skin's %d clips back within %.4f%% of the diagonal on average and "
+                "%.4f%% at worst.\n",
+                grow ? "labels grown" : "labels not grown", train.size(), clips.num_clips(),
+                100 * s.mean_of() / diag, 100 * s.max / diag);
+    // Loose bounds: a wrong solve misses by whole bones (tens of per cent).
+    ok = ok && s.mean_of() / diag < 1e-3 && (grow || s.max / diag < 0.02);
+  }
+  std::printf("\n");
+  return ok;
+}
+
+void anchor_table() {
+  if (!anchor_self_check()) {
+    std::fprintf(stderr, "bake_bench: the anchor does not recover a linear skin; its table would mean nothing\n");
+    std::exit(1);
+  }
+  std::vector<std::unique_ptr<SkinnedMesh>> keep;
+  const auto cases = anchor_cases(keep);
+  std::printf("The fit without clips against its anchor: both fit to the same training poses of the skeleton "
+              "(training_poses, the defaults), measured on the clips' frames, which neither saw. Distances per "
+              "vertex against the full curvenet deformation, %% of the diagonal: mean over frames of the mean over "
+              "vertices, and the largest. Times: wall clock on all cores, the training frames' deformation "
+              "included.\n\n");
+  std::printf("| case | rig's mode | frames fitted / measured | weights | joints per vertex (mean / max) | mean | max | "
+              "time |\n|---|---|---|---|---|---|---|---|\n");
+  using Clock = std::chrono::steady_clock;
+  auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+  for (const auto& c : cases) {
+    for (const DeformMethod method : {DeformMethod::DualQuaternion, DeformMethod::Harmonic}) {
+      BindOptions bo;
+      bo.method = method;
+      const Binding b = bind(c.mesh, c.rig, bo);
+      const auto rest = rest_of(b);
+      const double diag = c.mesh.bbox_diagonal();
+      std::vector<std::vector<Mat4>> measured;
+      for (const auto& [clip, t] : c.clip_times) {
+        auto M = clip_skinning_matrices(b.joints(), *c.clips, clip, t);
+        for (auto& x : M)
+          x = c.normalise * x;
+        measured.push_back(std::move(M));
+      }
+      std::vector<std::vector<Vec3>> truth(measured.size(), std::vector<Vec3>(rest.size()));
+      for (size_t f = 0; f < measured.size(); ++f)
+        b.deform(measured[f], truth[f]);
+      const auto train = training_poses(b.joints());
+      auto row = [&](const std::string& label, const SkinWeights& w, double secs) {
+        Stat s;
+        for (size_t f = 0; f < measured.size(); ++f)
+          s.add(vertex_gap(skin_positions(w, rest, measured[f]), truth[f]));
+        int most = 0;
+        const double infl = influences(w, &most);
+        std::printf("| %s | %s | %zu / %zu | %s | %.2f / %d | %.3f%% | %.3f%% | %s |\n", c.name.c_str(),
+                    method == DeformMethod::DualQuaternion ? "dq" : "harmonic", train.size(), measured.size(),
+                    label.c_str(), infl, most, 100 * s.mean_of() / diag, 100 * s.max / diag,
+                    secs > 0 ? (std::to_string(static_cast<int>(std::lround(1000 * secs))) + " ms").c_str() : "-");
+      };
+      row("harmonic, top 4", bake_weights(b, 4), 0);
+      for (const int k : {4, 8}) {
+        auto t0 = Clock::now();
+        const SkinWeights ours = fit_weights(b, train, k);
+        auto t1 = Clock::now();
+        row("fitted (curvenet), k = " + std::to_string(k), ours, seconds(t0, t1));
+        t0 = Clock::now();
+        std::vector<Mat4> all;
+        for (const auto& p : train)
+          all.insert(all.end(), p.begin(), p.end());
+        std::vector<Vec3> flat(train.size() * rest.size());
+        b.deform_frames(all, flat);
+        std::vector<std::vector<Vec3>> targets(train.size());
+        for (size_t f = 0; f < train.size(); ++f)
+          targets[f].assign(flat.begin() + static_cast<std::ptrdiff_t>(f * rest.size()),
+                            flat.begin() + static_cast<std::ptrdiff_t>((f + 1) * rest.size()));
+        const auto t_targets = Clock::now() - t0;
+        for (const bool grow : {true, false}) {
+          t0 = Clock::now();
+          const SkinWeights anchor = anchor_skin(b, c.mesh, rest, train, targets, k, grow);
+          t1 = Clock::now() + t_targets;
+          row(std::string("anchor (Dem Bones' weights-only solve") + (grow ? "" : ", labels not grown") +
+                  "), nnz = " + std::to_string(k),
+              anchor, seconds(t0, t1));
+        }
+      }
+    }
+  }
+  std::printf("\n");
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -562,5 +814,7 @@ int main(int argc, char** argv) {
     fidelity();
   if (what == "transfer" || what == "all")
     transfer_table();
+  if (what == "anchor" || what == "all")
+    anchor_table();
   return 0;
 }
