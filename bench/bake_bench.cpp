@@ -776,6 +776,20 @@ void anchor_table() {
                     secs > 0 ? (std::to_string(static_cast<int>(std::lround(1000 * secs))) + " ms").c_str() : "-");
       };
       row("harmonic, top 4", bake_weights(b, 4), 0);
+      {
+        // The training poses before they were made moderate: each joint bent
+        // by 45 and 90 degrees and twisted by 45, every joint at once by up to
+        // 60 and 30.
+        TrainingPoses wide;
+        wide.bends = {45, 90};
+        wide.twist = 45;
+        wide.random_bend = 60;
+        wide.random_twist = 30;
+        const auto t0 = Clock::now();
+        const SkinWeights w = fit_weights(b, training_poses(b.joints(), wide), 4);
+        row("fitted (curvenet), k = 4, over wide poses (45 and 90 degrees)", w,
+            std::chrono::duration<double>(Clock::now() - t0).count());
+      }
       for (const int k : {4, 8}) {
         auto t0 = Clock::now();
         const SkinWeights ours = fit_weights(b, train, k);

@@ -2,6 +2,8 @@
 
 #include "weights_anchor.hpp"
 
+#include "core/convex_least_squares.hpp"
+
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Dense>
@@ -14,78 +16,6 @@
 #include <tuple>
 
 namespace curvenet::bench {
-
-Eigen::VectorXd convex_least_squares(const Eigen::MatrixXd& Q, const Eigen::VectorXd& c, Eigen::VectorXd x) {
-  const int n = static_cast<int>(c.size());
-  if (n == 0)
-    return x;
-  const double tol = 1e-12 * (Q.norm() + c.norm() + 1);
-  std::vector<bool> free(n);
-  for (int i = 0; i < n; ++i)
-    free[i] = x[i] > 0;
-  for (int step = 0; step < 4 * n + 8; ++step) {
-    std::vector<int> F;
-    for (int i = 0; i < n; ++i)
-      if (free[i])
-        F.push_back(i);
-    const int m = static_cast<int>(F.size());
-    // The equality-constrained minimum over the free set: [Q_FF 1; 1' 0] [z; nu] = [c_F; 1].
-    Eigen::MatrixXd K = Eigen::MatrixXd::Zero(m + 1, m + 1);
-    Eigen::VectorXd r(m + 1);
-    for (int a = 0; a < m; ++a) {
-      for (int b = 0; b < m; ++b)
-        K(a, b) = Q(F[a], F[b]);
-      K(a, m) = K(m, a) = 1;
-      r[a] = c[F[a]];
-    }
-    r[m] = 1;
-    const Eigen::VectorXd z = K.fullPivLu().solve(r);
-    bool feasible = true;
-    for (int a = 0; a < m; ++a)
-      feasible = feasible && z[a] >= 0;
-    if (feasible) {
-      x.setZero();
-      for (int a = 0; a < m; ++a)
-        x[F[a]] = z[a];
-      // The bounds' multipliers: a fixed weight whose gradient is below the
-      // free ones' would lower the objective by entering.
-      const Eigen::VectorXd g = Q * x - c;
-      double gf = 0;
-      for (int i : F)
-        gf += g[i];
-      gf /= std::max(1, m);
-      int enter = -1;
-      for (int i = 0; i < n; ++i)
-        if (!free[i] && g[i] - gf < -tol && (enter < 0 || g[i] < g[enter]))
-          enter = i;
-      if (enter < 0)
-        break;
-      free[enter] = true;
-      continue;
-    }
-    // Step towards z until the first free weight reaches zero, and fix it there.
-    double alpha = 1;
-    int block = -1;
-    for (int a = 0; a < m; ++a)
-      if (z[a] < 0) {
-        const double t = x[F[a]] / (x[F[a]] - z[a]);
-        if (t < alpha)
-          alpha = t, block = F[a];
-      }
-    for (int a = 0; a < m; ++a)
-      x[F[a]] += alpha * (z[a] - x[F[a]]);
-    if (block >= 0)
-      x[block] = 0;
-    for (int i : F)
-      if (x[i] <= 0)
-        x[i] = 0, free[i] = false;
-  }
-  x = x.cwiseMax(0.0);
-  const double s = x.sum();
-  if (s > 0)
-    x /= s;
-  return x;
-}
 
 std::vector<std::vector<std::pair<int, double>>> anchor_weights(std::span<const Vec3> rest,
                                                                const std::vector<std::vector<int>>& faces,
@@ -241,7 +171,7 @@ std::vector<std::vector<std::pair<int, double>>> anchor_weights(std::span<const 
         x /= x.sum();
       else
         x.setConstant(1.0 / k);
-      x = convex_least_squares(Q, c, x);
+      x = detail::convex_least_squares(Q, c, x);
       for (int a = 0; a < k; ++a)
         next(i, order[a]) = x[a];
     });

@@ -42,8 +42,4 @@ std::vector<std::vector<std::pair<int, double>>> anchor_weights(std::span<const 
                                                                const std::vector<std::vector<Vec3>>& frames,
                                                                const AnchorOptions& options = {});
 
-/// Minimises 1/2 x'Qx - c'x with x >= 0 and sum(x) = 1, from the feasible
-/// `x` (a primal active-set method; small dense problems).
-Eigen::VectorXd convex_least_squares(const Eigen::MatrixXd& Q, const Eigen::VectorXd& c, Eigen::VectorXd x);
-
 } // namespace curvenet::bench

@@ -1,6 +1,7 @@
 // Baked skin weights: the top-k harmonic weights, weights fitted to the full
 // deformation over sample poses, linear blend skinning with them, and CSV.
 
+#include "core/convex_least_squares.hpp"
 #include "core/dual_quaternion.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/errors.hpp"
@@ -12,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -48,55 +50,6 @@ void store(std::vector<std::pair<int, double>>& inf, int k, SkinWeights& w, int 
     w.joint[static_cast<size_t>(v) * k + i] = inf[i].first;
     w.weight[static_cast<size_t>(v) * k + i] = sum > 0 ? inf[i].second / sum : 1.0 / inf.size();
   }
-}
-
-/// Non-negative least squares, min |A x - b|, x >= 0 (Lawson and Hanson's
-/// active set method). Small dense problems: one per vertex.
-Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
-  const int n = static_cast<int>(A.cols());
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
-  std::vector<bool> passive(n, false);
-  const double tol = 1e-12 * std::max(1.0, A.norm() * b.norm());
-  for (int outer = 0; outer < 3 * n + 3; ++outer) {
-    const Eigen::VectorXd w = A.transpose() * (b - A * x);
-    int best = -1;
-    for (int j = 0; j < n; ++j)
-      if (!passive[j] && w[j] > tol && (best < 0 || w[j] > w[best]))
-        best = j;
-    if (best < 0)
-      break;
-    passive[best] = true;
-    for (int inner = 0; inner < 3 * n + 3; ++inner) {
-      std::vector<int> P;
-      for (int j = 0; j < n; ++j)
-        if (passive[j])
-          P.push_back(j);
-      Eigen::MatrixXd Ap(A.rows(), static_cast<int>(P.size()));
-      for (size_t i = 0; i < P.size(); ++i)
-        Ap.col(static_cast<int>(i)) = A.col(P[i]);
-      const Eigen::VectorXd z = Ap.colPivHouseholderQr().solve(b);
-      bool feasible = true;
-      for (int i = 0; i < z.size(); ++i)
-        feasible = feasible && z[i] > 0;
-      if (feasible) {
-        x.setZero();
-        for (size_t i = 0; i < P.size(); ++i)
-          x[P[i]] = z[static_cast<int>(i)];
-        break;
-      }
-      // Step back to the boundary of the feasible set, and drop what reaches it.
-      double alpha = 1;
-      for (size_t i = 0; i < P.size(); ++i)
-        if (z[static_cast<int>(i)] <= 0)
-          alpha = std::min(alpha, x[P[i]] / (x[P[i]] - z[static_cast<int>(i)]));
-      for (size_t i = 0; i < P.size(); ++i) {
-        x[P[i]] += alpha * (z[static_cast<int>(i)] - x[P[i]]);
-        if (x[P[i]] <= 1e-15)
-          passive[P[i]] = false, x[P[i]] = 0;
-      }
-    }
-  }
-  return x;
 }
 
 } // namespace
@@ -153,44 +106,76 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
       store(inf, max_influences, w, v);
       return;
     }
-    auto solve = [&](const std::vector<std::pair<int, double>>& cand) {
-      const int c = static_cast<int>(cand.size());
-      const int rows = 3 * static_cast<int>(poses.size()) + c + 1;
-      Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rows, c);
-      Eigen::VectorXd b = Eigen::VectorXd::Zero(rows);
-      const Eigen::Vector4d x = rest[v].homogeneous();
-      for (size_t p = 0; p < poses.size(); ++p) {
-        for (int i = 0; i < c; ++i)
-          A.block<3, 1>(3 * static_cast<int>(p), i) = (poses[p][cand[i].first] * x).head<3>();
-        b.segment<3>(3 * static_cast<int>(p)) = target[p * n + v];
-      }
-      for (int i = 0; i < c; ++i) {
-        A(3 * static_cast<int>(poses.size()) + i, i) = pull;
-        b[3 * static_cast<int>(poses.size()) + i] = pull * cand[i].second;
-      }
-      // Sum to one, strongly.
-      const double big = 1e3 * std::max(scale, 1e-300);
-      A.row(rows - 1).setConstant(big);
-      b[rows - 1] = big;
-      const Eigen::VectorXd sol = nnls(A, b);
-      std::vector<std::pair<int, double>> out;
+    // The normal equations of the least squares over the poses, with the
+    // pull towards the given weights as a ridge: 1/2 x'Gx - h'x.
+    const int c = m;
+    const int rows = 3 * static_cast<int>(poses.size());
+    Eigen::MatrixXd A(rows, c);
+    Eigen::VectorXd b(rows);
+    const Eigen::Vector4d x = rest[v].homogeneous();
+    for (size_t p = 0; p < poses.size(); ++p) {
       for (int i = 0; i < c; ++i)
-        if (sol[i] > 0)
-          out.emplace_back(cand[i].first, sol[i]);
-      return out;
-    };
-    auto fitted = solve(inf);
-    if (static_cast<int>(fitted.size()) > max_influences) {
-      // Keep the k largest, and fit those alone.
-      std::sort(fitted.begin(), fitted.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
-      fitted.resize(max_influences);
-      std::vector<std::pair<int, double>> cand;
-      for (const auto& [j, x] : fitted) {
-        const auto it = std::find_if(inf.begin(), inf.end(), [j = j](const auto& q) { return q.first == j; });
-        cand.emplace_back(j, it->second);
-      }
-      fitted = solve(cand);
+        A.block<3, 1>(3 * static_cast<int>(p), i) = (poses[p][inf[i].first] * x).head<3>();
+      b.segment<3>(3 * static_cast<int>(p)) = target[p * n + v];
     }
+    Eigen::MatrixXd G = A.transpose() * A;
+    Eigen::VectorXd h = A.transpose() * b;
+    Eigen::VectorXd start(c);
+    for (int i = 0; i < c; ++i) {
+      G(i, i) += pull * pull;
+      h[i] += pull * pull * inf[i].second;
+      start[i] = std::max(0.0, inf[i].second);
+    }
+    // The weights on a subset of the joints (indices into inf), from a start.
+    auto solve = [&](const std::vector<int>& S, const Eigen::VectorXd& from) {
+      const int s = static_cast<int>(S.size());
+      Eigen::MatrixXd Gs(s, s);
+      Eigen::VectorXd hs(s), xs(s);
+      for (int a = 0; a < s; ++a) {
+        for (int q = 0; q < s; ++q)
+          Gs(a, q) = G(S[a], S[q]);
+        hs[a] = h[S[a]];
+        xs[a] = from[S[a]];
+      }
+      xs = detail::convex_least_squares(Gs, hs, xs);
+      Eigen::VectorXd full = Eigen::VectorXd::Zero(c);
+      for (int a = 0; a < s; ++a)
+        full[S[a]] = xs[a];
+      return std::pair{full, detail::quadratic_objective(Gs, hs, xs)};
+    };
+    auto support = [&](const Eigen::VectorXd& y) {
+      std::vector<int> S;
+      for (int i = 0; i < c; ++i)
+        if (y[i] > 0)
+          S.push_back(i);
+      return S;
+    };
+    std::vector<int> all(c);
+    std::iota(all.begin(), all.end(), 0);
+    Eigen::VectorXd sol = solve(all, start).first;
+    // Too many joints: refit on the k largest of the fit, and on the k
+    // largest given weights, and keep whichever follows the rig closer over
+    // the poses. A cut of the fit alone can drop one side of a blend that
+    // the rig keeps (one of two legs at the rump); choosing the subset with
+    // the least residual (dropping joints one at a time) fitted the poses
+    // closer but played unseen clips worse (docs/bake.md).
+    if (static_cast<int>(support(sol).size()) > max_influences) {
+      auto largest = [&](const Eigen::VectorXd& by) {
+        std::vector<int> order = all;
+        std::stable_sort(order.begin(), order.end(), [&](int a, int q) { return by[a] > by[q]; });
+        order.resize(max_influences);
+        return order;
+      };
+      auto by_fit = solve(largest(sol), start);
+      const auto by_given = solve(largest(start), start);
+      if (by_given.second < by_fit.second)
+        by_fit = by_given;
+      sol = std::move(by_fit.first);
+    }
+    std::vector<std::pair<int, double>> fitted;
+    for (int i = 0; i < c; ++i)
+      if (sol[i] > 0)
+        fitted.emplace_back(inf[i].first, sol[i]);
     if (fitted.empty())
       fitted = inf;
     store(fitted, max_influences, w, v);

@@ -1,0 +1,136 @@
+// Least squares over the simplex (core/convex_least_squares.hpp): the
+// minimum of 1/2 x'Gx - h'x with x >= 0 and sum(x) = 1, checked against the
+// best of every face of the simplex, solved on its own.
+
+#include "core/convex_least_squares.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <random>
+#include <vector>
+
+using namespace curvenet;
+using detail::convex_least_squares;
+using detail::quadratic_objective;
+
+namespace {
+
+/// The true minimum by brute force: on every subset of the weights, the
+/// minimum of the plane sum = 1 restricted to it; the least of those that are
+/// non-negative.
+double brute_force_minimum(const Eigen::MatrixXd& G, const Eigen::VectorXd& h) {
+  const int n = static_cast<int>(h.size());
+  double best = std::numeric_limits<double>::infinity();
+  for (int mask = 1; mask < (1 << n); ++mask) {
+    std::vector<int> S;
+    for (int i = 0; i < n; ++i)
+      if (mask & (1 << i))
+        S.push_back(i);
+    const int m = static_cast<int>(S.size());
+    Eigen::MatrixXd K = Eigen::MatrixXd::Zero(m + 1, m + 1);
+    Eigen::VectorXd r(m + 1);
+    for (int a = 0; a < m; ++a) {
+      for (int b = 0; b < m; ++b)
+        K(a, b) = G(S[a], S[b]);
+      K(a, m) = K(m, a) = 1;
+      r[a] = h[S[a]];
+    }
+    r[m] = 1;
+    const Eigen::VectorXd z = K.fullPivLu().solve(r);
+    if (z.head(m).minCoeff() < 0)
+      continue;
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+    for (int a = 0; a < m; ++a)
+      x[S[a]] = z[a];
+    best = std::min(best, quadratic_objective(G, h, x));
+  }
+  return best;
+}
+
+/// Normal equations of a random least squares, as a vertex's fit makes them:
+/// columns that are nearly alike (joints that move together), and a ridge.
+std::pair<Eigen::MatrixXd, Eigen::VectorXd> random_problem(std::mt19937& rng, int n) {
+  std::normal_distribution<double> g;
+  const int rows = 3 * 12;
+  Eigen::MatrixXd A(rows, n);
+  Eigen::VectorXd common(rows), b(rows);
+  for (int r = 0; r < rows; ++r)
+    common[r] = g(rng);
+  for (int c = 0; c < n; ++c)
+    for (int r = 0; r < rows; ++r)
+      A(r, c) = common[r] + 0.3 * g(rng);
+  for (int r = 0; r < rows; ++r)
+    b[r] = common[r] + 0.5 * g(rng);
+  return {A.transpose() * A + 1e-6 * Eigen::MatrixXd::Identity(n, n), A.transpose() * b};
+}
+
+void expect_on_simplex(const Eigen::VectorXd& x) {
+  EXPECT_GE(x.minCoeff(), 0);
+  EXPECT_NEAR(x.sum(), 1, 1e-12);
+}
+
+} // namespace
+
+TEST(ConvexLeastSquares, FindsTheBestOfEveryFaceOfTheSimplexFromAnyStart) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = 1 + trial % 8;
+    const auto [G, h] = random_problem(rng, n);
+    const double best = brute_force_minimum(G, h);
+    // From the centre, from one corner, and from a random point.
+    std::vector<Eigen::VectorXd> starts{Eigen::VectorXd::Constant(n, 1.0 / n), Eigen::VectorXd::Unit(n, n - 1),
+                                        Eigen::VectorXd::Random(n).cwiseAbs()};
+    for (const auto& start : starts) {
+      const Eigen::VectorXd x = convex_least_squares(G, h, start);
+      expect_on_simplex(x);
+      EXPECT_NEAR(quadratic_objective(G, h, x), best, 1e-9 * (1 + std::abs(best))) << "trial " << trial;
+    }
+  }
+}
+
+TEST(ConvexLeastSquares, TheFreeWeightsShareOneGradientAndNoFixedWeightWouldLowerIt) {
+  // The optimality conditions: on the weights above zero the gradient is one
+  // value (the multiplier of the sum), and at the weights held at zero it is
+  // no lower.
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 100; ++trial) {
+    const int n = 2 + trial % 7;
+    const auto [G, h] = random_problem(rng, n);
+    const Eigen::VectorXd x = convex_least_squares(G, h, Eigen::VectorXd::Constant(n, 1.0 / n));
+    const Eigen::VectorXd grad = G * x - h;
+    double level = 0;
+    int free = 0;
+    for (int i = 0; i < n; ++i)
+      if (x[i] > 0)
+        level += grad[i], ++free;
+    ASSERT_GT(free, 0);
+    level /= free;
+    const double scale = G.cwiseAbs().maxCoeff() + h.cwiseAbs().maxCoeff();
+    for (int i = 0; i < n; ++i) {
+      if (x[i] > 0)
+        EXPECT_NEAR(grad[i], level, 1e-9 * scale);
+      else
+        EXPECT_GE(grad[i], level - 1e-9 * scale);
+    }
+  }
+}
+
+TEST(ConvexLeastSquares, AnInteriorMinimumIsTheMinimumOnThePlaneAndACornerIsExact) {
+  // |x - p|^2 / 2 with p inside the simplex: x = p.
+  const Eigen::Vector3d p(0.2, 0.5, 0.3);
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(3, 3);
+  const Eigen::VectorXd x = convex_least_squares(I, p, Eigen::VectorXd::Unit(3, 0));
+  EXPECT_LT((x - p).norm(), 1e-14);
+  // p beyond a corner: the corner itself.
+  const Eigen::Vector3d far(5, -1, -2);
+  EXPECT_LT((convex_least_squares(I, far, Eigen::VectorXd::Constant(3, 1.0 / 3)) - Eigen::Vector3d(1, 0, 0)).norm(),
+            1e-14);
+  // One weight: it is 1.
+  EXPECT_EQ(convex_least_squares(Eigen::MatrixXd::Constant(1, 1, 2.0), Eigen::VectorXd::Constant(1, -3.0),
+                                 Eigen::VectorXd::Constant(1, 1.0))[0],
+            1.0);
+  // A start that is not on the simplex (all zero) is taken from its centre.
+  expect_on_simplex(convex_least_squares(I, p, Eigen::VectorXd::Zero(3)));
+}
