@@ -10,7 +10,8 @@
 //   build/bin/bake_bench anchor     the fit without clips against its anchor, the weights-only solve of smooth
 //                                   skinning decomposition (Dem Bones'; weights_anchor.hpp), on the same
 //                                   training poses of the skeleton, measured on the clips neither saw: the hand's
-//                                   35, CesiumMan's walk and the horse's walk and gallop; fidelity, time, sparsity
+//                                   35, CesiumMan's walk and the four animals' walks, gallops and runs; fidelity,
+//                                   time, sparsity
 //   build/bin/bake_bench speed      `curvenet bake --weights fitted` as a process, on all cores and on one
 //                                   (taskset), on characters of 1.5k to 9k vertices; medians of 5
 //
@@ -650,11 +651,12 @@ std::vector<AnchorCase> anchor_cases(std::vector<std::unique_ptr<SkinnedMesh>>& 
       c.normalise = s.skinning_matrices(-1, 0)[0].inverse();
     for (const auto& n : clip_names) {
       int clip = c.clips->find_clip(n);
+      // By the name after an armature's prefix ("AnimalArmature|Walk", "Armature|TRex_Walk").
       for (int k = 0; k < c.clips->num_clips() && clip < 0; ++k) {
         const std::string& cn = c.clips->clip_names[k];
-        const std::string tail = "|" + n;
-        if (cn.size() > tail.size() && cn.compare(cn.size() - tail.size(), tail.size(), tail) == 0)
-          clip = k;
+        for (const std::string tail : {"|" + n, "_" + n})
+          if (cn.size() > tail.size() && cn.compare(cn.size() - tail.size(), tail.size(), tail) == 0)
+            clip = k;
       }
       if (clip < 0)
         throw Error(path + ": no clip named " + n);
@@ -672,6 +674,9 @@ std::vector<AnchorCase> anchor_cases(std::vector<std::unique_ptr<SkinnedMesh>>& 
   }
   skinned("CesiumMan, starter net, walk", kData + "/cesium_man/CesiumMan.glb", {"0"}, 24, nullptr);
   skinned("horse, starter net, walk and gallop", kData + "/quaternius/Horse.glb", {"Walk", "Gallop"}, 12, nullptr);
+  skinned("wolf, starter net, walk and gallop", kData + "/quaternius/Wolf.glb", {"Walk", "Gallop"}, 12, nullptr);
+  skinned("T-rex, starter net, walk and run", kData + "/quaternius/Trex.glb", {"Walk", "Run"}, 12, nullptr);
+  skinned("Apatosaurus, starter net, walk", kData + "/quaternius/Apatosaurus.glb", {"Walk"}, 24, nullptr);
   return cases;
 }
 
