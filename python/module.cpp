@@ -1341,6 +1341,34 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("binding"), py::arg("poses"), py::arg("max_influences") = 4);
   m.def(
+      "training_poses",
+      [](const PyBinding& b, const std::vector<double>& bends, double twist, int random_poses, double random_bend,
+         double random_twist, unsigned seed) {
+        TrainingPoses o;
+        o.bends = bends;
+        o.twist = twist;
+        if (random_poses < 0)
+          throw py::value_error("random_poses: must not be negative");
+        o.random_poses = random_poses;
+        o.random_bend = random_bend;
+        o.random_twist = random_twist;
+        o.seed = seed;
+        const auto poses = training_poses(b.binding.joints(), o);
+        const size_t nj = b.binding.joints().size();
+        py::array_t<double> a({static_cast<py::ssize_t>(poses.size()), static_cast<py::ssize_t>(nj), py::ssize_t{4},
+                               py::ssize_t{4}});
+        auto r = a.mutable_unchecked<4>();
+        for (size_t p = 0; p < poses.size(); ++p)
+          for (size_t j = 0; j < nj; ++j)
+            for (int i = 0; i < 4; ++i)
+              for (int k = 0; k < 4; ++k)
+                r(p, j, i, k) = poses[p][j](i, k);
+        return a;
+      },
+      py::arg("binding"), py::arg("bends") = std::vector<double>{10, 20}, py::arg("twist") = 10.0,
+      py::arg("random_poses") = 48, py::arg("random_bend") = 15.0, py::arg("random_twist") = 10.0,
+      py::arg("seed") = 1u);
+  m.def(
       "skin_positions",
       [](const SkinWeights& w, const py::object& rest,
          const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning) {

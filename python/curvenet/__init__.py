@@ -58,6 +58,7 @@ from ._curvenet import (  # noqa: F401
     skin_positions,
     skinned_glb,
     skinning_matrices,
+    training_poses,
     split_profile,
     starter,
     subdivide,

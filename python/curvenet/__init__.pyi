@@ -552,6 +552,20 @@ def fit_weights(binding: Binding, poses: npt.ArrayLike, max_influences: int = 4)
     """Weights fitted to the binding's own deformation over poses (P, J, 4, 4): least squares per vertex,
     non-negative, summing to 1, on the joints that bound the vertex's region."""
 
+def training_poses(
+    binding: Binding,
+    bends: Sequence[float] = [10.0, 20.0],
+    twist: float = 10.0,
+    random_poses: int = 48,
+    random_bend: float = 15.0,
+    random_twist: float = 10.0,
+    seed: int = 1,
+) -> FloatArray:
+    """Poses of the binding's skeleton alone, (P, J, 4, 4) skinning matrices, for fit_weights without clips:
+    each joint bent alone by `bends` degrees both ways about both axes across its bone and twisted both ways by
+    `twist`, then `random_poses` poses of every joint at once (up to `random_bend` and `random_twist` degrees,
+    from `seed`). What `curvenet bake --weights fitted` fits over."""
+
 def skin_positions(weights: SkinWeights, rest: npt.ArrayLike, skinning: npt.ArrayLike) -> FloatArray:
     """Linear blend skinning: rest (n, 3) moved by skinning (J, 4, 4) with the weights."""
 

@@ -573,6 +573,26 @@ def test_fitted_weights_over_poses():
 
 
 @needs_data
+def test_weights_fitted_over_the_skeletons_own_poses_are_exactly_the_clis(tmp_path):
+    # `curvenet bake --weights fitted` fits over training_poses: the same poses
+    # from Python give the same weights, to the digit.
+    csv = tmp_path / "fitted.csv"
+    cli("bake", hand(), example("hand_l.cnrig.json"), "-o", str(tmp_path / "fitted.glb"), "--weights", "fitted",
+        "--weights-csv", str(csv))
+    b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
+    poses = curvenet.training_poses(b)
+    J = len(b.joints)
+    assert poses.shape == (J * (2 * 2 * 2 + 2) + 48, J, 4, 4)
+    R = poses[..., :3, :3]
+    np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-12)
+    assert curvenet.weights_csv(curvenet.fit_weights(b, poses, 4)) == csv.read_text()
+    # The options shape the poses: no bends and no random poses leave the two twists of each joint.
+    assert curvenet.training_poses(b, bends=[], random_poses=0).shape == (2 * J, J, 4, 4)
+    with pytest.raises(ValueError):
+        curvenet.training_poses(b, random_poses=-1)
+
+
+@needs_data
 def test_the_gradient_mode_gives_exactly_the_clis_output(tmp_path):
     out = tmp_path / "fist_gradient.obj"
     cli("pose", example("hand_l_welded.obj"), example("hand_l.cnrig.json"), example("fist.pose.json"),
