@@ -1084,18 +1084,23 @@ def live_objects():
             if o.type == "MESH" and o.get(DEFORMATION_KEY) in ("live", "layer") and has_rig(o)]
 
 
-def bake_vertex_groups(obj, arm, max_influences=4):
+def bake_vertex_groups(obj, arm, max_influences=4, fitted=False):
     """Bakes the binding to an ordinary skin: the top-k weights of each
-    vertex as vertex groups named after the bones, and an Armature modifier
-    on the armature, which becomes the one deformation ('groups'): the mesh
-    then plays with stock Blender, without the add-on. Returns the
+    vertex (or, `fitted`, weights fitted to the net's own deformation over
+    poses of the skeleton, as `curvenet bake --weights fitted` fits them) as
+    vertex groups named after the bones, and an Armature modifier on the
+    armature, which becomes the one deformation ('groups'): the mesh then
+    plays with stock Blender, without the add-on. Returns the
     curvenet.SkinWeights."""
     if bound_armature(obj) != arm:
         obj[ARMATURE_KEY] = arm
     binding = ensure_binding(obj)
     if binding is None:
         raise Refused("Bind %s to an armature first." % obj.name)
-    w = curvenet.bake_weights(binding, max_influences)
+    if fitted:
+        w = curvenet.fit_weights(binding, curvenet.training_poses(binding), max_influences)
+    else:
+        w = curvenet.bake_weights(binding, max_influences)
     # Groups named after bones deform with them: those of another skin go.
     bones = {b.name for b in arm.data.bones}
     for vg in list(obj.vertex_groups):

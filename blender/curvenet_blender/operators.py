@@ -524,6 +524,12 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     max_influences: IntProperty(name="Influences", default=4, min=1, max=8)
+    weights: EnumProperty(
+        name="Weights",
+        items=(("HARMONIC", "Harmonic", "Each vertex's largest harmonic weights: the net's own blend"),
+               ("FITTED", "Fitted", "Fitted to the net's deformation over poses of the skeleton "
+                                    "(curvenet bake --weights fitted): closer for a harmonic rig")),
+        default="HARMONIC")
 
     def execute(self, context):
         obj = _mesh(context)
@@ -531,7 +537,8 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
         if arm is None:
             self.report({"ERROR"}, "Select an armature (or set one in the panel)")
             return {"CANCELLED"}
-        ok, w = _attempt(self, context, "Bake to vertex groups", lambda: core.bake_vertex_groups(obj, arm, self.max_influences))
+        ok, w = _attempt(self, context, "Bake to vertex groups",
+                         lambda: core.bake_vertex_groups(obj, arm, self.max_influences, self.weights == "FITTED"))
         if not ok:
             return {"CANCELLED"}
         used = int((w.joint >= 0).sum())

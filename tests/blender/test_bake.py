@@ -99,6 +99,20 @@ again = curvenet.read_rig(back)
 t.check(max(np.abs(a.position - b.position).max() for a, b in zip(again.nodes, rig_file.nodes)) < 1e-12,
         "and it comes back as the file was")
 t.check(bpy.ops.curvenet.bind() == {"FINISHED"}, "bound")
+# Fitted weights first: the groups are the Python module's fit over the skeleton's own poses.
+t.check(bpy.ops.curvenet.bake_vertex_groups(max_influences=4, weights="FITTED") == {"FINISHED"},
+        bpy.context.scene.curvenet.status)
+binding = core.ensure_binding(obj)
+fit = curvenet.fit_weights(binding, curvenet.training_poses(binding), 4)
+group_weight = {}
+for v in obj.data.vertices:
+    for g in v.groups:
+        group_weight[(v.index, obj.vertex_groups[g.group].name)] = g.weight
+want_fit = {(v, fit.joints[int(fit.joint[v, i])]): float(fit.weight[v, i])
+            for v in range(fit.num_vertices) for i in range(fit.influences) if fit.joint[v, i] >= 0}
+t.check(group_weight.keys() == want_fit.keys()
+        and max(abs(group_weight[k] - want_fit[k]) for k in want_fit) < 1e-6,
+        "Bake to Vertex Groups, fitted: the groups are fit_weights over training_poses")
 t.check(bpy.ops.curvenet.bake_vertex_groups(max_influences=4) == {"FINISHED"}, bpy.context.scene.curvenet.status)
 t.check(obj.data.shape_keys is None or obj.data.shape_keys.key_blocks.get(core.SHAPE_KEY) is None,
         "live deformation is off")
