@@ -12,10 +12,10 @@
 //                                   training poses of the skeleton, measured on the clips neither saw: the hand's
 //                                   35, CesiumMan's walk and the four animals' walks, gallops and runs; fidelity,
 //                                   time, sparsity
-//   build/bin/bake_bench speed      `curvenet bake --weights fitted` as a process, on all cores and on one
-//                                   (taskset), on characters of 1.5k to 9k vertices; medians of 5
+//   build/bin/bake_bench speed      `curvenet bake` (harmonic and fitted) as a process, on all cores and on
+//                                   one (taskset), on characters of 1.8k to 9k vertices; medians of 5
 //
-// One run on one machine; only the anchor table reports times (wall clock, all cores).
+// One run on one machine; the anchor and speed tables report times (wall clock).
 
 #include "core/polygon.hpp"
 #include "curvenet/bake.hpp"
@@ -46,6 +46,7 @@
 #include <map>
 #include <numbers>
 #include <string>
+#include <thread>
 #include <vector>
 
 using namespace curvenet;
@@ -836,8 +837,10 @@ double process_ms(const std::string& command, int reps = 5) {
   std::vector<double> ms;
   for (int r = 0; r < reps; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (std::system((command + " > /dev/null 2>&1").c_str()) != 0)
-      std::fprintf(stderr, "bake_bench: failed: %s\n", command.c_str());
+    if (std::system((command + " > /dev/null 2>&1").c_str()) != 0) {
+      std::fprintf(stderr, "bake_bench: failed, so its time would mean nothing: %s\n", command.c_str());
+      std::exit(1);
+    }
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   std::sort(ms.begin(), ms.end());
@@ -891,8 +894,9 @@ void speed_table() {
                      m.num_faces()});
   }
   std::printf("`curvenet bake MESH RIG -o OUT.glb --weights WEIGHTS --clip CLIPS` as a process (bind, fit, the "
-              "GLB and the fidelity report over every clip), medians of 5; all cores (2 here), and one "
-              "(taskset -c 0)\n\n| mesh | vertices of the file | faces | weights | all cores | one core |\n|---|---|---|---|---|---|\n");
+              "GLB and the fidelity report over every clip), medians of 5; all cores (%u here), and one "
+              "(taskset -c 0)\n\n| mesh | vertices of the file | faces | weights | all cores | one core |\n|---|---|---|---|---|---|\n",
+              std::thread::hardware_concurrency());
   const std::string cli = CURVENET_CLI;
   for (const auto& c : cases)
     for (const char* weights : {"harmonic", "fitted"}) {

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <queue>
 #include <tuple>
@@ -53,7 +54,7 @@ std::vector<std::vector<std::pair<int, double>>> anchor_weights(std::span<const 
     }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  const double eps = length_sum * 1e-15;
+  const double eps = std::max(length_sum * 1e-15, std::numeric_limits<double>::min());
   std::vector<std::vector<int>> neighbours(nv);
   std::vector<Eigen::Triplet<double>> trip;
   Eigen::VectorXd degree = Eigen::VectorXd::Zero(nv);
@@ -129,7 +130,8 @@ std::vector<std::vector<std::pair<int, double>>> anchor_weights(std::span<const 
   double spread = 0;
   for (const Vec3& p : rest)
     spread += (p - centroid).squaredNorm();
-  const double reg = spread / nv * nf; // the model's size squared, times the frames
+  // The model's size squared, times the frames (not zero for a mesh of one point).
+  const double reg = std::max(spread / nv * nf, std::numeric_limits<double>::min());
   for (int it = 0; it < options.iterations; ++it) {
     Eigen::MatrixXd Ws(nv, nb);
     for (int j = 0; j < nb; ++j)

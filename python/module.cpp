@@ -1344,11 +1344,11 @@ PYBIND11_MODULE(_curvenet, m) {
       "training_poses",
       [](const PyBinding& b, const std::vector<double>& bends, double twist, int random_poses, double random_bend,
          double random_twist, unsigned seed) {
+        if (random_poses < 0)
+          throw py::value_error("random_poses: must not be negative");
         TrainingPoses o;
         o.bends = bends;
         o.twist = twist;
-        if (random_poses < 0)
-          throw py::value_error("random_poses: must not be negative");
         o.random_poses = random_poses;
         o.random_bend = random_bend;
         o.random_twist = random_twist;
@@ -1365,9 +1365,10 @@ PYBIND11_MODULE(_curvenet, m) {
                 r(p, j, i, k) = poses[p][j](i, k);
         return a;
       },
-      py::arg("binding"), py::arg("bends") = std::vector<double>{10, 20}, py::arg("twist") = 10.0,
-      py::arg("random_poses") = 48, py::arg("random_bend") = 15.0, py::arg("random_twist") = 10.0,
-      py::arg("seed") = 1u);
+      // The defaults are the library's (the stub's are checked against these).
+      py::arg("binding"), py::arg("bends") = TrainingPoses{}.bends, py::arg("twist") = TrainingPoses{}.twist,
+      py::arg("random_poses") = TrainingPoses{}.random_poses, py::arg("random_bend") = TrainingPoses{}.random_bend,
+      py::arg("random_twist") = TrainingPoses{}.random_twist, py::arg("seed") = TrainingPoses{}.seed);
   m.def(
       "skin_positions",
       [](const SkinWeights& w, const py::object& rest,

@@ -287,6 +287,15 @@ TEST(Bake, TrainingPosesBendAndTwistEachJointAboutItsRestPositionThenAllAtOnce) 
   Joint bad = joints[0];
   bad.bind(0, 0) = std::nan("");
   EXPECT_THROW(training_poses({bad}), InputError);
+  TrainingPoses odd;
+  odd.bends = {10, std::nan("")};
+  EXPECT_THROW(training_poses(joints, odd), InputError);
+  odd = {};
+  odd.random_twist = INFINITY;
+  EXPECT_THROW(training_poses(joints, odd), InputError);
+  odd = {};
+  odd.random_poses = -1;
+  EXPECT_THROW(training_poses(joints, odd), InputError);
 }
 
 namespace {

@@ -8,6 +8,7 @@
 
 #include <Eigen/Dense>
 
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -79,7 +80,8 @@ TEST(ConvexLeastSquares, FindsTheBestOfEveryFaceOfTheSimplexFromAnyStart) {
     const int n = 1 + trial % 8;
     const auto [G, h] = random_problem(rng, n);
     const double best = brute_force_minimum(G, h);
-    // From the centre, from one corner, and from a random point.
+    // From the centre, from one corner, and from a random point (Eigen's
+    // Random draws from std::rand: the same points every run).
     std::vector<Eigen::VectorXd> starts{Eigen::VectorXd::Constant(n, 1.0 / n), Eigen::VectorXd::Unit(n, n - 1),
                                         Eigen::VectorXd::Random(n).cwiseAbs()};
     for (const auto& start : starts) {

@@ -526,9 +526,9 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
     max_influences: IntProperty(name="Influences", default=4, min=1, max=8)
     weights: EnumProperty(
         name="Weights",
-        items=(("HARMONIC", "Harmonic", "Each vertex's largest harmonic weights: the net's own blend"),
-               ("FITTED", "Fitted", "Fitted to the net's deformation over poses of the skeleton "
-                                    "(curvenet bake --weights fitted): closer for a harmonic rig")),
+        items=(("HARMONIC", "Harmonic", "Each vertex's largest weights of the net's own blend"),
+               ("FITTED", "Fitted", "Weights fitted to follow the net's deformation as each bone bends and twists: "
+                                    "closer than Harmonic when the bind Mode is Harmonic, about the same with DQ")),
         default="HARMONIC")
 
     def execute(self, context):
@@ -542,8 +542,8 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
         if not ok:
             return {"CANCELLED"}
         used = int((w.joint >= 0).sum())
-        return _done(self, context, "Vertex groups: %d vertices, %.2f joints each; playing: %s" % (
-            w.num_vertices, used / max(1, w.num_vertices), core.describe_deformation(obj)))
+        return _done(self, context, "Vertex groups (%s weights): %d vertices, %.2f joints each; playing: %s" % (
+            self.weights.lower(), w.num_vertices, used / max(1, w.num_vertices), core.describe_deformation(obj)))
 
 
 class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):

@@ -67,7 +67,8 @@ struct TrainingPoses {
 /// matrices (one per joint, the order of `joints`, mesh space) of each joint
 /// bent and twisted on its own, then of random poses of every joint at once.
 /// A joint's bone runs to the mean of its children (a leaf continues its
-/// parent's). 	hrow InputError for a non-finite bind matrix.
+/// parent's). \throw InputError for a non-finite bind matrix, a non-finite
+/// angle or a negative count.
 std::vector<std::vector<Mat4>> training_poses(const std::vector<Joint>& joints, const TrainingPoses& options = {});
 
 /// Skinning with these weights: `rest` (one position per input vertex) moved

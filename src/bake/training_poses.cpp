@@ -85,6 +85,13 @@ std::vector<std::vector<Mat4>> training_poses(const std::vector<Joint>& joints, 
   for (size_t j = 0; j < joints.size(); ++j)
     if (!joints[j].bind.allFinite())
       throw InputError("skeleton", joints[j].name, "has a non-finite bind matrix");
+  for (const double bend : options.bends)
+    if (!std::isfinite(bend))
+      throw InputError("training poses", "bends", "must be finite angles");
+  if (!std::isfinite(options.twist) || !std::isfinite(options.random_bend) || !std::isfinite(options.random_twist))
+    throw InputError("training poses", "twist", "the twist and the random angles must be finite");
+  if (options.random_poses < 0)
+    throw InputError("training poses", "random_poses", "must not be negative");
   const std::vector<Frame> f = joint_frames(joints);
   const size_t nj = joints.size();
   std::vector<std::vector<Mat4>> poses;

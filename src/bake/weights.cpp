@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
-#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -154,8 +153,8 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
     std::iota(all.begin(), all.end(), 0);
     Eigen::VectorXd sol = solve(all, start).first;
     // Too many joints: refit on the k largest of the fit, and on the k
-    // largest given weights, and keep whichever follows the rig closer over
-    // the poses. A cut of the fit alone can drop one side of a blend that
+    // largest given weights, and keep whichever has the smaller objective
+    // (the residual over the poses, plus the small pull). A cut of the fit alone can drop one side of a blend that
     // the rig keeps (one of two legs at the rump); choosing the subset with
     // the least residual (dropping joints one at a time) fitted the poses
     // closer but played unseen clips worse (docs/bake.md).

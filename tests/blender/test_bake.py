@@ -110,6 +110,8 @@ for v in obj.data.vertices:
         group_weight[(v.index, obj.vertex_groups[g.group].name)] = g.weight
 want_fit = {(v, fit.joints[int(fit.joint[v, i])]): float(fit.weight[v, i])
             for v in range(fit.num_vertices) for i in range(fit.influences) if fit.joint[v, i] >= 0}
+t.check(bpy.context.scene.curvenet.status.startswith("Vertex groups (fitted weights)"),
+        "the status names the weights baked: " + bpy.context.scene.curvenet.status)
 t.check(group_weight.keys() == want_fit.keys()
         and max(abs(group_weight[k] - want_fit[k]) for k in want_fit) < 1e-6,
         "Bake to Vertex Groups, fitted: the groups are fit_weights over training_poses")
