@@ -571,30 +571,27 @@ void transfer_table() {
 
 // --- The fit without clips against its anchor (issue 26) ---
 
+/// The mesh's faces as lists of welded vertices.
+std::vector<std::vector<int>> face_lists(const SurfaceMesh& mesh) {
+  std::vector<std::vector<int>> faces(mesh.num_faces());
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    faces[f].assign(mesh.face(f).begin(), mesh.face(f).end());
+  return faces;
+}
+
 /// The anchor's weights on the binding's input vertices: solved once per
 /// welded vertex (duplicates of a point move alike), on the mesh's faces.
 SkinWeights anchor_skin(const Binding& b, const SurfaceMesh& mesh, const std::vector<Vec3>& rest,
                         const std::vector<std::vector<Mat4>>& poses, const std::vector<std::vector<Vec3>>& targets,
                         int nnz, bool grow_labels) {
-  const int nw = mesh.num_vertices();
-  std::vector<int> rep(nw, -1);
-  for (size_t i = 0; i < mesh.input_to_welded.size(); ++i)
-    if (rep[mesh.input_to_welded[i]] < 0)
-      rep[mesh.input_to_welded[i]] = static_cast<int>(i);
-  std::vector<Vec3> wrest(nw);
-  for (int v = 0; v < nw; ++v)
-    wrest[v] = rest[rep[v]];
-  std::vector<std::vector<Vec3>> wframes(targets.size(), std::vector<Vec3>(nw));
-  for (size_t f = 0; f < targets.size(); ++f)
-    for (int v = 0; v < nw; ++v)
-      wframes[f][v] = targets[f][rep[v]];
-  std::vector<std::vector<int>> faces(mesh.num_faces());
-  for (int f = 0; f < mesh.num_faces(); ++f)
-    faces[f].assign(mesh.face(f).begin(), mesh.face(f).end());
+  const std::vector<Vec3> wrest = mesh.welded(rest);
+  std::vector<std::vector<Vec3>> wframes;
+  for (const auto& t : targets)
+    wframes.push_back(mesh.welded(t));
   bench::AnchorOptions o;
   o.nnz = nnz;
   o.grow_labels = grow_labels;
-  const auto w = bench::anchor_weights(wrest, faces, poses, wframes, o);
+  const auto w = bench::anchor_weights(wrest, face_lists(mesh), poses, wframes, o);
   SkinWeights out;
   out.influences = nnz;
   for (const auto& j : b.joints())
@@ -693,23 +690,11 @@ bool anchor_self_check() {
   const double diag = mesh.bbox_diagonal();
   // On the welded mesh, as the table runs it (a file's UV seams would cut the
   // surface into islands that the labels cannot grow across).
-  std::vector<int> rep(mesh.num_vertices(), -1);
-  for (size_t i = 0; i < mesh.input_to_welded.size(); ++i)
-    if (rep[mesh.input_to_welded[i]] < 0)
-      rep[mesh.input_to_welded[i]] = static_cast<int>(i);
-  auto welded = [&](const std::vector<Vec3>& per_input) {
-    std::vector<Vec3> out(rep.size());
-    for (size_t v = 0; v < rep.size(); ++v)
-      out[v] = per_input[rep[v]];
-    return out;
-  };
   const auto train = training_poses(skin.joints);
   std::vector<std::vector<Vec3>> frames;
   for (const auto& M : train)
-    frames.push_back(welded(skin_positions(skin, raw.positions, M)));
-  std::vector<std::vector<int>> faces(mesh.num_faces());
-  for (int f = 0; f < mesh.num_faces(); ++f)
-    faces[f].assign(mesh.face(f).begin(), mesh.face(f).end());
+    frames.push_back(mesh.welded(skin_positions(skin, raw.positions, M)));
+  const auto faces = face_lists(mesh);
   bool ok = true;
   for (const bool grow : {true, false}) {
     bench::AnchorOptions o;
@@ -718,8 +703,8 @@ bool anchor_self_check() {
     Stat s;
     for (int c = 0; c < clips.num_clips(); ++c) {
       const auto M = clip_skinning_matrices(skin.joints, clips, c, clips.clip_range(c).second);
-      const auto truth = welded(skin_positions(skin, raw.positions, M));
-      std::vector<Vec3> p(rep.size());
+      const auto truth = mesh.welded(skin_positions(skin, raw.positions, M));
+      std::vector<Vec3> p(truth.size());
       for (size_t i = 0; i < p.size(); ++i) {
         Eigen::Vector4d x = Eigen::Vector4d::Zero();
         for (const auto& [j, wj] : w[i])

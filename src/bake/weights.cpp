@@ -107,7 +107,7 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
     }
     // The normal equations of the least squares over the poses, with the
     // pull towards the given weights as a ridge: 1/2 x'Gx - h'x.
-    const int c = m;
+    const int c = m; // the candidate joints
     const int rows = 3 * static_cast<int>(poses.size());
     Eigen::MatrixXd A(rows, c);
     Eigen::VectorXd b(rows);
