@@ -297,6 +297,47 @@ TEST(Jobs, ABakesFidelityIsMeasuredAtThePosesOwnScaleWhenTheArmatureScalesTheSke
   EXPECT_LT(f.max, 0.2);
 }
 
+TEST(Jobs, ABakeWhoseClipOrFitFileHasAnotherSkeletonSaysSo) {
+  // The keys a bake carries, measures and fits over are taken against the
+  // file's own rest pose: a clip file in other units (a LOD exported at 100
+  // times the scale) baked silently to a skin 45 % of the diagonal off.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("bake_other_skeleton");
+  const std::string trex = test::data("quaternius/Trex.glb"), rig = (dir / "trex.cnrig.json").string();
+  const Rig r = test::skinned_starter(trex);
+  write_rig(r, rig);
+  BakeJob job;
+  job.scene = {trex, rig, "", ""};
+  job.clip_file = trex;
+  job.clip_names = {"TRex_Walk"};
+  job.glb = (dir / "trex.glb").string();
+  auto notes_of = [](const BakeSummary& s) {
+    std::vector<std::string> out;
+    for (const auto& n : s.notes)
+      if (n.find("its skeleton is not the rig's") != std::string::npos)
+        out.push_back(n);
+    return out;
+  };
+  EXPECT_TRUE(notes_of(run(job)).empty()); // its own skeleton
+  Rig longer = r; // bones a hundredth as long: the clip file is in other units
+  for (Joint& j : longer.joints)
+    j.bind.block<3, 1>(0, 3) *= 0.01;
+  write_rig(longer, rig);
+  auto notes = notes_of(run(job));
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("Trex.glb: its skeleton is not the rig's (joint '"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[0].find("--skeleton " + trex), std::string::npos) << notes[0];
+  // The same file to fit over is said once; a fit file alone is said too.
+  job.fit = trex;
+  EXPECT_EQ(notes_of(run(job)).size(), 1u);
+  job.clip_file.clear();
+  job.clip_names.clear();
+  notes = notes_of(run(job));
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("Trex.glb: its skeleton is not the rig's"), std::string::npos) << notes[0];
+}
+
 TEST(Jobs, AnimatingWithAnotherSkeletonsClipsSaysHowManyJointsItMoves) {
   // Clip joints are matched to the rig's by name: a horse's walk on the
   // T-rex moves the joints both skeletons name, and the summary says how

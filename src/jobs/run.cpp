@@ -75,6 +75,29 @@ std::string skeletons_differ(const std::vector<Joint>& rig, const std::vector<Jo
   return "";
 }
 
+/// What a run should say of a clip file against the rig's skeleton: the
+/// joints it lacks (matched by name; they stay at rest) and a skeleton that
+/// is not the rig's (skeletons_differ). Its keys would then move the rig's
+/// joints by other amounts or about other axes.
+std::vector<std::string> clip_file_notes(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  std::vector<std::string> notes;
+  std::set<std::string> in_clips;
+  for (const Joint& j : clips.joints)
+    in_clips.insert(j.name);
+  const auto matched =
+      std::count_if(rig.begin(), rig.end(), [&](const Joint& j) { return in_clips.count(j.name) > 0; });
+  if (matched < static_cast<long>(rig.size()))
+    notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
+                    std::to_string(rig.size()) + " joints (by name); the others stay at their rest pose");
+  if (const std::string why = skeletons_differ(rig, clips.joints); !why.empty())
+    notes.push_back(clips.source + ": its skeleton is not the rig's (" + why +
+                    "): its keys, taken against its own rest pose, move the rig's joints by other amounts "
+                    "or about other axes; a rig transferred to this file's mesh takes its skeleton with "
+                    "--skeleton " +
+                    clips.source);
+  return notes;
+}
+
 JobSummary summary_of(const BoundScene& s) {
   JobSummary j;
   j.bind = s.binding.report();
@@ -357,24 +380,8 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   // the end (a folder this run made goes with them on a failure).
   Scene scene = read_scene(job.scene);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
-  {
-    // Joints are matched by name: say when the clip file's skeleton lacks some.
-    std::set<std::string> in_clips;
-    for (const Joint& j : clips.joints)
-      in_clips.insert(j.name);
-    const auto matched = std::count_if(scene.rig.joints.begin(), scene.rig.joints.end(),
-                                       [&](const Joint& j) { return in_clips.count(j.name) > 0; });
-    if (matched < static_cast<long>(scene.rig.joints.size()))
-      scene.notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
-                            std::to_string(scene.rig.joints.size()) +
-                            " joints (by name); the others stay at their rest pose");
-    if (const std::string why = skeletons_differ(scene.rig.joints, clips.joints); !why.empty())
-      scene.notes.push_back(clips.source + ": its skeleton is not the rig's (" + why +
-                            "): its keys, taken against its own rest pose, move the rig's joints by other amounts "
-                            "or about other axes; a rig transferred to this file's mesh takes its skeleton with "
-                            "--skeleton " +
-                            clips.source);
-  }
+  for (auto& note : clip_file_notes(scene.rig.joints, clips))
+    scene.notes.push_back(std::move(note));
   OutputFiles files;
   if (layered(job.layer, !job.node_keys.empty()))
     return animate_layered(job, scene, clips, clip, range, files);
@@ -522,6 +529,13 @@ BakeSummary run(const BakeJob& job) {
       throw InputError(job.fit, "/animations", "the file has no animation clips to fit over");
     (void)clip_skinning_matrices(scene.rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
   }
+  // The keys carried, measured and fitted over are taken against each
+  // file's own rest pose: say when a file's skeleton is not the rig's.
+  const SkinnedMesh* said[] = {clips ? &*clips : nullptr, fit && job.fit != job.clip_file ? &*fit : nullptr};
+  for (const SkinnedMesh* file : said)
+    if (file)
+      for (auto& note : clip_file_notes(scene.rig.joints, *file))
+        scene.notes.push_back(std::move(note));
   // The frames the bake will sample (keys written, fidelity measured, poses
   // fitted over), counted before any work: a clip whose keys run for days
   // is refused by name instead of being sampled for hours.
@@ -531,7 +545,7 @@ BakeSummary run(const BakeJob& job) {
     long long frames = 0;
     for (int c = 0; c < file->num_clips(); ++c) {
       const std::string& name = file->clip_names[static_cast<size_t>(c)];
-      if (file == &*clips && !job.clip_names.empty() &&
+      if (clips && file == &*clips && !job.clip_names.empty() &&
           std::find(job.clip_names.begin(), job.clip_names.end(), name) == job.clip_names.end())
         continue;
       const auto [first, last] = clip_frames(*file, c, job.fps);
