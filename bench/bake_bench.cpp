@@ -12,11 +12,15 @@
 //                                   training poses of the skeleton, measured on the clips neither saw: the hand's
 //                                   35, CesiumMan's walk and the four animals' walks, gallops and runs; fidelity,
 //                                   time, sparsity
+//   build/bin/bake_bench floor      the closest any linear skin can come to the rig on the same clips' frames
+//                                   (the distance to the convex hull of where the vertex's joints carry it), beside
+//                                   the fitted bake's worst vertex: where the worst-vertex goal is out of reach
 //   build/bin/bake_bench speed      `curvenet bake` (harmonic and fitted) as a process, on all cores and on
 //                                   one (taskset), on characters of 1.8k to 9k vertices; medians of 5
 //
 // One run on one machine; the anchor and speed tables report times (wall clock).
 
+#include "core/convex_least_squares.hpp"
 #include "core/polygon.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
@@ -32,6 +36,8 @@
 #include "transfer_check.hpp"
 #include "weights_anchor.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 
@@ -45,6 +51,7 @@
 #include <memory>
 #include <map>
 #include <numbers>
+#include <numeric>
 #include <string>
 #include <thread>
 #include <vector>
@@ -816,6 +823,94 @@ void anchor_table() {
 }
 
 
+// --- The floor of any linear skin (issue 26's worst-vertex goal) ---
+
+/// How close a linear skin can come at all. At each measured frame, a
+/// vertex's skin position is a convex blend of where its joints carry it, so
+/// its distance from the rig is at least the distance from the rig's
+/// position to the convex hull of those points (detail::nearest_in_hull),
+/// whatever the weights and even with weights chosen anew for every frame.
+/// With the joints that move the vertex in the rig, and with every joint of
+/// the skeleton.
+void floor_table() {
+  std::vector<std::unique_ptr<SkinnedMesh>> keep;
+  const auto cases = anchor_cases(keep);
+  std::printf("The floor of any linear skin on the clips' frames: at each frame and vertex, the distance from the "
+              "rig's position to the convex hull of where the vertex's joints carry it (a skin's vertex is a convex "
+              "blend of those points, whatever its weights, even weights chosen anew for each frame). Largest over "
+              "the vertices and frames, %% of the diagonal, beside the fitted bake's worst vertex (the training "
+              "poses' fit, as in the anchor table).\n\n");
+  std::printf("| case | rig's mode | frames | fitted k = 4: max | fitted k = 8: max | floor, the joints that move "
+              "the vertex: max | floor, any of the skeleton's joints: max | vertices whose floor is over 1.5 %% |\n"
+              "|---|---|---|---|---|---|---|---|\n");
+  for (const auto& c : cases) {
+    for (const DeformMethod method : {DeformMethod::DualQuaternion, DeformMethod::Harmonic}) {
+      BindOptions bo;
+      bo.method = method;
+      const Binding b = bind(c.mesh, c.rig, bo);
+      const auto rest = rest_of(b);
+      const double diag = c.mesh.bbox_diagonal();
+      const size_t n = rest.size(), nj = b.joints().size();
+      std::vector<std::vector<Mat4>> measured;
+      for (const auto& [clip, t] : c.clip_times) {
+        auto M = clip_skinning_matrices(b.joints(), *c.clips, clip, t);
+        for (auto& x : M)
+          x = c.normalise * x;
+        measured.push_back(std::move(M));
+      }
+      std::vector<std::vector<Vec3>> truth(measured.size(), std::vector<Vec3>(n));
+      for (size_t f = 0; f < measured.size(); ++f)
+        b.deform(measured[f], truth[f]);
+      const auto train = training_poses(b.joints());
+      double fitted_max[2] = {0, 0};
+      for (const int k : {4, 8}) {
+        const SkinWeights w = fit_weights(b, train, k);
+        Stat s;
+        for (size_t f = 0; f < measured.size(); ++f)
+          s.add(vertex_gap(skin_positions(w, rest, measured[f]), truth[f]));
+        fitted_max[k == 8] = s.max / diag;
+      }
+      // Per vertex, its worst frame's floor with its own joints, then with all
+      // of them (only where that can still raise the maximum: it is never above
+      // the floor with fewer joints).
+      std::vector<double> own(n, 0.0);
+      std::vector<int> own_frame(n, 0);
+      tbb::parallel_for(size_t{0}, n, [&](size_t v) {
+        std::vector<std::pair<int, double>> inf;
+        b.harmonic_weights(static_cast<int>(v), inf);
+        std::vector<Vec3> carried(inf.size());
+        for (size_t f = 0; f < measured.size(); ++f) {
+          for (size_t i = 0; i < inf.size(); ++i)
+            carried[i] = (measured[f][static_cast<size_t>(inf[i].first)] * rest[v].homogeneous()).head<3>();
+          const double d = detail::nearest_in_hull(carried, truth[f][v]).distance;
+          if (d > own[v])
+            own[v] = d, own_frame[v] = static_cast<int>(f);
+        }
+      });
+      std::vector<size_t> order(n);
+      std::iota(order.begin(), order.end(), size_t{0});
+      std::sort(order.begin(), order.end(), [&](size_t a, size_t q) { return own[a] > own[q]; });
+      double any = 0;
+      std::vector<Vec3> carried(nj);
+      for (const size_t v : order) {
+        if (own[v] <= any)
+          break;
+        for (size_t f = 0; f < measured.size(); ++f) {
+          for (size_t j = 0; j < nj; ++j)
+            carried[j] = (measured[f][j] * rest[v].homogeneous()).head<3>();
+          any = std::max(any, detail::nearest_in_hull(carried, truth[f][v]).distance);
+        }
+      }
+      const auto over = std::count_if(own.begin(), own.end(), [&](double d) { return d > 0.015 * diag; });
+      std::printf("| %s | %s | %zu | %.2f%% | %.2f%% | %.2f%% | %.2f%% | %ld of %zu |\n", c.name.c_str(),
+                  method == DeformMethod::DualQuaternion ? "dq" : "harmonic", measured.size(), 100 * fitted_max[0],
+                  100 * fitted_max[1], 100 * own[order.front()] / diag, 100 * any / diag, static_cast<long>(over), n);
+      std::fflush(stdout);
+    }
+  }
+  std::printf("\n");
+}
+
 // --- Baking as a user runs it (issue 26: under 5 s for a 5k-vertex character on one core, fit included) ---
 
 double process_ms(const std::string& command, int reps = 5) {
@@ -906,6 +1001,8 @@ int main(int argc, char** argv) {
     transfer_table();
   if (what == "anchor" || what == "all")
     anchor_table();
+  if (what == "floor" || what == "all")
+    floor_table();
   if (what == "speed" || what == "all")
     speed_table();
   return 0;

@@ -8,6 +8,7 @@
 
 #include <Eigen/Dense>
 
+#include <cmath>
 #include <limits>
 #include <random>
 #include <vector>
@@ -135,4 +136,98 @@ TEST(ConvexLeastSquares, AnInteriorMinimumIsTheMinimumOnThePlaneAndACornerIsExac
             1.0);
   // A start that is not on the simplex (all zero) is taken from its centre.
   expect_on_simplex(convex_least_squares(I, p, Eigen::VectorXd::Zero(3)));
+}
+
+// --- The nearest point of a convex hull: the floor of any linear skin ---
+
+namespace {
+
+/// The nearest point of the hull by brute force: over every subset of at
+/// most four points (Caratheodory, in 3D), the projection onto its affine
+/// hull where its barycentric weights are all non-negative; the nearest.
+double brute_force_hull_distance(const std::vector<Eigen::Vector3d>& P, const Eigen::Vector3d& x) {
+  const int n = static_cast<int>(P.size());
+  double best = std::numeric_limits<double>::infinity();
+  for (int mask = 1; mask < (1 << n); ++mask) {
+    std::vector<int> S;
+    for (int i = 0; i < n; ++i)
+      if (mask & (1 << i))
+        S.push_back(i);
+    if (S.size() > 4)
+      continue;
+    const int m = static_cast<int>(S.size());
+    Eigen::MatrixXd E(3, m - 1);
+    for (int a = 1; a < m; ++a)
+      E.col(a - 1) = P[S[a]] - P[S[0]];
+    Eigen::VectorXd c = m > 1 ? Eigen::VectorXd(E.colPivHouseholderQr().solve(x - P[S[0]])) : Eigen::VectorXd();
+    if (m > 1 && (c.minCoeff() < 0 || c.sum() > 1))
+      continue;
+    const Eigen::Vector3d q = P[S[0]] + (m > 1 ? Eigen::Vector3d(E * c) : Eigen::Vector3d::Zero());
+    best = std::min(best, (q - x).norm());
+  }
+  return best;
+}
+
+} // namespace
+
+TEST(NearestInHull, IsTheBruteForceNearestPointAndItsWeightsMakeIt) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int n = 1 + trial % 8;
+    std::vector<Eigen::Vector3d> P(n);
+    for (auto& p : P)
+      p = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    // Degenerate sets as joints give them: all in a plane, on a line, or
+    // some at one place (joints that do not move).
+    if (trial % 4 == 1)
+      for (auto& p : P)
+        p.z() = 0;
+    if (trial % 4 == 2)
+      for (auto& p : P)
+        p = P[0] + g(rng) * Eigen::Vector3d(1, 2, -1);
+    if (trial % 4 == 3 && n > 2)
+      P[1] = P[2] = P[0];
+    const Eigen::Vector3d x = 1.5 * Eigen::Vector3d(g(rng), g(rng), g(rng));
+    const auto h = detail::nearest_in_hull(P, x);
+    expect_on_simplex(h.weights);
+    Eigen::Vector3d q = Eigen::Vector3d::Zero();
+    for (int i = 0; i < n; ++i)
+      q += h.weights[i] * P[i];
+    EXPECT_NEAR((q - x).norm(), h.distance, 1e-12);
+    EXPECT_NEAR(h.distance, brute_force_hull_distance(P, x), 1e-7) << "trial " << trial;
+  }
+}
+
+TEST(NearestInHull, AnInsidePointIsAtDistanceZeroFarFromTheOriginToo) {
+  // A tetrahedron 1e6 from the origin, at the scale of a character in
+  // centimetres: the point inside it is reached, to the digits its
+  // coordinates have.
+  const Eigen::Vector3d o(1e6, -2e6, 3e6);
+  const std::vector<Eigen::Vector3d> P = {o, o + Eigen::Vector3d(1, 0, 0), o + Eigen::Vector3d(0, 1, 0),
+                                          o + Eigen::Vector3d(0, 0, 1)};
+  EXPECT_LT(detail::nearest_in_hull(P, o + Eigen::Vector3d(0.2, 0.3, 0.1)).distance, 1e-9);
+  // Beyond one face: the distance to its plane.
+  EXPECT_NEAR(detail::nearest_in_hull(P, o + Eigen::Vector3d(0.2, 0.3, -0.5)).distance, 0.5, 1e-9);
+  // No points: nothing is near.
+  EXPECT_TRUE(std::isinf(detail::nearest_in_hull({}, o).distance));
+}
+
+TEST(NearestInHull, AnArcsMiddleIsItsSagittaFromTheChord) {
+  // A vertex at distance r from a joint's axis, blended half and half
+  // between that joint turned by theta and its parent at rest: a
+  // dual-quaternion blend turns it by theta/2, onto the arc; a linear skin
+  // of the two joints keeps it on the chord. No weights bring the skin
+  // closer than the sagitta, r (1 - cos(theta/2)).
+  const double r = 0.3;
+  const Eigen::Vector3d p(r, 0, 2);
+  for (const double degrees : {20.0, 90.0, 138.0, 180.0}) {
+    const double theta = degrees * 3.14159265358979323846 / 180;
+    const Eigen::Vector3d turned = Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitZ()) * p;
+    const Eigen::Vector3d arc = Eigen::AngleAxisd(theta / 2, Eigen::Vector3d::UnitZ()) * p;
+    const std::vector<Eigen::Vector3d> P = {p, turned};
+    const auto h = detail::nearest_in_hull(P, arc);
+    EXPECT_NEAR(h.distance, r * (1 - std::cos(theta / 2)), 1e-12) << degrees;
+    EXPECT_NEAR(h.weights[0], 0.5, 1e-9) << degrees;
+  }
 }

@@ -1,6 +1,7 @@
 // The jobs layer (curvenet/jobs.hpp): a clip's frames as a checked range,
 // deformed in blocks and streamed in order to sinks.
 
+#include "core/convex_least_squares.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/jobs.hpp"
 #include "curvenet/layer.hpp"
@@ -247,6 +248,23 @@ TEST(Jobs, ABakeReportsEachClipsFidelityToTheRigWorstFirst) {
   EXPECT_NEAR((skin[v] - rig[v]).norm() / diag, worst.max, 1e-5);
   for (size_t i = 0; i < rest.size(); ++i)
     EXPECT_LE((skin[i] - rig[i]).norm() / diag, worst.max + 1e-5);
+  // Its floor: the rig's position there against the convex hull of where
+  // the joints that move the vertex carry it. The baked joints are some of
+  // those, so the skin is never closer than the floor.
+  std::vector<std::pair<int, double>> inf;
+  b.harmonic_weights(worst.worst_vertex, inf);
+  std::vector<Vec3> carried;
+  const auto M = clip_skinning_matrices(b.joints(), clips, c, t);
+  for (const auto& [j, x] : inf)
+    carried.push_back((M[static_cast<size_t>(j)] * rest[v].homogeneous()).head<3>());
+  EXPECT_EQ(worst.worst_joints, static_cast<int>(carried.size()));
+  const auto hull = detail::nearest_in_hull(carried, rig[v]);
+  EXPECT_NEAR(hull.distance / diag, worst.worst_floor, 1e-9); // the report's diagonal is the rig's rest box
+  for (const auto& f : s.fidelity) {
+    EXPECT_GE(f.worst_floor, 0) << f.clip;
+    EXPECT_LE(f.worst_floor, f.max + 1e-12) << f.clip;
+    EXPECT_GE(f.worst_joints, 1) << f.clip;
+  }
   // Weights fitted to these clips play them closer, worst vertex and mean.
   job.fit = job.clip_file;
   const BakeSummary fitted = run(job);
@@ -295,6 +313,9 @@ TEST(Jobs, ABakesFidelityIsMeasuredAtThePosesOwnScaleWhenTheArmatureScalesTheSke
   EXPECT_LT(f.mean, 0.01) << "a mean under 1 % of the diagonal, not 100 times it";
   EXPECT_GT(f.mean, 1e-5);
   EXPECT_LT(f.max, 0.2);
+  // The floor at that scale too: no more than the worst vertex's distance.
+  EXPECT_GT(f.worst_floor, 0);
+  EXPECT_LE(f.worst_floor, f.max + 1e-12);
 }
 
 TEST(Jobs, ABakeWhoseClipOrFitFileHasAnotherSkeletonSaysSo) {

@@ -244,6 +244,13 @@ struct BakeClipFidelity {
   Vec3 worst_rest = Vec3::Zero(); ///< where that vertex is at rest (mesh space)
   std::string worst_joint;        ///< its heaviest baked joint
   double worst_time = 0;          ///< seconds into the clip
+  /// At that vertex and frame, the closest any linear skin of the joints
+  /// that move the vertex in the rig (`worst_joints` of them) can come to
+  /// the rig, whatever its weights: the distance from the rig's position to
+  /// the convex hull of where those joints carry the vertex. Where it is
+  /// near `max`, no weights do better; a skin would need other joints.
+  double worst_floor = 0;
+  int worst_joints = 0;
 };
 struct BakeSummary : JobSummary {
   int joints = 0, influences = 0;

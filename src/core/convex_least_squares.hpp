@@ -5,6 +5,8 @@
 
 #include <Eigen/Core>
 
+#include <span>
+
 namespace curvenet::detail {
 
 /// The minimum of 1/2 x'Gx - h'x over x >= 0, sum(x) = 1 (G symmetric
@@ -18,5 +20,17 @@ Eigen::VectorXd convex_least_squares(const Eigen::MatrixXd& G, const Eigen::Vect
 
 /// 1/2 x'Gx - h'x.
 double quadratic_objective(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, const Eigen::VectorXd& x);
+
+/// The point of the convex hull of `points` nearest `x`: its convex weights
+/// on the points and its distance from x. A linear skin puts a vertex at a
+/// convex blend of where its joints move it, so this is the closest any
+/// linear skin of those joints can come to `x` at that pose, whatever its
+/// weights (the floor a baked skin's fidelity report states). Empty points:
+/// no weights and an infinite distance.
+struct HullPoint {
+  Eigen::VectorXd weights;
+  double distance = 0;
+};
+HullPoint nearest_in_hull(std::span<const Eigen::Vector3d> points, const Eigen::Vector3d& x);
 
 } // namespace curvenet::detail

@@ -2,6 +2,7 @@
 // and written all or nothing.
 
 #include "jobs/run.hpp"
+#include "core/convex_least_squares.hpp"
 #include "core/numbers.hpp"
 #include "curvenet/errors.hpp"
 #include "curvenet/jobs.hpp"
@@ -450,9 +451,10 @@ namespace {
 
 /// The baked skin against the rig's deformation (`deform`, one frame) over
 /// each carried clip's frames: BakeClipFidelity, worst clip first.
-std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips,
-                                            const std::vector<std::string>& names, double fps,
-                                            const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform) {
+std::vector<BakeClipFidelity>
+bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, const std::vector<std::string>& names,
+              double fps, const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform,
+              const std::function<void(int, std::vector<std::pair<int, double>>&)>& joints_of) {
   const size_t n = static_cast<size_t>(b.num_input_vertices());
   std::vector<Vec3> rest(n), rig(n);
   deform(std::vector<Mat4>(b.joints().size(), Mat4::Identity()), rest);
@@ -470,6 +472,8 @@ std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights&
     f.index = c;
     const auto [first, last] = clip_frames(clips, c, fps);
     const double t0 = clips.clip_range(c).first;
+    Vec3 worst_rig = Vec3::Zero();
+    double worst_scale = 1;
     for (int frame = first; frame <= last; ++frame) {
       const double t = std::max(t0, frame / fps);
       const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t);
@@ -491,6 +495,8 @@ std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights&
           f.max = d;
           f.worst_vertex = static_cast<int>(v);
           f.worst_time = t - t0;
+          worst_rig = rig[v];
+          worst_scale = scale;
         }
       }
       f.mean += n ? sum / static_cast<double>(n) : 0.0;
@@ -503,6 +509,16 @@ std::vector<BakeClipFidelity> bake_fidelity(const Binding& b, const SkinWeights&
       f.worst_rest = rest[v];
       const int j = w.joint[v * static_cast<size_t>(w.influences)]; // the largest weight comes first
       f.worst_joint = j >= 0 ? w.joints[static_cast<size_t>(j)] : "";
+      // The floor there: where the joints that move it in the rig carry it.
+      std::vector<std::pair<int, double>> inf;
+      joints_of(f.worst_vertex, inf);
+      const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t0 + f.worst_time);
+      std::vector<Vec3> carried;
+      for (const auto& [k, x] : inf)
+        carried.push_back((M[static_cast<size_t>(k)] * rest[v].homogeneous()).head<3>());
+      f.worst_joints = static_cast<int>(carried.size());
+      if (!carried.empty())
+        f.worst_floor = detail::nearest_in_hull(carried, worst_rig).distance / (diag * worst_scale);
     }
     out.push_back(std::move(f));
   }
@@ -634,6 +650,17 @@ BakeSummary run(const BakeJob& job) {
             layer->deform_frames(M, x, envelope);
           else
             b.deform(M, x);
+        },
+        [&](int v, std::vector<std::pair<int, double>>& inf) {
+          // The net's joints there, and over a skin the skin's as well.
+          b.harmonic_weights(v, inf);
+          if (layer) {
+            std::vector<std::pair<int, double>> base;
+            layer->base_weights(v, base);
+            for (const auto& [j, x] : base)
+              if (std::none_of(inf.begin(), inf.end(), [j = j](const auto& q) { return q.first == j; }))
+                inf.emplace_back(j, x);
+          }
         });
   }
   return out;
