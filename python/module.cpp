@@ -1057,6 +1057,12 @@ PYBIND11_MODULE(_curvenet, m) {
       },
       py::arg("skeleton"), py::arg("clips"), py::arg("clip"), py::arg("t"));
   m.def(
+      "clip_notes",
+      [](const py::object& skeleton, const SkinnedMesh& clips) { return clip_notes(joints_from(skeleton), clips); },
+      py::arg("skeleton"), py::arg("clips"),
+      "What `curvenet animate` and `bake` note of a clip file against the skeleton, one line each: the joints it "
+      "lacks, and a skeleton that is not this one (a bone 5 % longer or shorter, or turned more than 10 degrees)");
+  m.def(
       "clip_frames",
       [](const SkinnedMesh& clips, int clip, double fps) {
         if (clip < 0 || clip >= clips.num_clips())
@@ -1075,6 +1081,11 @@ PYBIND11_MODULE(_curvenet, m) {
         if (!(fps > 0 && fps <= 10000))
           throw py::value_error("fps: expected a number in (0, 10000]");
         const FrameRange range = frame_range(clips, clip, fps, frames, max_frames);
+        (void)clip_skinning_matrices(b.binding.joints(), clips, clip, range.time(range.first)); // joints match
+        // What `curvenet animate` prints as notes, as Python warnings.
+        for (const std::string& note : clip_notes(b.binding.joints(), clips))
+          if (PyErr_WarnEx(PyExc_UserWarning, note.c_str(), 1) != 0)
+            throw py::error_already_set(); // warnings turned into errors
         {
           py::gil_scoped_release release;
           OutputFiles files;

@@ -263,6 +263,17 @@ struct BakeSummary : JobSummary {
 };
 BakeSummary run(const BakeJob& job);
 
+/// What a run says of a clip file against the rig's skeleton, one line each
+/// (`animate` and `bake` print them as notes, Python's `animate` warns): the
+/// rig's joints it lacks (matched by name; they stay at rest), and a
+/// skeleton that is not the rig's: a bone both have whose rest length
+/// differs by more than 5 % or whose rest frame turns by more than 10
+/// degrees, relative to its parent (a similarity of the whole skeleton, as
+/// a transfer makes, changes none of them). The file's keys, taken against
+/// its own rest pose, would then move the rig's joints by other amounts or
+/// about other axes. Empty when the file fits.
+std::vector<std::string> clip_notes(const std::vector<Joint>& rig, const SkinnedMesh& clips);
+
 /// Skinning matrices of every frame of every clip of `clips`, for `joints`,
 /// sampled at fps: the poses a weight fit runs over.
 /// \throw InputError naming the clip file past `max_frames` frames.

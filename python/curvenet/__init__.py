@@ -31,6 +31,7 @@ from ._curvenet import (  # noqa: F401
     bind,
     bind_layer,
     clip_frames,
+    clip_notes,
     clip_skinning_matrices,
     compare,
     complete_weights,

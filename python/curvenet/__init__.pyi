@@ -416,6 +416,11 @@ def skinning_matrices(skeleton: Skeleton, pose: PoseLike) -> FloatArray:
 def pose_from_clip(skin: SkinnedMesh, clip: int, t: float) -> dict[str, JointPose]: ...
 def clip_skinning_matrices(skeleton: Skeleton, clips: SkinnedMesh, clip: int, t: float) -> FloatArray:
     """(J, 4, 4) at time t of a clip, joints matched by name. Raises InputError when none match."""
+def clip_notes(skeleton: Skeleton, clips: SkinnedMesh) -> list[str]:
+    """What `curvenet animate` and `curvenet bake` note of a clip file against the skeleton, one line each: the
+    skeleton's joints the file lacks (matched by name; they stay at rest), and a file whose skeleton is not this one
+    (a bone both have 5 % longer or shorter, or turned more than 10 degrees, against its parent): its keys would move
+    the joints by other amounts or about other axes. Empty when the file fits."""
 def clip_frames(clips: SkinnedMesh, clip: int, fps: float = 24.0) -> tuple[int, int]:
     """First and last whole frame of a clip at fps."""
 def animate(
@@ -423,8 +428,9 @@ def animate(
     max_frames: int = 100000
 ) -> tuple[int, int]:
     """Writes a clip deformed through the binding as a PC2 cache, streamed in blocks: the frames `curvenet animate`
-    writes. `frames` is "A:B" or "" for the clip's range. Returns (first, last). Raises InputError for a bad range
-    or a non-finite position, writing nothing."""
+    writes. `frames` is "A:B" or "" for the clip's range. Returns (first, last). Each of `clip_notes` is a
+    UserWarning, as the CLI prints it as a note. Raises InputError for a bad range, a clip none of whose joints are
+    the binding's, or a non-finite position, writing nothing."""
 def animate_poses(
     deformer: Union[Binding, CurveLayer], pose: Callable[[int], Any], first: int, last: int, path: str, *,
     fps: float = 24.0

@@ -76,29 +76,6 @@ std::string skeletons_differ(const std::vector<Joint>& rig, const std::vector<Jo
   return "";
 }
 
-/// What a run should say of a clip file against the rig's skeleton: the
-/// joints it lacks (matched by name; they stay at rest) and a skeleton that
-/// is not the rig's (skeletons_differ). Its keys would then move the rig's
-/// joints by other amounts or about other axes.
-std::vector<std::string> clip_file_notes(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
-  std::vector<std::string> notes;
-  std::set<std::string> in_clips;
-  for (const Joint& j : clips.joints)
-    in_clips.insert(j.name);
-  const auto matched =
-      std::count_if(rig.begin(), rig.end(), [&](const Joint& j) { return in_clips.count(j.name) > 0; });
-  if (matched < static_cast<long>(rig.size()))
-    notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
-                    std::to_string(rig.size()) + " joints (by name); the others stay at their rest pose");
-  if (const std::string why = skeletons_differ(rig, clips.joints); !why.empty())
-    notes.push_back(clips.source + ": its skeleton is not the rig's (" + why +
-                    "): its keys, taken against its own rest pose, move the rig's joints by other amounts "
-                    "or about other axes; a rig transferred to this file's mesh takes its skeleton with "
-                    "--skeleton " +
-                    clips.source);
-  return notes;
-}
-
 JobSummary summary_of(const BoundScene& s) {
   JobSummary j;
   j.bind = s.binding.report();
@@ -247,6 +224,25 @@ JobSummary summary_of(const Scene& s, const CurveLayer& layer) {
 
 } // namespace
 
+std::vector<std::string> clip_notes(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  std::vector<std::string> notes;
+  std::set<std::string> in_clips;
+  for (const Joint& j : clips.joints)
+    in_clips.insert(j.name);
+  const auto matched =
+      std::count_if(rig.begin(), rig.end(), [&](const Joint& j) { return in_clips.count(j.name) > 0; });
+  if (matched < static_cast<long>(rig.size()))
+    notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
+                    std::to_string(rig.size()) + " joints (by name); the others stay at their rest pose");
+  if (const std::string why = skeletons_differ(rig, clips.joints); !why.empty())
+    notes.push_back(clips.source + ": its skeleton is not the rig's (" + why +
+                    "): its keys, taken against its own rest pose, move the rig's joints by other amounts "
+                    "or about other axes; a rig transferred to this file's mesh takes its skeleton with "
+                    "--skeleton " +
+                    clips.source);
+  return notes;
+}
+
 JobSummary run(const BindJob& job) {
   OutputFiles files;
   const BoundScene s = bind_scene(job.scene, job.options, files);
@@ -381,7 +377,7 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   // the end (a folder this run made goes with them on a failure).
   Scene scene = read_scene(job.scene);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first)); // a clip for this skeleton
-  for (auto& note : clip_file_notes(scene.rig.joints, clips))
+  for (auto& note : clip_notes(scene.rig.joints, clips))
     scene.notes.push_back(std::move(note));
   OutputFiles files;
   if (layered(job.layer, !job.node_keys.empty()))
@@ -550,7 +546,7 @@ BakeSummary run(const BakeJob& job) {
   const SkinnedMesh* said[] = {clips ? &*clips : nullptr, fit && job.fit != job.clip_file ? &*fit : nullptr};
   for (const SkinnedMesh* file : said)
     if (file)
-      for (auto& note : clip_file_notes(scene.rig.joints, *file))
+      for (auto& note : clip_notes(scene.rig.joints, *file))
         scene.notes.push_back(std::move(note));
   // The frames the bake will sample (keys written, fidelity measured, poses
   // fitted over), counted before any work: a clip whose keys run for days

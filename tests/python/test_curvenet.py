@@ -14,6 +14,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -274,6 +275,37 @@ def test_deform_frames_gives_exactly_the_cli_animation(tmp_path):
     assert start == first and got.shape[0] == 3 and np.array_equal(got[0], want[0])
     with pytest.raises(curvenet.InputError, match="--frames"):
         curvenet.animate(b, clips, clip, str(part), frames="2:1")
+
+
+@needs_data
+def test_animating_with_a_clip_file_of_another_skeleton_warns_as_the_cli_notes(tmp_path):
+    # The T-rex's rig against its own clips says nothing; against a skeleton
+    # whose bones are a hundredth as long (a file in other units) each
+    # animate warns with the line `curvenet animate` prints as a note.
+    trex = os.path.join(DATA, "quaternius", "Trex.glb")
+    mesh, clips = curvenet.load_mesh(trex), curvenet.load_skinned_mesh(trex)
+    rig = curvenet.starter(mesh, clips).rig
+    clip = clips.find_clip("TRex_Walk")
+    assert curvenet.clip_notes(rig, clips) == []
+    b = curvenet.bind(mesh, rig)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # none at all
+        curvenet.animate(b, clips, clip, str(tmp_path / "own.pc2"), frames="0:1")
+    for i in range(len(rig.joints)):
+        rig.joints[i].bind[:3, 3] *= 0.01  # a writable view
+    notes = curvenet.clip_notes(rig, clips)
+    assert len(notes) == 1 and "Trex.glb: its skeleton is not the rig's (joint '" in notes[0], notes
+    assert "rests 100 times as far from its parent" in notes[0]
+    b = curvenet.bind(mesh, rig)
+    with pytest.warns(UserWarning) as caught:
+        curvenet.animate(b, clips, clip, str(tmp_path / "other.pc2"), frames="0:1")
+    assert [str(w.message) for w in caught] == notes
+    # Turned into errors, the warning stops the run before anything is written.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(UserWarning):
+            curvenet.animate(b, clips, clip, str(tmp_path / "none.pc2"), frames="0:1")
+    assert not (tmp_path / "none.pc2").exists()
 
 
 @needs_data
