@@ -79,13 +79,16 @@ void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>&
   };
   out << "fidelity: the skin against the rig, % of the diagonal: mean " << 100 * mean << ", worst vertex "
       << 100 * worst.max << " (" << name(worst) << ")\n";
-  for (const auto& c : clips)
+  for (const auto& c : clips) {
     out << "  " << name(c) << ": " << c.frames << " frames, mean " << 100 * c.mean << ", max " << 100 * c.max
         << " at vertex " << c.worst_vertex << " (" << std::setprecision(4) << c.worst_rest.x() << ", "
         << c.worst_rest.y() << ", " << c.worst_rest.z() << std::setprecision(2) << "; " << c.worst_joint << "), "
-        << std::setprecision(3) << c.worst_time << std::setprecision(2) << " s in; no linear skin of its "
-        << c.worst_joints << (c.worst_joints == 1 ? " joint" : " joints") << " comes closer than "
-        << 100 * c.worst_floor << "\n";
+        << std::setprecision(3) << c.worst_time << std::setprecision(2) << " s in";
+    if (c.worst_joints > 0)
+      out << "; no linear skin of its " << c.worst_joints << (c.worst_joints == 1 ? " joint" : " joints")
+          << " comes closer than " << 100 * c.worst_floor;
+    out << "\n";
+  }
   out.flags(flags);
   out.precision(precision);
 }
