@@ -14,13 +14,15 @@
 //                                   time, sparsity
 //   build/bin/bake_bench floor      the closest any linear skin can come to the rig on the same clips' frames
 //                                   (the distance to the convex hull of where the vertex's joints carry it), beside
-//                                   the fitted bake's worst vertex: where the worst-vertex goal is out of reach
+//                                   the fitted bake's worst vertex: where the worst-vertex goal is out of reach,
+//                                   and how far helper joints keyed half way between two joints would bring it
 //   build/bin/bake_bench speed      `curvenet bake` (harmonic and fitted) as a process, on all cores and on
 //                                   one (taskset), on characters of 1.8k to 9k vertices; medians of 5
 //
 // One run on one machine; the anchor and speed tables report times (wall clock).
 
 #include "core/convex_least_squares.hpp"
+#include "core/dual_quaternion.hpp"
 #include "core/polygon.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/compare.hpp"
@@ -841,8 +843,10 @@ void floor_table() {
               "the vertices and frames, %% of the diagonal, beside the fitted bake's worst vertex (the training "
               "poses' fit, as in the anchor table).\n\n");
   std::printf("| case | rig's mode | frames | fitted k = 4: max | fitted k = 8: max | floor, the joints that move "
-              "the vertex: max | floor, any of the skeleton's joints: max | vertices whose floor is over 1.5 %% |\n"
-              "|---|---|---|---|---|---|---|---|\n");
+              "the vertex: max | floor, any of the skeleton's joints: max | vertices whose floor is over 1.5 %% | floor, "
+              "the vertex's joints and a helper half way round each of their bones: max | the same, a helper half "
+              "way between each two of its joints: max |\n"
+              "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& c : cases) {
     for (const DeformMethod method : {DeformMethod::DualQuaternion, DeformMethod::Harmonic}) {
       BindOptions bo;
@@ -873,18 +877,48 @@ void floor_table() {
       // Per vertex, its worst frame's floor with its own joints, then with all
       // of them (only where that can still raise the maximum: it is never above
       // the floor with fewer joints).
-      std::vector<double> own(n, 0.0);
+      std::vector<double> own(n, 0.0), helped(n, 0.0), paired(n, 0.0);
       std::vector<int> own_frame(n, 0);
+      // Helper joints, as a skin could have them: for each bone whose joint
+      // and parent both move the vertex, one keyed half way round between
+      // them (the dual-quaternion mean of the two, a rotation multiplier of
+      // one half on the child), whose carried point joins the hull.
+      std::map<std::string, int> index;
+      for (size_t j = 0; j < nj; ++j)
+        index[b.joints()[j].name] = static_cast<int>(j);
+      std::vector<int> parent(nj, -1);
+      for (size_t j = 0; j < nj; ++j)
+        if (b.joints()[j].parent && index.count(*b.joints()[j].parent))
+          parent[j] = index.at(*b.joints()[j].parent);
+      std::vector<std::vector<detail::DualJoint>> dual(measured.size());
+      for (size_t f = 0; f < measured.size(); ++f)
+        for (const Mat4& M : measured[f])
+          dual[f].push_back(detail::split_joint(M));
       tbb::parallel_for(size_t{0}, n, [&](size_t v) {
         std::vector<std::pair<int, double>> inf;
         b.harmonic_weights(static_cast<int>(v), inf);
         std::vector<Vec3> carried(inf.size());
+        detail::DualBlend half;
         for (size_t f = 0; f < measured.size(); ++f) {
           for (size_t i = 0; i < inf.size(); ++i)
             carried[i] = (measured[f][static_cast<size_t>(inf[i].first)] * rest[v].homogeneous()).head<3>();
           const double d = detail::nearest_in_hull(carried, truth[f][v]).distance;
           if (d > own[v])
             own[v] = d, own_frame[v] = static_cast<int>(f);
+          for (const bool any_pair : {false, true}) {
+            std::vector<Vec3> more = carried;
+            for (const auto& [c, wc] : inf)
+              for (const auto& [q, wq] : inf)
+                if (any_pair ? c < q : parent[static_cast<size_t>(c)] == q) {
+                  half.clear();
+                  half.add(dual[f][static_cast<size_t>(c)], 0.5);
+                  half.add(dual[f][static_cast<size_t>(q)], 0.5);
+                  if (half.valid())
+                    more.push_back(half.apply(rest[v]));
+                }
+            double& h = any_pair ? paired[v] : helped[v];
+            h = std::max(h, detail::nearest_in_hull(more, truth[f][v]).distance);
+          }
         }
       });
       std::vector<size_t> order(n);
@@ -902,9 +936,12 @@ void floor_table() {
         }
       }
       const auto over = std::count_if(own.begin(), own.end(), [&](double d) { return d > 0.015 * diag; });
-      std::printf("| %s | %s | %zu | %.2f%% | %.2f%% | %.2f%% | %.2f%% | %ld of %zu |\n", c.name.c_str(),
+      const double with_helpers = *std::max_element(helped.begin(), helped.end());
+      const double with_pairs = *std::max_element(paired.begin(), paired.end());
+      std::printf("| %s | %s | %zu | %.2f%% | %.2f%% | %.2f%% | %.2f%% | %ld of %zu | %.2f%% | %.2f%% |\n", c.name.c_str(),
                   method == DeformMethod::DualQuaternion ? "dq" : "harmonic", measured.size(), 100 * fitted_max[0],
-                  100 * fitted_max[1], 100 * own[order.front()] / diag, 100 * any / diag, static_cast<long>(over), n);
+                  100 * fitted_max[1], 100 * own[order.front()] / diag, 100 * any / diag, static_cast<long>(over), n,
+                  100 * with_helpers / diag, 100 * with_pairs / diag);
       std::fflush(stdout);
     }
   }
