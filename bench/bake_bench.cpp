@@ -855,6 +855,8 @@ void floor_table() {
       const auto rest = rest_of(b);
       const double diag = c.mesh.bbox_diagonal();
       const size_t n = rest.size(), nj = b.joints().size();
+      if (n == 0 || c.clip_times.empty())
+        continue;
       std::vector<std::vector<Mat4>> measured;
       for (const auto& [clip, t] : c.clip_times) {
         auto M = clip_skinning_matrices(b.joints(), *c.clips, clip, t);
@@ -878,7 +880,6 @@ void floor_table() {
       // of them (only where that can still raise the maximum: it is never above
       // the floor with fewer joints).
       std::vector<double> own(n, 0.0), helped(n, 0.0), paired(n, 0.0);
-      std::vector<int> own_frame(n, 0);
       // Helper joints, as a skin could have them: for each bone whose joint
       // and parent both move the vertex, one keyed half way round between
       // them (the dual-quaternion mean of the two, a rotation multiplier of
@@ -903,16 +904,15 @@ void floor_table() {
           for (size_t i = 0; i < inf.size(); ++i)
             carried[i] = (measured[f][static_cast<size_t>(inf[i].first)] * rest[v].homogeneous()).head<3>();
           const double d = detail::nearest_in_hull(carried, truth[f][v]).distance;
-          if (d > own[v])
-            own[v] = d, own_frame[v] = static_cast<int>(f);
+          own[v] = std::max(own[v], d);
           for (const bool any_pair : {false, true}) {
             std::vector<Vec3> more = carried;
-            for (const auto& [c, wc] : inf)
-              for (const auto& [q, wq] : inf)
-                if (any_pair ? c < q : parent[static_cast<size_t>(c)] == q) {
+            for (const auto& [ja, wa] : inf)
+              for (const auto& [jb, wb] : inf)
+                if (any_pair ? ja < jb : parent[static_cast<size_t>(ja)] == jb) {
                   half.clear();
-                  half.add(dual[f][static_cast<size_t>(c)], 0.5);
-                  half.add(dual[f][static_cast<size_t>(q)], 0.5);
+                  half.add(dual[f][static_cast<size_t>(ja)], 0.5);
+                  half.add(dual[f][static_cast<size_t>(jb)], 0.5);
                   if (half.valid())
                     more.push_back(half.apply(rest[v]));
                 }

@@ -1099,7 +1099,8 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("binding"), py::arg("clips"), py::arg("clip"), py::arg("path"), py::kw_only(), py::arg("fps") = 24.0,
       py::arg("frames") = "", py::arg("max_frames") = 100000LL,
       "Writes clip `clip` deformed through the binding as a PC2 cache at `path`, streamed in blocks (the same "
-      "frames as `curvenet animate`); returns the (first, last) frame");
+      "frames as `curvenet animate`); returns the (first, last) frame. Each of clip_notes(binding, clips) is first "
+      "given as a UserWarning, as the CLI prints it as a note");
 
   m.def(
       "animate_poses",

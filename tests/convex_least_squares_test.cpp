@@ -173,7 +173,7 @@ double brute_force_hull_distance(const std::vector<Eigen::Vector3d>& P, const Ei
 TEST(NearestInHull, IsTheBruteForceNearestPointAndItsWeightsMakeIt) {
   std::mt19937 rng(5);
   std::normal_distribution<double> g;
-  for (int trial = 0; trial < 400; ++trial) {
+  for (int trial = 0; trial < 2000; ++trial) {
     const int n = 1 + trial % 8;
     std::vector<Eigen::Vector3d> P(n);
     for (auto& p : P)
@@ -188,6 +188,11 @@ TEST(NearestInHull, IsTheBruteForceNearestPointAndItsWeightsMakeIt) {
         p = P[0] + g(rng) * Eigen::Vector3d(1, 2, -1);
     if (trial % 4 == 3 && n > 2)
       P[1] = P[2] = P[0];
+    // Points on a small integer grid: affine minima that land exactly on
+    // an edge or a face, with weights of zero up to rounding.
+    if (trial % 8 == 5)
+      for (auto& p : P)
+        p = Eigen::Vector3d(std::round(g(rng)), std::round(g(rng)), std::round(g(rng)));
     const Eigen::Vector3d x = 1.5 * Eigen::Vector3d(g(rng), g(rng), g(rng));
     const auto h = detail::nearest_in_hull(P, x);
     expect_on_simplex(h.weights);
@@ -201,16 +206,39 @@ TEST(NearestInHull, IsTheBruteForceNearestPointAndItsWeightsMakeIt) {
 
 TEST(NearestInHull, AnInsidePointIsAtDistanceZeroFarFromTheOriginToo) {
   // A tetrahedron 1e6 from the origin, at the scale of a character in
-  // centimetres: the point inside it is reached, to the digits its
-  // coordinates have.
+  // centimetres: the point inside it is reached (the points are taken
+  // relative to x, so their distance from the origin costs no digits).
   const Eigen::Vector3d o(1e6, -2e6, 3e6);
   const std::vector<Eigen::Vector3d> P = {o, o + Eigen::Vector3d(1, 0, 0), o + Eigen::Vector3d(0, 1, 0),
                                           o + Eigen::Vector3d(0, 0, 1)};
   EXPECT_LT(detail::nearest_in_hull(P, o + Eigen::Vector3d(0.2, 0.3, 0.1)).distance, 1e-9);
   // Beyond one face: the distance to its plane.
   EXPECT_NEAR(detail::nearest_in_hull(P, o + Eigen::Vector3d(0.2, 0.3, -0.5)).distance, 0.5, 1e-9);
-  // No points: nothing is near.
+  // No points: nothing is near. A non-finite coordinate: no distance.
   EXPECT_TRUE(std::isinf(detail::nearest_in_hull({}, o).distance));
+  EXPECT_TRUE(std::isnan(detail::nearest_in_hull(P, Eigen::Vector3d(0, std::nan(""), 0)).distance));
+  auto bad = P;
+  bad[2].x() = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(std::isnan(detail::nearest_in_hull(bad, o).distance));
+}
+
+TEST(NearestInHull, AnAffineMinimumOnAnEdgeOfTheSetDoesNotStopTheSearch) {
+  // The affine minimum of three of these lands on an edge, one weight
+  // coming out as 2e-17 instead of 0. Kept, it limited the next step to
+  // nothing, the point just added was dropped with it, and the search
+  // stopped at 0.97 where the hull comes within 0.79 (a reviewer's case).
+  const std::vector<Eigen::Vector3d> P = {{0, 1, 1}, {2, 0, 0}, {0, 0, 0}, {1, 1, 2}};
+  for (const double z : {1.3751693163772298, 1.1, 1.5, 1.9}) {
+    const Eigen::Vector3d x(0, 0, z);
+    EXPECT_NEAR(detail::nearest_in_hull(P, x).distance, brute_force_hull_distance(P, x), 1e-9) << z;
+  }
+  // And over that family as a whole.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(1, 2);
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3d x(0, 0, u(rng));
+    ASSERT_NEAR(detail::nearest_in_hull(P, x).distance, brute_force_hull_distance(P, x), 1e-9) << x.z();
+  }
 }
 
 TEST(NearestInHull, AnArcsMiddleIsItsSagittaFromTheChord) {

@@ -84,9 +84,9 @@ void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>&
         << " at vertex " << c.worst_vertex << " (" << std::setprecision(4) << c.worst_rest.x() << ", "
         << c.worst_rest.y() << ", " << c.worst_rest.z() << std::setprecision(2) << "; " << c.worst_joint << "), "
         << std::setprecision(3) << c.worst_time << std::setprecision(2) << " s in";
-    if (c.worst_joints > 0)
-      out << "; no linear skin of its " << c.worst_joints << (c.worst_joints == 1 ? " joint" : " joints")
-          << " comes closer than " << 100 * c.worst_floor;
+    if (c.worst_joints > 0) // the floor: see docs/bake.md, "What bake reports"
+      out << "; floor " << 100 * c.worst_floor << " (no linear skin of the " << c.worst_joints << " rig "
+          << (c.worst_joints == 1 ? "joint" : "joints") << " there comes closer, whatever its weights)";
     out << "\n";
   }
   out.flags(flags);

@@ -94,28 +94,100 @@ Eigen::VectorXd convex_least_squares(const Eigen::MatrixXd& G, const Eigen::Vect
   return x;
 }
 
+namespace {
+
+/// The nearest point to the origin of the affine hull of q[S], as weights
+/// summing to one (a least squares on the differences, which a repeated or
+/// dependent point leaves solvable).
+void affine_minimum(const std::vector<Eigen::Vector3d>& q, const std::vector<int>& S, std::vector<double>& a) {
+  const int m = static_cast<int>(S.size());
+  a.assign(static_cast<size_t>(m), 0.0);
+  if (m == 1) {
+    a[0] = 1;
+    return;
+  }
+  Eigen::MatrixXd E(3, m - 1);
+  const Eigen::Vector3d& o = q[static_cast<size_t>(S[0])];
+  for (int i = 1; i < m; ++i)
+    E.col(i - 1) = q[static_cast<size_t>(S[static_cast<size_t>(i)])] - o;
+  const Eigen::VectorXd c = E.colPivHouseholderQr().solve(-o);
+  a[0] = 1 - c.sum();
+  for (int i = 1; i < m; ++i)
+    a[static_cast<size_t>(i)] = c[i - 1];
+}
+
+/// The same nearest point by brute force: every subset of at most four
+/// points whose affine minimum has non-negative weights (Caratheodory, in
+/// 3D); the nearest. For the rare input where Wolfe's steps stall in
+/// rounding.
+std::pair<std::vector<int>, std::vector<double>> nearest_by_subsets(const std::vector<Eigen::Vector3d>& q) {
+  const int n = static_cast<int>(q.size());
+  std::pair<std::vector<int>, std::vector<double>> best;
+  double best_d = std::numeric_limits<double>::infinity();
+  std::vector<int> S;
+  std::vector<double> a;
+  auto visit = [&](auto&& self, int from) -> void {
+    if (!S.empty()) {
+      affine_minimum(q, S, a);
+      if (*std::min_element(a.begin(), a.end()) >= 0) {
+        Eigen::Vector3d p = Eigen::Vector3d::Zero();
+        for (size_t i = 0; i < S.size(); ++i)
+          p += a[i] * q[static_cast<size_t>(S[i])];
+        if (p.squaredNorm() < best_d)
+          best_d = p.squaredNorm(), best = {S, a};
+      }
+    }
+    if (S.size() == 4)
+      return;
+    for (int i = from; i < n; ++i) {
+      S.push_back(i);
+      self(self, i + 1);
+      S.pop_back();
+    }
+  };
+  visit(visit, 0);
+  return best;
+}
+
+} // namespace
+
 HullPoint nearest_in_hull(std::span<const Eigen::Vector3d> points, const Eigen::Vector3d& x) {
   // Wolfe's minimum-norm-point algorithm (1976) on the points relative to x,
   // so that coordinates far from the origin cost no digits. It keeps a set
   // of affinely independent points (at most four in 3D) whose hull holds
   // the current point y: it adds the point that lies furthest along -y,
   // moves to the nearest point of the new set's affine hull, and steps back
-  // to the set's hull, dropping points, while that nearest point is not
-  // inside it. The distances fall strictly, so no set repeats.
+  // to the set's hull, dropping the point whose weight reaches zero first,
+  // while that nearest point is not inside it. The distances fall, so no set
+  // repeats; the best point met is kept, and checked at the end.
   HullPoint out;
   const int n = static_cast<int>(points.size());
   if (n == 0) {
     out.distance = std::numeric_limits<double>::infinity();
     return out;
   }
+  bool finite = x.allFinite();
+  for (const auto& p : points)
+    finite = finite && p.allFinite();
+  if (!finite) {
+    out.weights = Eigen::VectorXd::Constant(n, 1.0 / n);
+    out.distance = std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
   std::vector<Eigen::Vector3d> q(points.size());
   double scale = 0;
   for (size_t i = 0; i < q.size(); ++i) {
     q[i] = points[i] - x;
-    scale = std::max(scale, q[i].squaredNorm());
+    scale = std::max(scale, q[i].lpNorm<Eigen::Infinity>());
   }
-  std::vector<int> S;     // the set
-  std::vector<double> l;  // y's weights on it
+  if (!(scale > 0)) { // every point at x
+    out.weights = Eigen::VectorXd::Unit(n, 0);
+    return out;
+  }
+  for (auto& p : q)
+    p /= scale; // unit size: the tolerance is relative and nothing overflows
+  std::vector<int> S;    // the set
+  std::vector<double> l; // y's weights on it
   int first = 0;
   for (int i = 1; i < n; ++i)
     if (q[static_cast<size_t>(i)].squaredNorm() < q[static_cast<size_t>(first)].squaredNorm())
@@ -123,88 +195,91 @@ HullPoint nearest_in_hull(std::span<const Eigen::Vector3d> points, const Eigen::
   S.push_back(first);
   l.push_back(1.0);
   Eigen::Vector3d y = q[static_cast<size_t>(first)];
-  // The nearest point to the origin of the affine hull of S, as weights summing to one.
-  auto affine = [&](std::vector<double>& a) {
-    const int m = static_cast<int>(S.size());
-    a.assign(static_cast<size_t>(m), 0.0);
-    if (m == 1) {
-      a[0] = 1;
-      return;
-    }
-    Eigen::MatrixXd E(3, m - 1);
-    const Eigen::Vector3d& o = q[static_cast<size_t>(S[0])];
-    for (int i = 1; i < m; ++i)
-      E.col(i - 1) = q[static_cast<size_t>(S[static_cast<size_t>(i)])] - o;
-    const Eigen::VectorXd c = E.colPivHouseholderQr().solve(-o);
-    a[0] = 1 - c.sum();
-    for (int i = 1; i < m; ++i)
-      a[static_cast<size_t>(i)] = c[i - 1];
+  auto point_of = [&](const std::vector<int>& set, const std::vector<double>& w) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < set.size(); ++i)
+      p += w[i] * q[static_cast<size_t>(set[i])];
+    return p;
   };
-  const double eps = 1e-14 * scale;
+  // How far y is from optimal: no point may lie beyond the plane through y across it.
+  auto gap = [&](const Eigen::Vector3d& at, int* furthest) {
+    int j = 0;
+    for (int i = 1; i < n; ++i)
+      if (q[static_cast<size_t>(i)].dot(at) < q[static_cast<size_t>(j)].dot(at))
+        j = i;
+    if (furthest)
+      *furthest = j;
+    return at.squaredNorm() - q[static_cast<size_t>(j)].dot(at);
+  };
+  const double eps = 1e-14;
+  std::vector<int> best_S = S;
+  std::vector<double> best_l = l;
+  double best = y.squaredNorm();
   std::vector<double> a;
   for (int major = 0; major < 4 * n + 16; ++major) {
     int j = 0;
-    for (int i = 1; i < n; ++i)
-      if (q[static_cast<size_t>(i)].dot(y) < q[static_cast<size_t>(j)].dot(y))
-        j = i;
-    // y is the nearest point when no point lies beyond the plane through it across y.
-    if (y.squaredNorm() - q[static_cast<size_t>(j)].dot(y) <= eps ||
-        std::find(S.begin(), S.end(), j) != S.end() || S.size() == 4)
+    if (gap(y, &j) <= eps || std::find(S.begin(), S.end(), j) != S.end())
       break;
     S.push_back(j);
     l.push_back(0.0);
-    for (int minor = 0; minor < 8; ++minor) {
-      affine(a);
-      bool inside = true;
-      for (const double ai : a)
-        inside = inside && ai > 0;
-      if (inside) {
+    for (int minor = 0; minor < 8 && !S.empty(); ++minor) {
+      affine_minimum(q, S, a);
+      if (*std::min_element(a.begin(), a.end()) > 0) {
         l = a;
         break;
       }
-      // Towards the affine minimum as far as the set's hull goes; drop the weights that reach zero.
+      // Towards the affine minimum as far as the set's hull goes: the
+      // weight that reaches zero first is set to zero exactly, and dropped
+      // with any other at zero.
       double theta = 1;
+      int block = -1;
       for (size_t i = 0; i < a.size(); ++i)
-        if (a[i] <= 0 && l[i] - a[i] > 0)
-          theta = std::min(theta, l[i] / (l[i] - a[i]));
+        if (a[i] <= 0 && l[i] - a[i] > 0 && l[i] / (l[i] - a[i]) < theta) {
+          theta = l[i] / (l[i] - a[i]);
+          block = static_cast<int>(i);
+        }
       for (size_t i = 0; i < a.size(); ++i)
         l[i] += theta * (a[i] - l[i]);
+      if (block >= 0)
+        l[static_cast<size_t>(block)] = 0;
       std::vector<int> keptS;
       std::vector<double> keptl;
       for (size_t i = 0; i < S.size(); ++i)
-        if (l[i] > 1e-15) {
+        if (l[i] > 0) {
           keptS.push_back(S[i]);
           keptl.push_back(l[i]);
         }
-      if (keptS.empty()) {
-        keptS.push_back(S.back());
-        keptl.push_back(1.0);
-      }
       S = std::move(keptS);
       l = std::move(keptl);
     }
+    if (S.empty())
+      break;
     double sum = 0;
     for (const double li : l)
       sum += li;
-    Eigen::Vector3d next = Eigen::Vector3d::Zero();
-    for (size_t i = 0; i < S.size(); ++i) {
-      l[i] /= sum;
-      next += l[i] * q[static_cast<size_t>(S[i])];
+    for (double& li : l)
+      li /= sum;
+    y = point_of(S, l);
+    if (y.squaredNorm() < best) {
+      best = y.squaredNorm();
+      best_S = S;
+      best_l = l;
+    } else {
+      break; // rounding: no progress left
     }
-    if (!(next.squaredNorm() < y.squaredNorm())) { // rounding: no progress left
-      if (next.squaredNorm() <= y.squaredNorm())
-        y = next;
-      break;
-    }
-    y = next;
+  }
+  // Checked: where the best point met is not optimal (Wolfe's steps stalled
+  // in rounding), every subset of up to four points is tried (up to 20
+  // points: 6,195 subsets).
+  if (gap(point_of(best_S, best_l), nullptr) > 1e-12 && n <= 20) {
+    auto [S2, l2] = nearest_by_subsets(q);
+    if (!S2.empty() && point_of(S2, l2).squaredNorm() < best)
+      best_S = std::move(S2), best_l = std::move(l2);
   }
   out.weights = Eigen::VectorXd::Zero(n);
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  for (size_t i = 0; i < S.size(); ++i) {
-    out.weights[S[i]] = l[i];
-    p += l[i] * q[static_cast<size_t>(S[i])];
-  }
-  out.distance = p.norm();
+  for (size_t i = 0; i < best_S.size(); ++i)
+    out.weights[best_S[i]] = best_l[i];
+  out.distance = scale * point_of(best_S, best_l).norm();
   return out;
 }
 

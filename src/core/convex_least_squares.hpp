@@ -26,7 +26,10 @@ double quadratic_objective(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, c
 /// convex blend of where its joints move it, so this is the closest any
 /// linear skin of those joints can come to `x` at that pose, whatever its
 /// weights (the floor a baked skin's fidelity report states). Empty points:
-/// no weights and an infinite distance.
+/// no weights and an infinite distance; a non-finite coordinate: a NaN
+/// distance. Exact to rounding relative to the points' spread about x (the
+/// minimum-norm-point algorithm, checked against every subset of up to four
+/// points where its steps stall, for up to 20 points).
 struct HullPoint {
   Eigen::VectorXd weights;
   double distance = 0;

@@ -26,6 +26,15 @@
 namespace curvenet {
 namespace {
 
+/// Whether two paths name one file (by name when either cannot be resolved).
+bool same_file(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty())
+    return a == b;
+  std::error_code ea, eb;
+  const auto ca = std::filesystem::weakly_canonical(a, ea), cb = std::filesystem::weakly_canonical(b, eb);
+  return ea || eb ? a == b : ca == cb;
+}
+
 /// Why a clip file's skeleton is not the rig's, or nothing: the rest
 /// transforms of the joints both have, each relative to its parent (a
 /// similarity put round the whole skeleton, as a transfer does, changes
@@ -469,7 +478,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
     const auto [first, last] = clip_frames(clips, c, fps);
     const double t0 = clips.clip_range(c).first;
     Vec3 worst_rig = Vec3::Zero();
-    double worst_scale = 1;
+    double worst_scale = 1, worst_t = t0;
     for (int frame = first; frame <= last; ++frame) {
       const double t = std::max(t0, frame / fps);
       const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t);
@@ -493,6 +502,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
           f.worst_time = t - t0;
           worst_rig = rig[v];
           worst_scale = scale;
+          worst_t = t;
         }
       }
       f.mean += n ? sum / static_cast<double>(n) : 0.0;
@@ -508,7 +518,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
       // The floor there: where the joints that move it in the rig carry it.
       std::vector<std::pair<int, double>> inf;
       joints_of(f.worst_vertex, inf);
-      const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t0 + f.worst_time);
+      const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, worst_t); // that very frame
       std::vector<Vec3> carried;
       for (const auto& [k, x] : inf)
         carried.push_back((M[static_cast<size_t>(k)] * rest[v].homogeneous()).head<3>());
@@ -543,7 +553,8 @@ BakeSummary run(const BakeJob& job) {
   }
   // The keys carried, measured and fitted over are taken against each
   // file's own rest pose: say when a file's skeleton is not the rig's.
-  const SkinnedMesh* said[] = {clips ? &*clips : nullptr, fit && job.fit != job.clip_file ? &*fit : nullptr};
+  const SkinnedMesh* said[] = {clips ? &*clips : nullptr,
+                               fit && !same_file(job.fit, job.clip_file) ? &*fit : nullptr}; // one file said once
   for (const SkinnedMesh* file : said)
     if (file)
       for (auto& note : clip_notes(scene.rig.joints, *file))
