@@ -363,9 +363,12 @@ TEST(Jobs, ABakeWhoseClipOrFitFileHasAnotherSkeletonSaysSo) {
   ASSERT_EQ(notes.size(), 1u);
   EXPECT_NE(notes[0].find("Trex.glb: its skeleton is not the rig's (joint '"), std::string::npos) << notes[0];
   EXPECT_NE(notes[0].find("--skeleton " + trex), std::string::npos) << notes[0];
-  // The same file to fit over is said once; a fit file alone is said too.
+  // The same file to fit over is said once, by another path too; a fit
+  // file alone is said as well.
   job.fit = trex;
   EXPECT_EQ(notes_of(run(job)).size(), 1u);
+  job.fit = (fs::path(trex).parent_path() / "." / fs::path(trex).filename()).string();
+  EXPECT_EQ(notes_of(run(job)).size(), 1u) << job.fit;
   job.clip_file.clear();
   job.clip_names.clear();
   notes = notes_of(run(job));
