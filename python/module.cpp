@@ -1273,6 +1273,63 @@ PYBIND11_MODULE(_curvenet, m) {
       "Writes a farm job folder for `curvenet animate`'s inputs (a PC2 `output` or an `obj_sequence` folder) and "
       "submits it to Slurm with sbatch, unless `dry_run`; returns the job folder");
   m.def(
+      "bake",
+      [](const std::string& mesh, const std::string& rig, const std::string& output, const std::string& weights_csv,
+         const std::string& clip_file, const std::vector<std::string>& clip_names, const std::string& fit,
+         const std::string& weights, int max_influences, double fps, long long max_frames, const std::string& up,
+         const std::string& skeleton, const std::string& method, const std::string& interior, bool over_skin,
+         const std::string& skinning, double envelope) {
+        using namespace py::literals;
+        if (output.empty() && weights_csv.empty())
+          throw py::value_error("bake: give an output GLB path, a weights_csv path, or both");
+        BakeJob job{{mesh, rig, skeleton, ""}, {}, output, weights_csv, clip_file, clip_names, fit};
+        if (!parse_deform_method(method, job.options.method))
+          throw py::value_error("method: expected dq, harmonic or gradient, got '" + method + "'");
+        if (!parse_interior_weights(interior, job.options.interior))
+          throw py::value_error("interior: expected 'bone-heat' or 'harmonic', got '" + interior + "'");
+        if (weights != "harmonic" && weights != "fitted")
+          throw py::value_error("weights: expected 'harmonic' or 'fitted', got '" + weights + "'");
+        job.weights = weights == "fitted" ? BakeJob::Weights::Fitted : BakeJob::Weights::Harmonic;
+        if (up != "y" && up != "z")
+          throw py::value_error("up: expected 'y' or 'z', got '" + up + "'");
+        job.up = up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
+        if (!(fps > 0 && fps <= 10000))
+          throw py::value_error("fps: expected a number in (0, 10000]");
+        job.fps = fps;
+        job.max_influences = max_influences;
+        job.max_frames = max_frames;
+        if (skinning != "linear" && skinning != "dq")
+          throw py::value_error("skinning: expected 'linear' or 'dq', got '" + skinning + "'");
+        job.layer.over_skin = over_skin;
+        job.layer.skinning = skinning == "dq" ? Skinning::DualQuaternion : Skinning::Linear;
+        job.layer.envelope = envelope;
+        BakeSummary r;
+        {
+          py::gil_scoped_release release;
+          r = run(job);
+        }
+        py::list fidelity;
+        for (const auto& f : r.fidelity)
+          fidelity.append(py::dict("clip"_a = f.clip, "index"_a = f.index, "frames"_a = f.frames, "mean"_a = f.mean,
+                                   "max"_a = f.max, "worst_vertex"_a = f.worst_vertex,
+                                   "worst_rest"_a = py::make_tuple(f.worst_rest.x(), f.worst_rest.y(), f.worst_rest.z()),
+                                   "worst_joint"_a = f.worst_joint, "worst_time"_a = f.worst_time,
+                                   "worst_floor"_a = f.worst_floor, "worst_joints"_a = f.worst_joints));
+        return py::dict("notes"_a = r.notes, "vertices"_a = r.vertices, "bind"_a = from_json(report_to_json(r.bind)),
+                        "joints"_a = r.joints, "influences"_a = r.influences, "mean_joints"_a = r.mean_joints,
+                        "most_joints"_a = r.most_joints, "clips"_a = r.clips, "training_poses"_a = r.training_poses,
+                        "fidelity"_a = fidelity);
+      },
+      py::arg("mesh"), py::arg("rig"), py::kw_only(), py::arg("output") = "", py::arg("weights_csv") = "",
+      py::arg("clip_file") = "", py::arg("clip_names") = std::vector<std::string>{}, py::arg("fit") = "",
+      py::arg("weights") = "harmonic", py::arg("max_influences") = 4, py::arg("fps") = 24.0,
+      py::arg("max_frames") = 100000LL, py::arg("up") = "y", py::arg("skeleton") = "", py::arg("method") = "dq",
+      py::arg("interior") = "bone-heat", py::arg("over_skin") = false, py::arg("skinning") = "linear",
+      py::arg("envelope") = 1.0,
+      "The job `curvenet bake` runs, from files to files (all or nothing): the GLB and/or the weights CSV, and a "
+      "dict of what the CLI prints (notes, the bind report, the weights' joints per vertex, and with a clip file "
+      "each carried clip's fidelity, worst first, as fractions of the diagonal)");
+  m.def(
       "farm_merge",
       [](const std::string& folder) {
         using namespace py::literals;

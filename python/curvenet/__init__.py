@@ -27,6 +27,7 @@ from ._curvenet import (  # noqa: F401
     TransferResult,
     animate,
     animate_poses,
+    bake,
     bake_weights,
     bind,
     bind_layer,

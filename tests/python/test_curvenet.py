@@ -309,6 +309,34 @@ def test_animating_with_a_clip_file_of_another_skeleton_warns_as_the_cli_notes(t
 
 
 @needs_data
+def test_bake_from_python_is_the_clis_bake_to_the_byte_and_reports_what_it_prints(tmp_path):
+    mesh, rig, clips = hand(), example("hand_l.cnrig.json"), hand("hand_l_poses.glb")
+    out = cli("bake", mesh, rig, "-o", str(tmp_path / "cli.glb"), "--clip", clips, "--clip-name", "Grip",
+              "--clip-name", "OK", "--weights", "fitted")
+    r = curvenet.bake(mesh, rig, output=str(tmp_path / "py.glb"), weights_csv=str(tmp_path / "py.csv"),
+                      clip_file=clips, clip_names=["Grip", "OK"], weights="fitted")
+    assert (tmp_path / "py.glb").read_bytes() == (tmp_path / "cli.glb").read_bytes()
+    assert (tmp_path / "py.csv").read_text().count("\n") == r["vertices"] + 1  # a header and a row per vertex
+    assert r["clips"] == 2 and r["training_poses"] > 0 and r["influences"] == 4
+    assert [f["clip"] for f in r["fidelity"]] == sorted(["Grip", "OK"], key=lambda c: -next(
+        f["max"] for f in r["fidelity"] if f["clip"] == c))
+    for f in r["fidelity"]:
+        # The numbers the CLI printed for that clip, to its two decimals.
+        line = next(l for l in out.splitlines() if l.startswith(f"  clip '{f['clip']}'"))
+        assert f" mean {100 * f['mean']:.2f}, max {100 * f['max']:.2f} at vertex {f['worst_vertex']} " in line, line
+        assert f"; floor {100 * f['worst_floor']:.2f} (no linear skin of the {f['worst_joints']} rig joints" in line
+        assert 0 <= f["worst_floor"] <= f["max"]
+    # Bad input: one error naming the element, nothing written.
+    with pytest.raises(curvenet.InputError, match="max influences"):
+        curvenet.bake(mesh, rig, output=str(tmp_path / "bad.glb"), max_influences=9)
+    with pytest.raises(ValueError, match="weights"):
+        curvenet.bake(mesh, rig, output=str(tmp_path / "bad.glb"), weights="best")
+    with pytest.raises(ValueError, match="output"):
+        curvenet.bake(mesh, rig)
+    assert not (tmp_path / "bad.glb").exists()
+
+
+@needs_data
 def test_deform_into_a_given_buffer_and_checks_its_input():
     b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
     M = curvenet.skinning_matrices(b, example("fist.pose.json"))
