@@ -1278,7 +1278,7 @@ PYBIND11_MODULE(_curvenet, m) {
          const std::string& clip_file, const std::vector<std::string>& clip_names, const std::string& fit,
          const std::string& weights, int max_influences, double fps, long long max_frames, const std::string& up,
          const std::string& skeleton, const std::string& method, const std::string& interior, bool over_skin,
-         const std::string& skinning, double envelope) {
+         const std::string& skinning, double envelope, const std::string& mask) {
         using namespace py::literals;
         if (output.empty() && weights_csv.empty())
           throw py::value_error("bake: give an output GLB path, a weights_csv path, or both");
@@ -1303,6 +1303,7 @@ PYBIND11_MODULE(_curvenet, m) {
         job.layer.over_skin = over_skin;
         job.layer.skinning = skinning == "dq" ? Skinning::DualQuaternion : Skinning::Linear;
         job.layer.envelope = envelope;
+        job.layer.mask = mask;
         BakeSummary r;
         {
           py::gil_scoped_release release;
@@ -1325,7 +1326,7 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("weights") = "harmonic", py::arg("max_influences") = 4, py::arg("fps") = 24.0,
       py::arg("max_frames") = 100000LL, py::arg("up") = "y", py::arg("skeleton") = "", py::arg("method") = "dq",
       py::arg("interior") = "bone-heat", py::arg("over_skin") = false, py::arg("skinning") = "linear",
-      py::arg("envelope") = 1.0,
+      py::arg("envelope") = 1.0, py::arg("mask") = "",
       "The job `curvenet bake` runs, from files to files (all or nothing): the GLB and/or the weights CSV, and a "
       "dict of what the CLI prints (notes, the bind report, the weights' joints per vertex, and with a clip file "
       "each carried clip's fidelity, worst first, as fractions of the diagonal)");

@@ -555,15 +555,17 @@ def bake(
     mesh: str, rig: str, *, output: str = "", weights_csv: str = "", clip_file: str = "",
     clip_names: Sequence[str] = (), fit: str = "", weights: str = "harmonic", max_influences: int = 4,
     fps: float = 24.0, max_frames: int = 100000, up: str = "y", skeleton: str = "", method: str = "dq",
-    interior: str = "bone-heat", over_skin: bool = False, skinning: str = "linear", envelope: float = 1.0
+    interior: str = "bone-heat", over_skin: bool = False, skinning: str = "linear", envelope: float = 1.0,
+    mask: str = ""
 ) -> dict[str, Any]:
     """The job `curvenet bake` runs, from files to files, all or nothing: the GLB at `output` and/or the CSV at
     `weights_csv` (bit for bit the CLI's), and what the CLI prints: 'notes' (a clip or fit file of another skeleton
     among them), 'vertices', 'bind' (the bind report), 'joints', 'influences', 'mean_joints', 'most_joints', 'clips',
     'training_poses', and with a clip file 'fidelity': per carried clip, worst first, a dict of 'clip', 'index',
     'frames', 'mean', 'max', 'worst_vertex', 'worst_rest', 'worst_joint', 'worst_time', 'worst_floor' and
-    'worst_joints' (distances as fractions of the diagonal; docs/bake.md, "What bake reports"). Raises InputError
-    for bad input, writing nothing."""
+    'worst_joints' (distances as fractions of the diagonal; docs/bake.md, "What bake reports"). `over_skin`,
+    `skinning`, `envelope` and `mask` are the CLI's layer options (with `fit`). Raises InputError for bad input,
+    writing nothing."""
 def bake_weights(binding: Binding, max_influences: int = 4) -> SkinWeights:
     """The k largest harmonic weights s_j of each input vertex, renormalised (docs/bake.md)."""
 

@@ -326,6 +326,11 @@ def test_bake_from_python_is_the_clis_bake_to_the_byte_and_reports_what_it_print
         assert f" mean {100 * f['mean']:.2f}, max {100 * f['max']:.2f} at vertex {f['worst_vertex']} " in line, line
         assert f"; floor {100 * f['worst_floor']:.2f} (no linear skin of the {f['worst_joints']} rig joints" in line
         assert 0 <= f["worst_floor"] <= f["max"]
+    # Layered over the file's own skin and fitted to it, as `bake --over-skin --fit`.
+    cli("bake", mesh, rig, "--weights-csv", str(tmp_path / "cli_layer.csv"), "--over-skin", "--fit", clips,
+        "--envelope", "0.5")
+    r = curvenet.bake(mesh, rig, weights_csv=str(tmp_path / "py_layer.csv"), over_skin=True, fit=clips, envelope=0.5)
+    assert (tmp_path / "py_layer.csv").read_bytes() == (tmp_path / "cli_layer.csv").read_bytes()
     # Bad input: one error naming the element, nothing written.
     with pytest.raises(curvenet.InputError, match="max influences"):
         curvenet.bake(mesh, rig, output=str(tmp_path / "bad.glb"), max_influences=9)
