@@ -16,6 +16,7 @@
 //                                   (the distance to the convex hull of where the vertex's joints carry it), beside
 //                                   the fitted bake's worst vertex: where the worst-vertex goal is out of reach,
 //                                   and how far helper joints keyed half way between two joints would bring it
+//   build/bin/bake_bench helpers    those helpers fitted as the bake fits, measured on the clips (the dq rig)
 //   build/bin/bake_bench speed      `curvenet bake` (harmonic and fitted) as a process, on all cores and on
 //                                   one (taskset), on characters of 1.8k to 9k vertices; medians of 5
 //
@@ -54,6 +55,7 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -948,6 +950,173 @@ void floor_table() {
   std::printf("\n");
 }
 
+// --- Helper joints, fitted (what the floor table's last column would buy) ---
+
+/// A skin with helper joints, each the dual-quaternion mean of two joints that
+/// move a vertex together (a helper keyed half way between them), fitted as
+/// fit_weights fits (least squares over the training poses on the simplex,
+/// pulled towards the harmonic weights, and past k the better of the two
+/// refits) and measured on the clips neither saw. The default `dq` rig only.
+void helpers_table() {
+  std::vector<std::unique_ptr<SkinnedMesh>> keep;
+  const auto cases = anchor_cases(keep);
+  std::printf("Helper joints, fitted: each vertex may take, besides its own joints, a helper half way between any two "
+              "of them (their dual-quaternion mean), fitted over the training poses as the bake fits and measured on "
+              "the clips' frames; the default dq rig. %% of the diagonal; helpers: the distinct pairs some vertex "
+              "uses.\n\n");
+  std::printf("| case | k | fitted: mean | max | with helpers: mean | max | helpers used |\n"
+              "|---|---|---|---|---|---|---|\n");
+  for (const auto& c : cases) {
+    const Binding b = bind(c.mesh, c.rig);
+    const auto rest = rest_of(b);
+    const double diag = c.mesh.bbox_diagonal();
+    const size_t n = rest.size(), nj = b.joints().size();
+    if (n == 0 || c.clip_times.empty())
+      continue;
+    std::vector<std::vector<Mat4>> measured;
+    for (const auto& [clip, t] : c.clip_times) {
+      auto M = clip_skinning_matrices(b.joints(), *c.clips, clip, t);
+      for (auto& x : M)
+        x = c.normalise * x;
+      measured.push_back(std::move(M));
+    }
+    std::vector<std::vector<Vec3>> truth(measured.size(), std::vector<Vec3>(n));
+    for (size_t f = 0; f < measured.size(); ++f)
+      b.deform(measured[f], truth[f]);
+    const auto train = training_poses(b.joints());
+    std::vector<Mat4> all;
+    for (const auto& p : train)
+      all.insert(all.end(), p.begin(), p.end());
+    std::vector<Vec3> target(train.size() * n);
+    b.deform_frames(all, target);
+    auto duals = [](const std::vector<std::vector<Mat4>>& poses) {
+      std::vector<std::vector<detail::DualJoint>> d(poses.size());
+      for (size_t f = 0; f < poses.size(); ++f)
+        for (const Mat4& M : poses[f])
+          d[f].push_back(detail::split_joint(M));
+      return d;
+    };
+    const auto train_dual = duals(train), clip_dual = duals(measured);
+    double scale = 0;
+    for (const Vec3& x : rest)
+      scale = std::max(scale, x.norm());
+    const double pull = 1e-3 * scale; // as fit_weights pulls
+    for (const int k : {4, 8}) {
+      // Per vertex: its columns (a joint, or a pair of joints for a helper) and weights.
+      std::vector<std::vector<std::pair<int, int>>> cols(n);
+      std::vector<Eigen::VectorXd> weights(n);
+      tbb::parallel_for(size_t{0}, n, [&](size_t v) {
+        std::vector<std::pair<int, double>> inf;
+        b.harmonic_weights(static_cast<int>(v), inf);
+        auto& col = cols[v];
+        for (const auto& [j, x] : inf)
+          col.emplace_back(j, j);
+        for (size_t i = 0; i < inf.size(); ++i)
+          for (size_t q = i + 1; q < inf.size(); ++q)
+            col.emplace_back(inf[i].first, inf[q].first);
+        const int m = static_cast<int>(col.size());
+        Eigen::VectorXd start = Eigen::VectorXd::Zero(m);
+        for (size_t i = 0; i < inf.size(); ++i)
+          start[static_cast<int>(i)] = inf[i].second;
+        detail::DualBlend half;
+        auto point = [&](const std::vector<Mat4>& M, const std::vector<detail::DualJoint>& d, std::pair<int, int> a) {
+          if (a.first == a.second)
+            return Vec3((M[static_cast<size_t>(a.first)] * rest[v].homogeneous()).head<3>());
+          half.clear();
+          half.add(d[static_cast<size_t>(a.first)], 0.5);
+          half.add(d[static_cast<size_t>(a.second)], 0.5);
+          return half.valid() ? half.apply(rest[v]) : Vec3((M[static_cast<size_t>(a.first)] * rest[v].homogeneous()).head<3>());
+        };
+        Eigen::MatrixXd A(3 * static_cast<int>(train.size()), m);
+        Eigen::VectorXd rhs(A.rows());
+        for (size_t p = 0; p < train.size(); ++p) {
+          for (int i = 0; i < m; ++i)
+            A.block<3, 1>(3 * static_cast<int>(p), i) = point(train[p], train_dual[p], col[static_cast<size_t>(i)]);
+          rhs.segment<3>(3 * static_cast<int>(p)) = target[p * n + v];
+        }
+        Eigen::MatrixXd G = A.transpose() * A;
+        Eigen::VectorXd h = A.transpose() * rhs;
+        for (int i = 0; i < m; ++i) {
+          G(i, i) += pull * pull;
+          h[i] += pull * pull * start[i];
+        }
+        auto solve = [&](const std::vector<int>& S) {
+          const int sz = static_cast<int>(S.size());
+          Eigen::MatrixXd Gs(sz, sz);
+          Eigen::VectorXd hs(sz), xs(sz);
+          for (int a = 0; a < sz; ++a) {
+            for (int q = 0; q < sz; ++q)
+              Gs(a, q) = G(S[a], S[q]);
+            hs[a] = h[S[a]];
+            xs[a] = start[S[a]];
+          }
+          xs = detail::convex_least_squares(Gs, hs, xs);
+          Eigen::VectorXd full = Eigen::VectorXd::Zero(m);
+          for (int a = 0; a < sz; ++a)
+            full[S[a]] = xs[a];
+          return std::pair{full, detail::quadratic_objective(Gs, hs, xs)};
+        };
+        std::vector<int> every(static_cast<size_t>(m));
+        std::iota(every.begin(), every.end(), 0);
+        Eigen::VectorXd sol = solve(every).first;
+        if ((sol.array() > 0).count() > k) {
+          auto largest = [&](const Eigen::VectorXd& by) {
+            std::vector<int> order = every;
+            std::stable_sort(order.begin(), order.end(), [&](int a, int q) { return by[a] > by[q]; });
+            order.resize(static_cast<size_t>(std::min(k, m)));
+            return order;
+          };
+          auto by_fit = solve(largest(sol));
+          const auto by_given = solve(largest(start));
+          if (by_given.second < by_fit.second)
+            by_fit = by_given;
+          sol = by_fit.first;
+        }
+        weights[v] = sol;
+      });
+      std::set<std::pair<int, int>> used;
+      for (size_t v = 0; v < n; ++v)
+        for (size_t i = 0; i < cols[v].size(); ++i)
+          if (weights[v][static_cast<int>(i)] > 0 && cols[v][i].first != cols[v][i].second)
+            used.insert(cols[v][i]);
+      Stat with;
+      for (size_t f = 0; f < measured.size(); ++f) {
+        std::vector<Vec3> x(n);
+        tbb::parallel_for(size_t{0}, n, [&](size_t v) {
+          detail::DualBlend half;
+          Vec3 p = Vec3::Zero();
+          for (size_t i = 0; i < cols[v].size(); ++i) {
+            const double w = weights[v][static_cast<int>(i)];
+            if (!(w > 0))
+              continue;
+            const auto [a, q] = cols[v][i];
+            if (a == q) {
+              p += w * (measured[f][static_cast<size_t>(a)] * rest[v].homogeneous()).head<3>();
+            } else {
+              half.clear();
+              half.add(clip_dual[f][static_cast<size_t>(a)], 0.5);
+              half.add(clip_dual[f][static_cast<size_t>(q)], 0.5);
+              p += w * (half.valid() ? half.apply(rest[v])
+                                     : Vec3((measured[f][static_cast<size_t>(a)] * rest[v].homogeneous()).head<3>()));
+            }
+          }
+          x[v] = p;
+        });
+        with.add(vertex_gap(x, truth[f]));
+      }
+      Stat without;
+      const SkinWeights w = fit_weights(b, train, k);
+      for (size_t f = 0; f < measured.size(); ++f)
+        without.add(vertex_gap(skin_positions(w, rest, measured[f]), truth[f]));
+      std::printf("| %s | %d | %.3f%% | %.2f%% | %.3f%% | %.2f%% | %zu (%zu joints) |\n", c.name.c_str(), k,
+                  100 * without.mean_of() / diag, 100 * without.max / diag, 100 * with.mean_of() / diag,
+                  100 * with.max / diag, used.size(), nj);
+      std::fflush(stdout);
+    }
+  }
+  std::printf("\n");
+}
+
 // --- Baking as a user runs it (issue 26: under 5 s for a 5k-vertex character on one core, fit included) ---
 
 double process_ms(const std::string& command, int reps = 5) {
@@ -1040,6 +1209,8 @@ int main(int argc, char** argv) {
     anchor_table();
   if (what == "floor" || what == "all")
     floor_table();
+  if (what == "helpers" || what == "all")
+    helpers_table();
   if (what == "speed" || what == "all")
     speed_table();
   return 0;
