@@ -829,6 +829,33 @@ void anchor_table() {
 
 // --- The floor of any linear skin (issue 26's worst-vertex goal) ---
 
+/// A case bound in one mode and measured on its clips: the rig's positions at
+/// each measured frame (the file's armature placement undone).
+struct MeasuredCase {
+  Binding binding;
+  std::vector<Vec3> rest;
+  double diag = 0;
+  std::vector<std::vector<Mat4>> frames;
+  std::vector<std::vector<Vec3>> truth;
+};
+
+MeasuredCase measure(const AnchorCase& c, DeformMethod method) {
+  BindOptions bo;
+  bo.method = method;
+  MeasuredCase m{bind(c.mesh, c.rig, bo), {}, c.mesh.bbox_diagonal(), {}, {}};
+  m.rest = rest_of(m.binding);
+  for (const auto& [clip, t] : c.clip_times) {
+    auto M = clip_skinning_matrices(m.binding.joints(), *c.clips, clip, t);
+    for (auto& x : M)
+      x = c.normalise * x;
+    m.frames.push_back(std::move(M));
+  }
+  m.truth.assign(m.frames.size(), std::vector<Vec3>(m.rest.size()));
+  for (size_t f = 0; f < m.frames.size(); ++f)
+    m.binding.deform(m.frames[f], m.truth[f]);
+  return m;
+}
+
 /// How close a linear skin can come at all. At each measured frame, a
 /// vertex's skin position is a convex blend of where its joints carry it, so
 /// its distance from the rig is at least the distance from the rig's
@@ -851,24 +878,11 @@ void floor_table() {
               "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& c : cases) {
     for (const DeformMethod method : {DeformMethod::DualQuaternion, DeformMethod::Harmonic}) {
-      BindOptions bo;
-      bo.method = method;
-      const Binding b = bind(c.mesh, c.rig, bo);
-      const auto rest = rest_of(b);
-      const double diag = c.mesh.bbox_diagonal();
-      const size_t n = rest.size(), nj = b.joints().size();
-      if (n == 0 || c.clip_times.empty())
+      const MeasuredCase mc = measure(c, method);
+      if (mc.rest.empty() || mc.frames.empty())
         continue;
-      std::vector<std::vector<Mat4>> measured;
-      for (const auto& [clip, t] : c.clip_times) {
-        auto M = clip_skinning_matrices(b.joints(), *c.clips, clip, t);
-        for (auto& x : M)
-          x = c.normalise * x;
-        measured.push_back(std::move(M));
-      }
-      std::vector<std::vector<Vec3>> truth(measured.size(), std::vector<Vec3>(n));
-      for (size_t f = 0; f < measured.size(); ++f)
-        b.deform(measured[f], truth[f]);
+      const auto& [b, rest, diag, measured, truth] = mc;
+      const size_t n = rest.size(), nj = b.joints().size();
       const auto train = training_poses(b.joints());
       double fitted_max[2] = {0, 0};
       for (const int k : {4, 8}) {
@@ -967,22 +981,11 @@ void helpers_table() {
   std::printf("| case | k | fitted: mean | max | with helpers: mean | max | helpers used |\n"
               "|---|---|---|---|---|---|---|\n");
   for (const auto& c : cases) {
-    const Binding b = bind(c.mesh, c.rig);
-    const auto rest = rest_of(b);
-    const double diag = c.mesh.bbox_diagonal();
-    const size_t n = rest.size(), nj = b.joints().size();
-    if (n == 0 || c.clip_times.empty())
+    const MeasuredCase mc = measure(c, DeformMethod::DualQuaternion);
+    if (mc.rest.empty() || mc.frames.empty())
       continue;
-    std::vector<std::vector<Mat4>> measured;
-    for (const auto& [clip, t] : c.clip_times) {
-      auto M = clip_skinning_matrices(b.joints(), *c.clips, clip, t);
-      for (auto& x : M)
-        x = c.normalise * x;
-      measured.push_back(std::move(M));
-    }
-    std::vector<std::vector<Vec3>> truth(measured.size(), std::vector<Vec3>(n));
-    for (size_t f = 0; f < measured.size(); ++f)
-      b.deform(measured[f], truth[f]);
+    const auto& [b, rest, diag, measured, truth] = mc;
+    const size_t n = rest.size(), nj = b.joints().size();
     const auto train = training_poses(b.joints());
     std::vector<Mat4> all;
     for (const auto& p : train)

@@ -22,14 +22,24 @@ namespace {
 /// The true minimum by brute force: on every subset of the weights, the
 /// minimum of the plane sum = 1 restricted to it; the least of those that are
 /// non-negative.
-double brute_force_minimum(const Eigen::MatrixXd& G, const Eigen::VectorXd& h) {
-  const int n = static_cast<int>(h.size());
-  double best = std::numeric_limits<double>::infinity();
+/// Every non-empty subset of 0..n-1 with at most `most` members.
+std::vector<std::vector<int>> subsets(int n, int most) {
+  std::vector<std::vector<int>> out;
   for (int mask = 1; mask < (1 << n); ++mask) {
     std::vector<int> S;
     for (int i = 0; i < n; ++i)
       if (mask & (1 << i))
         S.push_back(i);
+    if (static_cast<int>(S.size()) <= most)
+      out.push_back(std::move(S));
+  }
+  return out;
+}
+
+double brute_force_minimum(const Eigen::MatrixXd& G, const Eigen::VectorXd& h) {
+  const int n = static_cast<int>(h.size());
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& S : subsets(n, n)) {
     const int m = static_cast<int>(S.size());
     Eigen::MatrixXd K = Eigen::MatrixXd::Zero(m + 1, m + 1);
     Eigen::VectorXd r(m + 1);
@@ -148,13 +158,7 @@ namespace {
 double brute_force_hull_distance(const std::vector<Eigen::Vector3d>& P, const Eigen::Vector3d& x) {
   const int n = static_cast<int>(P.size());
   double best = std::numeric_limits<double>::infinity();
-  for (int mask = 1; mask < (1 << n); ++mask) {
-    std::vector<int> S;
-    for (int i = 0; i < n; ++i)
-      if (mask & (1 << i))
-        S.push_back(i);
-    if (S.size() > 4)
-      continue;
+  for (const auto& S : subsets(n, 4)) {
     const int m = static_cast<int>(S.size());
     Eigen::MatrixXd E(3, m - 1);
     for (int a = 1; a < m; ++a)
