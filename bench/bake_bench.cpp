@@ -1043,38 +1043,7 @@ void helpers_table() {
           G(i, i) += pull * pull;
           h[i] += pull * pull * start[i];
         }
-        auto solve = [&](const std::vector<int>& S) {
-          const int sz = static_cast<int>(S.size());
-          Eigen::MatrixXd Gs(sz, sz);
-          Eigen::VectorXd hs(sz), xs(sz);
-          for (int a = 0; a < sz; ++a) {
-            for (int q = 0; q < sz; ++q)
-              Gs(a, q) = G(S[a], S[q]);
-            hs[a] = h[S[a]];
-            xs[a] = start[S[a]];
-          }
-          xs = detail::convex_least_squares(Gs, hs, xs);
-          Eigen::VectorXd full = Eigen::VectorXd::Zero(m);
-          for (int a = 0; a < sz; ++a)
-            full[S[a]] = xs[a];
-          return std::pair{full, detail::quadratic_objective(Gs, hs, xs)};
-        };
-        std::vector<int> every(static_cast<size_t>(m));
-        std::iota(every.begin(), every.end(), 0);
-        Eigen::VectorXd sol = solve(every).first;
-        if ((sol.array() > 0).count() > k) {
-          auto largest = [&](const Eigen::VectorXd& by) {
-            std::vector<int> order = every;
-            std::stable_sort(order.begin(), order.end(), [&](int a, int q) { return by[a] > by[q]; });
-            order.resize(static_cast<size_t>(std::min(k, m)));
-            return order;
-          };
-          auto by_fit = solve(largest(sol));
-          const auto by_given = solve(largest(start));
-          if (by_given.second < by_fit.second)
-            by_fit = by_given;
-          sol = by_fit.first;
-        }
+        const Eigen::VectorXd sol = detail::convex_least_squares_top_k(G, h, start, k);
         weights[v] = sol;
       });
       std::set<std::pair<int, int>> used;

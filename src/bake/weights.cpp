@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
-#include <numeric>
 #include <sstream>
 
 namespace curvenet {
@@ -125,52 +124,14 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
       h[i] += pull * pull * inf[i].second;
       start[i] = std::max(0.0, inf[i].second);
     }
-    // The weights on a subset of the joints (indices into inf), from a start.
-    auto solve = [&](const std::vector<int>& S, const Eigen::VectorXd& from) {
-      const int s = static_cast<int>(S.size());
-      Eigen::MatrixXd Gs(s, s);
-      Eigen::VectorXd hs(s), xs(s);
-      for (int a = 0; a < s; ++a) {
-        for (int q = 0; q < s; ++q)
-          Gs(a, q) = G(S[a], S[q]);
-        hs[a] = h[S[a]];
-        xs[a] = from[S[a]];
-      }
-      xs = detail::convex_least_squares(Gs, hs, xs);
-      Eigen::VectorXd full = Eigen::VectorXd::Zero(c);
-      for (int a = 0; a < s; ++a)
-        full[S[a]] = xs[a];
-      return std::pair{full, detail::quadratic_objective(Gs, hs, xs)};
-    };
-    auto support = [&](const Eigen::VectorXd& y) {
-      std::vector<int> S;
-      for (int i = 0; i < c; ++i)
-        if (y[i] > 0)
-          S.push_back(i);
-      return S;
-    };
-    std::vector<int> all(c);
-    std::iota(all.begin(), all.end(), 0);
-    Eigen::VectorXd sol = solve(all, start).first;
     // Too many joints: refit on the k largest of the fit, and on the k
     // largest given weights, and keep whichever has the smaller objective
-    // (the residual over the poses, plus the small pull). A cut of the fit alone can drop one side of a blend that
-    // the rig keeps (one of two legs at the rump); choosing the subset with
-    // the least residual (dropping joints one at a time) fitted the poses
-    // closer but played unseen clips worse (docs/bake.md).
-    if (static_cast<int>(support(sol).size()) > max_influences) {
-      auto largest = [&](const Eigen::VectorXd& by) {
-        std::vector<int> order = all;
-        std::stable_sort(order.begin(), order.end(), [&](int a, int q) { return by[a] > by[q]; });
-        order.resize(max_influences);
-        return order;
-      };
-      auto by_fit = solve(largest(sol), start);
-      const auto by_given = solve(largest(start), start);
-      if (by_given.second < by_fit.second)
-        by_fit = by_given;
-      sol = std::move(by_fit.first);
-    }
+    // (the residual over the poses, plus the small pull). A cut of the fit
+    // alone can drop one side of a blend that the rig keeps (one of two legs
+    // at the rump); choosing the subset with the least residual (dropping
+    // joints one at a time) fitted the poses closer but played unseen clips
+    // worse (docs/bake.md).
+    const Eigen::VectorXd sol = detail::convex_least_squares_top_k(G, h, start, max_influences);
     std::vector<std::pair<int, double>> fitted;
     for (int i = 0; i < c; ++i)
       if (sol[i] > 0)

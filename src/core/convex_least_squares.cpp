@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <numeric>
 #include <vector>
 
 namespace curvenet::detail {
@@ -92,6 +93,42 @@ Eigen::VectorXd convex_least_squares(const Eigen::MatrixXd& G, const Eigen::Vect
   else
     x.setConstant(1.0 / n);
   return x;
+}
+
+Eigen::VectorXd convex_least_squares_top_k(const Eigen::MatrixXd& G, const Eigen::VectorXd& h,
+                                           const Eigen::VectorXd& start, int k) {
+  const int c = static_cast<int>(h.size());
+  // The weights on a subset (indices), from the start's, and their objective.
+  auto solve = [&](const std::vector<int>& S) {
+    const int s = static_cast<int>(S.size());
+    Eigen::MatrixXd Gs(s, s);
+    Eigen::VectorXd hs(s), xs(s);
+    for (int a = 0; a < s; ++a) {
+      for (int q = 0; q < s; ++q)
+        Gs(a, q) = G(S[a], S[q]);
+      hs[a] = h[S[a]];
+      xs[a] = start[S[a]];
+    }
+    xs = convex_least_squares(Gs, hs, xs);
+    Eigen::VectorXd full = Eigen::VectorXd::Zero(c);
+    for (int a = 0; a < s; ++a)
+      full[S[a]] = xs[a];
+    return std::pair{full, quadratic_objective(Gs, hs, xs)};
+  };
+  std::vector<int> all(static_cast<size_t>(c));
+  std::iota(all.begin(), all.end(), 0);
+  Eigen::VectorXd sol = solve(all).first;
+  if ((sol.array() > 0).count() <= k)
+    return sol;
+  auto largest = [&](const Eigen::VectorXd& by) {
+    std::vector<int> order = all;
+    std::stable_sort(order.begin(), order.end(), [&](int a, int q) { return by[a] > by[q]; });
+    order.resize(static_cast<size_t>(std::min(k, c)));
+    return order;
+  };
+  auto by_fit = solve(largest(sol));
+  const auto by_given = solve(largest(start));
+  return by_given.second < by_fit.second ? by_given.first : by_fit.first;
 }
 
 namespace {

@@ -18,6 +18,13 @@ namespace curvenet::detail {
 /// vertex's joints). Returns x on the simplex.
 Eigen::VectorXd convex_least_squares(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, Eigen::VectorXd x);
 
+/// convex_least_squares from `start`; where more than k weights come out
+/// non-zero, solved again on the k largest of that solution and on the k
+/// largest of `start`, keeping whichever has the smaller objective (a
+/// vertex's fit to at most k joints: bake/weights.cpp says why both).
+Eigen::VectorXd convex_least_squares_top_k(const Eigen::MatrixXd& G, const Eigen::VectorXd& h,
+                                           const Eigen::VectorXd& start, int k);
+
 /// 1/2 x'Gx - h'x.
 double quadratic_objective(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, const Eigen::VectorXd& x);
 
