@@ -1278,7 +1278,7 @@ PYBIND11_MODULE(_curvenet, m) {
          const std::string& clip_file, const std::vector<std::string>& clip_names, const std::string& fit,
          const std::string& weights, int max_influences, double fps, long long max_frames, const std::string& up,
          const std::string& skeleton, const std::string& method, const std::string& interior, bool over_skin,
-         const std::string& skinning, double envelope, const std::string& mask) {
+         const std::string& skinning, double envelope, const std::string& mask, int helpers) {
         using namespace py::literals;
         if (output.empty() && weights_csv.empty())
           throw py::value_error("bake: give an output GLB path, a weights_csv path, or both");
@@ -1298,6 +1298,7 @@ PYBIND11_MODULE(_curvenet, m) {
         job.fps = fps;
         job.max_influences = max_influences;
         job.max_frames = max_frames;
+        job.helpers = helpers;
         if (skinning != "linear" && skinning != "dq")
           throw py::value_error("skinning: expected 'linear' or 'dq', got '" + skinning + "'");
         job.layer.over_skin = over_skin;
@@ -1317,7 +1318,8 @@ PYBIND11_MODULE(_curvenet, m) {
                                    "worst_joint"_a = f.worst_joint, "worst_time"_a = f.worst_time,
                                    "worst_floor"_a = f.worst_floor, "worst_joints"_a = f.worst_joints));
         return py::dict("notes"_a = r.notes, "vertices"_a = r.vertices, "bind"_a = from_json(report_to_json(r.bind)),
-                        "joints"_a = r.joints, "influences"_a = r.influences, "mean_joints"_a = r.mean_joints,
+                        "joints"_a = r.joints, "helpers"_a = r.helpers, "influences"_a = r.influences,
+                        "mean_joints"_a = r.mean_joints,
                         "most_joints"_a = r.most_joints, "clips"_a = r.clips, "training_poses"_a = r.training_poses,
                         "fidelity"_a = fidelity);
       },
@@ -1326,7 +1328,7 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("weights") = "harmonic", py::arg("max_influences") = 4, py::arg("fps") = 24.0,
       py::arg("max_frames") = 100000LL, py::arg("up") = "y", py::arg("skeleton") = "", py::arg("method") = "dq",
       py::arg("interior") = "bone-heat", py::arg("over_skin") = false, py::arg("skinning") = "linear",
-      py::arg("envelope") = 1.0, py::arg("mask") = "",
+      py::arg("envelope") = 1.0, py::arg("mask") = "", py::arg("helpers") = 0,
       "The job `curvenet bake` runs, from files to files (all or nothing): the GLB and/or the weights CSV, and a "
       "dict of what the CLI prints (notes, the bind report, the weights' joints per vertex, and with a clip file "
       "each carried clip's fidelity, worst first, as fractions of the diagonal)");
@@ -1376,6 +1378,8 @@ PYBIND11_MODULE(_curvenet, m) {
            py::arg("joints"), py::arg("joint"), py::arg("weight"))
       .def_readonly("influences", &SkinWeights::influences)
       .def_readonly("joints", &SkinWeights::joints)
+      .def_readonly("helpers", &SkinWeights::helpers)
+      .def_property_readonly("rig_joints", &SkinWeights::rig_joints)
       .def_property_readonly("num_vertices", &SkinWeights::num_vertices)
       .def_property_readonly("joint",
                              [](const SkinWeights& s) {
@@ -1395,7 +1399,7 @@ PYBIND11_MODULE(_curvenet, m) {
   m.def(
       "fit_weights",
       [](const PyBinding& b, const py::array_t<double, py::array::c_style | py::array::forcecast>& poses,
-         int max_influences) {
+         int max_influences, int helpers) {
         const size_t nj = b.binding.joints().size();
         if (poses.ndim() != 4 || static_cast<size_t>(poses.shape(1)) != nj || poses.shape(2) != 4 ||
             poses.shape(3) != 4)
@@ -1407,9 +1411,9 @@ PYBIND11_MODULE(_curvenet, m) {
           per[p].assign(all.begin() + static_cast<std::ptrdiff_t>(p * nj),
                         all.begin() + static_cast<std::ptrdiff_t>((p + 1) * nj));
         py::gil_scoped_release release;
-        return fit_weights(b.binding, per, max_influences);
+        return fit_weights(b.binding, per, max_influences, helpers);
       },
-      py::arg("binding"), py::arg("poses"), py::arg("max_influences") = 4);
+      py::arg("binding"), py::arg("poses"), py::arg("max_influences") = 4, py::arg("helpers") = 0);
   m.def(
       "training_poses",
       [](const PyBinding& b, const std::vector<double>& bends, double twist, int random_poses, double random_bend,
@@ -1443,7 +1447,10 @@ PYBIND11_MODULE(_curvenet, m) {
       "skin_positions",
       [](const SkinWeights& w, const py::object& rest,
          const py::array_t<double, py::array::c_style | py::array::forcecast>& skinning) {
-        if (skinning.ndim() != 3 || static_cast<size_t>(skinning.shape(0)) != w.joints.size() ||
+        // One matrix per joint of the weights, or per rig joint (the helpers' follow).
+        const bool per_rig_joint = !w.helpers.empty() && skinning.ndim() == 3 &&
+                                   static_cast<int>(skinning.shape(0)) == w.rig_joints();
+        if (skinning.ndim() != 3 || (static_cast<size_t>(skinning.shape(0)) != w.joints.size() && !per_rig_joint) ||
             skinning.shape(1) != 4 || skinning.shape(2) != 4)
           throw py::value_error("skinning: expected a (" + std::to_string(w.joints.size()) + ", 4, 4) array");
         std::vector<Mat4> M;

@@ -184,6 +184,7 @@ int run_animate(const AnimateArgs& a) {
 int run_bake(const BakeArgs& a) {
   BakeJob job{scene_files(a), bind_options(a), a.out, a.weights_csv, a.clip_file, a.clip_names, a.fit};
   job.max_influences = a.max_influences;
+  job.helpers = a.helpers;
   job.fps = a.fps;
   job.max_frames = a.max_frames;
   job.up = a.up == "z" ? GltfBakeOptions::Up::Z : GltfBakeOptions::Up::Y;
@@ -198,10 +199,14 @@ int run_bake(const BakeArgs& a) {
                 : a.fit.empty() ? std::string("harmonic, top ") + std::to_string(j.influences)
                                 : "fitted to the deformation over " + a.fit)
             << ", " << std::fixed << std::setprecision(2) << j.mean_joints << std::defaultfloat << std::setprecision(6)
-            << " joints per vertex on average, " << j.most_joints << " at most, " << j.joints << " joints\n";
+            << " joints per vertex on average, " << j.most_joints << " at most, " << j.joints << " joints";
+  if (a.helpers > 0)
+    std::cout << " (" << j.helpers << (j.helpers == 1 ? " helper" : " helpers") << " of the " << a.helpers
+              << " allowed, each keyed half way between two joints)";
+  std::cout << "\n";
   if (!a.clip_file.empty()) {
     std::cout << "clips: " << j.clips << " from " << a.clip_file << " at " << a.fps << " keys per second\n";
-    print_bake_fidelity(std::cout, j.fidelity);
+    print_bake_fidelity(std::cout, j.fidelity, j.helpers > 0);
   }
   if (!a.out.empty())
     std::cout << "glTF: " << a.out << " (" << j.vertices << " vertices, Y-up"

@@ -72,6 +72,7 @@ struct BakeArgs : DeformArgs {
   std::string out, weights_csv, clip_file, fit, up = "y", weights = "harmonic";
   std::vector<std::string> clip_names;
   int max_influences = 4;
+  int helpers = 0;
   double fps = 24;
   long long max_frames = 100000;
 };

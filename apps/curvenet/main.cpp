@@ -279,6 +279,11 @@ int main(int argc, char** argv) {
   bake->add_option("--max-influences", bake_args.max_influences, "Joints per vertex (4 or fewer: JOINTS_0; up to 8)")
       ->capture_default_str()
       ->check(CLI::Range(1, 8));
+  bake->add_option("--helpers", bake_args.helpers,
+                   "Up to this many helper joints, each keyed half way between two joints (their dual-quaternion "
+                   "mean), where they bring the fitted skin closest to the rig; needs fitted weights")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10000));
   bake->add_option("--clip", bake_args.clip_file, "Add the animations of this glTF/GLB, retargeted by joint name");
   bake->add_option("--clip-name", bake_args.clip_names, "Only these clips of --clip (repeatable)");
   bake->add_option("--fps", bake_args.fps, "Keys per second for the clips")

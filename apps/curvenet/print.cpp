@@ -62,7 +62,7 @@ void print_bind(std::ostream& out, const JobSummary& j) {
     out << "note: " << n << "\n";
 }
 
-void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>& clips) {
+void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>& clips, bool helpers) {
   if (clips.empty())
     return;
   double mean = 0;
@@ -86,7 +86,8 @@ void print_bake_fidelity(std::ostream& out, const std::vector<BakeClipFidelity>&
         << std::setprecision(3) << c.worst_time << std::setprecision(2) << " s in";
     if (c.worst_joints > 0) // the floor: see docs/bake.md, "What bake reports"
       out << "; floor " << 100 * c.worst_floor << " (no linear skin of the " << c.worst_joints << " rig "
-          << (c.worst_joints == 1 ? "joint" : "joints") << " there comes closer, whatever its weights)";
+          << (c.worst_joints == 1 ? "joint" : "joints") << (helpers ? " alone" : "")
+          << " there comes closer, whatever its weights)";
     out << "\n";
   }
   out.flags(flags);

@@ -11,6 +11,7 @@
 #include "curvenet/rig.hpp"
 #include "curvenet/skin.hpp"
 
+#include <array>
 #include <functional>
 #include <span>
 #include <string>
@@ -24,8 +25,25 @@ struct SkinWeights {
   std::vector<std::string> joints; ///< joint names; `joint` indexes them
   std::vector<int> joint;          ///< vertices x influences, -1 for an unused slot
   std::vector<double> weight;      ///< vertices x influences, largest first; each vertex's sum is 1
+  /// Helper joints, listed after the rig's in `joints`: helper i (joint
+  /// `rig_joints() + i`) is half way between rig joints helpers[i][0] and
+  /// helpers[i][1], its skinning matrix the dual-quaternion mean of theirs
+  /// (helper_matrix). Empty for a skin of the rig's joints alone.
+  std::vector<std::array<int, 2>> helpers;
   [[nodiscard]] int num_vertices() const { return influences > 0 ? static_cast<int>(joint.size()) / influences : 0; }
+  [[nodiscard]] int rig_joints() const { return static_cast<int>(joints.size() - helpers.size()); }
 };
+
+/// A helper joint's skinning matrix: the dual-quaternion mean of two
+/// joints' skinning matrices (their rotations and translations blended half
+/// and half as unit dual quaternions, the short way round; their stretches
+/// averaged). Rigid when both are; the identity when both are.
+Mat4 helper_matrix(const Mat4& a, const Mat4& b);
+
+/// `skinning` (one matrix per rig joint of the weights) followed by each
+/// helper's matrix: one matrix per joint of the weights.
+/// \throw Error when `skinning` has not one matrix per rig joint.
+std::vector<Mat4> with_helpers(const SkinWeights& weights, std::span<const Mat4> skinning);
 
 /// The largest `max_influences` harmonic weights s_j of each input vertex,
 /// renormalised to sum to 1 (the binding's own joint order).
@@ -37,9 +55,20 @@ SkinWeights bake_weights(const Binding& binding, int max_influences = 4);
 /// squares over the poses, non-negative and summing to 1, on at most
 /// `max_influences` of the joints that bound the vertex's region, pulled
 /// gently towards the harmonic weights where the poses leave them free.
-/// \throw InputError when max_influences is not between 1 and 8, or a pose
-///   has the wrong number of matrices.
-SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences = 4);
+///
+/// With `helpers` > 0 the fit may also use up to that many helper joints
+/// (SkinWeights::helpers), each half way between two joints that bound a
+/// vertex together: every such pair is first offered to every vertex it
+/// could serve, the pairs are ranked by what they buy (a vertex's weight on
+/// the pair times how much closer the vertex comes over the poses with the
+/// pairs than without), and the fit is redone with the best `helpers`
+/// pairs. A linear skin follows a dual-quaternion blend only to first
+/// order in the joints' turn; a helper keyed half way round a bend carries
+/// the arc a bent knee or ankle needs (docs/bake.md).
+/// \throw InputError when max_influences is not between 1 and 8, helpers is
+///   negative, or a pose has the wrong number of matrices.
+SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences = 4,
+                        int helpers = 0);
 
 /// The same fit to another deformation of the binding's vertices (a layer
 /// over the skin, layer.hpp): `deform_frames` as Binding::deform_frames,
@@ -48,7 +77,8 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
 /// towards.
 SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences,
                         const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
-                        const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates);
+                        const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates,
+                        int helpers = 0);
 
 /// How training_poses() moves the skeleton. The angles are moderate on
 /// purpose: a linear skin can follow the rig's first-order response to each
@@ -72,7 +102,8 @@ struct TrainingPoses {
 std::vector<std::vector<Mat4>> training_poses(const std::vector<Joint>& joints, const TrainingPoses& options = {});
 
 /// Skinning with these weights: `rest` (one position per input vertex) moved
-/// by `skinning` (one matrix per joint of the weights), linearly or by dual
+/// by `skinning` (one matrix per joint of the weights, or per rig joint,
+/// the helpers' then following by with_helpers), linearly or by dual
 /// quaternions.
 std::vector<Vec3> skin_positions(const SkinWeights& weights, std::span<const Vec3> rest, std::span<const Mat4> skinning,
                                  Skinning method = Skinning::Linear);
@@ -99,6 +130,11 @@ struct GltfBakeOptions {
 /// and images; `joints` (mesh space, parents first) as a node hierarchy with
 /// inverseBindMatrices; JOINTS_0/WEIGHTS_0 (and _1 past four influences);
 /// and, when `clips` is given, its animations retargeted to the joints by name.
+/// A helper joint of the weights is a node under the deeper of its two
+/// joints, at that joint's rest frame, keyed in every clip so that its
+/// skinning matrix is helper_matrix of theirs; its `extras` name the two
+/// (`{"curvenet_helper": ["a", "b"]}`) for an engine that plays clips of
+/// its own and must drive it.
 /// \throw InputError when the weights do not fit the mesh or the joints, or a
 ///   clip named in the options is not in the clip file.
 std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& joints, const SkinWeights& weights,

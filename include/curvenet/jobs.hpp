@@ -221,6 +221,9 @@ struct BakeJob {
   /// weights (or, with `fit`, fitted over its clips alone).
   enum class Weights { Fitted, Harmonic } weights = Weights::Harmonic;
   int max_influences = 4;
+  /// Up to this many helper joints, each keyed half way between two joints
+  /// (fit_weights, SkinWeights::helpers); the weights must be fitted.
+  int helpers = 0;
   double fps = 24;
   /// Refuse clips (of `clip_file`, and of `fit`) that come to more frames
   /// than this at `fps`, before anything is bound.
@@ -254,6 +257,7 @@ struct BakeClipFidelity {
 };
 struct BakeSummary : JobSummary {
   int joints = 0, influences = 0;
+  int helpers = 0; ///< helper joints written (counted in `joints`)
   double mean_joints = 0; ///< joints of non-zero weight per vertex
   int most_joints = 0;
   int clips = 0;          ///< clips carried into the GLB

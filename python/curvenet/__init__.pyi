@@ -542,6 +542,11 @@ class SkinWeights:
         """joint: (n, k) indices into `joints` (-1 unused); weight: (n, k), non-negative."""
     influences: int
     joints: list[str]
+    helpers: list[tuple[int, int]]
+    """Helper joints, after the rig's in `joints`: each half way between these two rig joints (bake --helpers)."""
+    @property
+    def rig_joints(self) -> int:
+        """Joints of the rig; the helpers follow them in `joints`."""
     @property
     def num_vertices(self) -> int: ...
     @property
@@ -556,7 +561,7 @@ def bake(
     clip_names: Sequence[str] = (), fit: str = "", weights: str = "harmonic", max_influences: int = 4,
     fps: float = 24.0, max_frames: int = 100000, up: str = "y", skeleton: str = "", method: str = "dq",
     interior: str = "bone-heat", over_skin: bool = False, skinning: str = "linear", envelope: float = 1.0,
-    mask: str = ""
+    mask: str = "", helpers: int = 0
 ) -> dict[str, Any]:
     """The job `curvenet bake` runs, from files to files, all or nothing: the GLB at `output` and/or the CSV at
     `weights_csv` (bit for bit the CLI's), and what the CLI prints: 'notes' (a clip or fit file of another skeleton
@@ -564,14 +569,16 @@ def bake(
     'training_poses', and with a clip file 'fidelity': per carried clip, worst first, a dict of 'clip', 'index',
     'frames', 'mean', 'max', 'worst_vertex', 'worst_rest', 'worst_joint', 'worst_time', 'worst_floor' and
     'worst_joints' (distances as fractions of the diagonal; docs/bake.md, "What bake reports"). `over_skin`,
-    `skinning`, `envelope` and `mask` are the CLI's layer options (with `fit`). Raises InputError for bad input,
-    writing nothing."""
+    `skinning`, `envelope` and `mask` are the CLI's layer options (with `fit`); `helpers` is `--helpers` (up to that
+    many helper joints, with fitted weights; 'helpers' in the dict counts those written). Raises InputError for bad
+    input, writing nothing."""
 def bake_weights(binding: Binding, max_influences: int = 4) -> SkinWeights:
     """The k largest harmonic weights s_j of each input vertex, renormalised (docs/bake.md)."""
 
-def fit_weights(binding: Binding, poses: npt.ArrayLike, max_influences: int = 4) -> SkinWeights:
+def fit_weights(binding: Binding, poses: npt.ArrayLike, max_influences: int = 4, helpers: int = 0) -> SkinWeights:
     """Weights fitted to the binding's own deformation over poses (P, J, 4, 4): least squares per vertex,
-    non-negative, summing to 1, on the joints that bound the vertex's region."""
+    non-negative, summing to 1, on the joints that bound the vertex's region; with `helpers`, also on up to that
+    many helper joints, each half way between two joints (SkinWeights.helpers, docs/bake.md)."""
 
 def training_poses(
     binding: Binding,
@@ -588,7 +595,8 @@ def training_poses(
     from `seed`). What `curvenet bake --weights fitted` fits over."""
 
 def skin_positions(weights: SkinWeights, rest: npt.ArrayLike, skinning: npt.ArrayLike) -> FloatArray:
-    """Linear blend skinning: rest (n, 3) moved by skinning (J, 4, 4) with the weights."""
+    """Linear blend skinning: rest (n, 3) moved by skinning (J, 4, 4) with the weights; J is every joint of the
+    weights, or their rig joints alone, each helper's matrix then the dual-quaternion mean of its two joints'."""
 
 def weights_csv(weights: SkinWeights) -> str:
     """The weights as CSV: `vertex,joint_0,weight_0,...`, joints by name."""

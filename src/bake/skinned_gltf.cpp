@@ -183,10 +183,14 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     throw InputError(mesh_path, "",
                      "the weights are for " + std::to_string(weights.num_vertices()) + " vertices, the file has " +
                          std::to_string(nv));
-  if (joints.size() != weights.joints.size() || joints.empty())
+  if (joints.size() != static_cast<size_t>(weights.rig_joints()) || weights.helpers.size() > weights.joints.size() ||
+      joints.empty())
     throw InputError(mesh_path, "skeleton",
-                     "the weights name " + std::to_string(weights.joints.size()) + " joints, the skeleton has " +
-                         std::to_string(joints.size()));
+                     "the weights name " + std::to_string(weights.joints.size() - weights.helpers.size()) +
+                         " joints, the skeleton has " + std::to_string(joints.size()));
+  for (const auto& [a, b] : weights.helpers)
+    if (a < 0 || b < 0 || a >= static_cast<int>(joints.size()) || b >= static_cast<int>(joints.size()))
+      throw InputError(mesh_path, "helper joint", "it names a joint the skeleton does not have");
   std::map<std::string, int> joint_index;
   for (size_t j = 0; j < joints.size(); ++j) {
     if (joints[j].name != weights.joints[j])
@@ -307,7 +311,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     }
     wall[o * slots] = static_cast<float>(wall[o * slots] + (1.0 - sum));
   }
-  const bool wide = joints.size() > 255;
+  const bool wide = weights.joints.size() > 255;
   for (int set = 0; set < sets; ++set) {
     std::vector<unsigned char> j8;
     std::vector<unsigned short> j16;
@@ -416,8 +420,32 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     else
       roots.push_back(1 + j);
   }
+  // Helper joints: a node under the deeper of its two joints, at that
+  // joint's rest frame (identity local at rest), after the rig's joints.
+  auto depth = [&](int j) {
+    int d = 0;
+    for (int p = j; joints[p].parent; p = joint_index.at(*joints[p].parent))
+      ++d;
+    return d;
+  };
+  const int nh = static_cast<int>(weights.helpers.size());
+  std::vector<int> helper_parent(nh);
+  for (int h = 0; h < nh; ++h) {
+    const auto [a, b] = weights.helpers[h];
+    helper_parent[h] = depth(b) > depth(a) ? b : a;
+    world.push_back(world[helper_parent[h]]);
+    tinygltf::Node n;
+    n.name = weights.joints[static_cast<size_t>(nj + h)];
+    tinygltf::Value::Array between{tinygltf::Value(joints[a].name), tinygltf::Value(joints[b].name)};
+    tinygltf::Value::Object extras;
+    extras["curvenet_helper"] = tinygltf::Value(between);
+    n.extras = tinygltf::Value(extras);
+    model.nodes.push_back(n);
+    skin.joints.push_back(1 + nj + h);
+    model.nodes[1 + helper_parent[h]].children.push_back(1 + nj + h);
+  }
   std::vector<float> ibm;
-  for (int j = 0; j < nj; ++j) {
+  for (int j = 0; j < nj + nh; ++j) {
     const Mat4 inv = world[j].inverse();
     if (!inv.allFinite())
       throw InputError(mesh_path, "joint '" + joints[j].name + "'", "its rest transform is singular");
@@ -425,7 +453,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       for (int r = 0; r < 4; ++r)
         ibm.push_back(static_cast<float>(inv(r, c))); // column-major
   }
-  skin.inverseBindMatrices = bin.accessor(ibm, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, nj, 0);
+  skin.inverseBindMatrices = bin.accessor(ibm, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, nj + nh, 0);
   if (roots.size() == 1)
     skin.skeleton = roots[0];
   model.skins.push_back(skin);
@@ -463,17 +491,34 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
         times.push_back(static_cast<float>(std::min(t1, t0 + i / options.fps)));
       if (times.size() >= 2 && times[times.size() - 1] <= times[times.size() - 2])
         times.back() = std::nextafter(times[times.size() - 2], std::numeric_limits<float>::infinity());
-      std::vector<std::vector<float>> tr(nj), rot(nj), sc(nj);
-      std::vector<bool> animated(nj, false);
+      std::vector<std::vector<float>> tr(nj + nh), rot(nj + nh), sc(nj + nh);
+      std::vector<bool> animated(nj + nh, false);
+      std::vector<Mat4> local(nj + nh), posed(nj);
       for (int i = 0; i < keys; ++i) {
         const Pose pose = pose_from_clip(*clips, c, times[i]);
         for (int j = 0; j < nj; ++j) {
           const auto it = pose.find(joints[j].name);
-          if (it == pose.end())
+          local[j] = rest_local[j];
+          if (it != pose.end()) {
+            animated[j] = true;
+            local[j] = rest_local[j] * it->second.matrix();
+          }
+          const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
+          posed[j] = p >= 0 ? Mat4(posed[p] * local[j]) : local[j];
+        }
+        // A helper's skinning matrix is the mean of its joints' (helper_matrix):
+        // its local is that carried to its rest frame, under its parent as posed.
+        for (int h = 0; h < nh; ++h) {
+          const auto [a, b] = weights.helpers[h];
+          const int p = helper_parent[h];
+          const Mat4 S = helper_matrix(Mat4(posed[a] * world[a].inverse()), Mat4(posed[b] * world[b].inverse()));
+          local[nj + h] = posed[p].inverse() * S * world[p];
+          animated[nj + h] = true;
+        }
+        for (int j = 0; j < nj + nh; ++j) {
+          if (!animated[j])
             continue;
-          animated[j] = true;
-          const Mat4 L = it->second.matrix();
-          const Trs x = decompose(rest_local[j] * L);
+          const Trs x = decompose(local[j]);
           Eigen::Quaterniond q = x.r;
           if (!rot[j].empty()) {
             const size_t b = rot[j].size() - 4;
@@ -505,12 +550,12 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
         ch.target_path = path;
         anim.channels.push_back(ch);
       };
-      for (int j = 0; j < nj; ++j) {
+      for (int j = 0; j < nj + nh; ++j) {
         if (!animated[j])
           continue;
         for (float x : tr[j])
           if (!std::isfinite(x))
-            throw InputError(clips->source, "clip '" + anim.name + "' joint '" + joints[j].name + "'",
+            throw InputError(clips->source, "clip '" + anim.name + "' joint '" + weights.joints[j] + "'",
                              "moves out of the range of single precision");
         channel(j, tr[j], TINYGLTF_TYPE_VEC3, "translation");
         channel(j, rot[j], TINYGLTF_TYPE_VEC4, "rotation");

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <set>
 #include <sstream>
 
 namespace curvenet {
@@ -63,16 +64,64 @@ SkinWeights bake_weights(const Binding& binding, int max_influences) {
   return w;
 }
 
-SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences) {
+SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences,
+                        int helpers) {
   return fit_weights(
       binding, poses, max_influences,
-      [&](std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, nullptr);
+      [&](std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, nullptr, helpers);
 }
+
+Mat4 helper_matrix(const Mat4& a, const Mat4& b) {
+  const detail::DualJoint da = detail::split_joint(a), db = detail::split_joint(b);
+  detail::DualBlend half;
+  half.add(da, 0.5);
+  half.add(db, 0.5);
+  // Two rotations half a turn apart in opposite senses have no mean: the
+  // first joint's then, as a blend of them would skin.
+  return half.valid() ? half.matrix() : a;
+}
+
+std::vector<Mat4> with_helpers(const SkinWeights& w, std::span<const Mat4> skinning) {
+  const size_t rig = static_cast<size_t>(w.rig_joints());
+  if (skinning.size() != rig)
+    throw Error("with_helpers: " + std::to_string(skinning.size()) + " matrices for " + std::to_string(rig) +
+                " rig joints");
+  std::vector<Mat4> out(skinning.begin(), skinning.end());
+  for (const auto& [a, b] : w.helpers)
+    out.push_back(helper_matrix(skinning[static_cast<size_t>(a)], skinning[static_cast<size_t>(b)]));
+  return out;
+}
+
+namespace {
+
+/// Pairs of a vertex's joints that a helper may join: every two of its (at
+/// most) eight heaviest candidates, as (smaller, larger) joint index.
+std::vector<std::array<int, 2>> pairs_of(const std::vector<std::pair<int, double>>& inf) {
+  std::vector<std::pair<int, double>> top = inf;
+  std::sort(top.begin(), top.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second > b.second : a.first < b.first;
+  });
+  if (top.size() > 8)
+    top.resize(8);
+  std::vector<std::array<int, 2>> out;
+  for (size_t i = 0; i < top.size(); ++i)
+    for (size_t j = i + 1; j < top.size(); ++j)
+      if (top[i].first != top[j].first)
+        out.push_back({std::min(top[i].first, top[j].first), std::max(top[i].first, top[j].first)});
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+} // namespace
 
 SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Mat4>>& poses, int max_influences,
                         const std::function<void(std::span<const Mat4>, std::span<Vec3>)>& deform_frames,
-                        const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates) {
+                        const std::function<void(int, std::vector<std::pair<int, double>>&)>& candidates,
+                        int helpers) {
   check_influences(max_influences);
+  if (helpers < 0)
+    throw InputError("helpers", std::to_string(helpers), "must be 0 or more");
   const size_t nj = binding.joints().size();
   const int n = binding.num_input_vertices();
   for (size_t p = 0; p < poses.size(); ++p)
@@ -94,35 +143,77 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
   for (const Vec3& x : rest)
     scale = std::max(scale, x.norm());
   const double pull = 1e-3 * std::max(scale, 1e-300);
-  tbb::parallel_for(0, n, [&](int v) {
-    std::vector<std::pair<int, double>> inf;
+  auto joints_of = [&](int v, std::vector<std::pair<int, double>>& inf) {
     binding.harmonic_weights(v, inf);
     if (candidates)
       candidates(v, inf);
-    const int m = static_cast<int>(inf.size());
-    if (m <= 1 || poses.empty()) {
-      store(inf, max_influences, w, v);
-      return;
+  };
+
+  // Helper pairs: those some vertex could use, and their matrices in every pose.
+  const bool with_pairs = helpers > 0 && !poses.empty();
+  std::vector<std::array<int, 2>> offered; // sorted
+  std::vector<std::vector<Mat4>> pair_matrix; // per pose, per offered pair
+  if (with_pairs) {
+    std::vector<std::pair<int, double>> inf;
+    for (int v = 0; v < n; ++v) {
+      joints_of(v, inf);
+      for (const auto& q : pairs_of(inf))
+        offered.push_back(q);
     }
+    std::sort(offered.begin(), offered.end());
+    offered.erase(std::unique(offered.begin(), offered.end()), offered.end());
+    pair_matrix.resize(poses.size());
+    tbb::parallel_for(size_t{0}, poses.size(), [&](size_t p) {
+      std::vector<detail::DualJoint> d(nj);
+      for (size_t j = 0; j < nj; ++j)
+        d[j] = detail::split_joint(poses[p][j]);
+      detail::DualBlend half;
+      pair_matrix[p].resize(offered.size());
+      for (size_t q = 0; q < offered.size(); ++q) {
+        half.clear();
+        half.add(d[static_cast<size_t>(offered[q][0])], 0.5);
+        half.add(d[static_cast<size_t>(offered[q][1])], 0.5);
+        pair_matrix[p][q] = half.valid() ? half.matrix() : poses[p][static_cast<size_t>(offered[q][0])];
+      }
+    });
+  }
+  auto offered_index = [&](const std::array<int, 2>& q) {
+    return static_cast<int>(std::lower_bound(offered.begin(), offered.end(), q) - offered.begin());
+  };
+
+  // One vertex's fit over its joints `inf` and the offered pairs `cols`
+  // (indices into `offered`): the weights of the joints, then of the pairs.
+  // With `plain`, also the fit of the joints alone, and how much the pairs
+  // lower the objective.
+  struct Fit {
+    Eigen::VectorXd sol;
+    double gain = 0;
+  };
+  auto fit_vertex = [&](int v, const std::vector<std::pair<int, double>>& inf, const std::vector<int>& cols,
+                        bool plain) {
+    const int m = static_cast<int>(inf.size());
+    const int c = m + static_cast<int>(cols.size());
     // The normal equations of the least squares over the poses, with the
     // pull towards the given weights as a ridge: 1/2 x'Gx - h'x.
-    const int c = m; // the candidate joints
     const int rows = 3 * static_cast<int>(poses.size());
     Eigen::MatrixXd A(rows, c);
     Eigen::VectorXd b(rows);
     const Eigen::Vector4d x = rest[v].homogeneous();
     for (size_t p = 0; p < poses.size(); ++p) {
-      for (int i = 0; i < c; ++i)
+      for (int i = 0; i < m; ++i)
         A.block<3, 1>(3 * static_cast<int>(p), i) = (poses[p][inf[i].first] * x).head<3>();
+      for (int i = m; i < c; ++i)
+        A.block<3, 1>(3 * static_cast<int>(p), i) = (pair_matrix[p][static_cast<size_t>(cols[i - m])] * x).head<3>();
       b.segment<3>(3 * static_cast<int>(p)) = target[p * n + v];
     }
     Eigen::MatrixXd G = A.transpose() * A;
     Eigen::VectorXd h = A.transpose() * b;
-    Eigen::VectorXd start(c);
+    Eigen::VectorXd start = Eigen::VectorXd::Zero(c);
     for (int i = 0; i < c; ++i) {
+      const double given = i < m ? inf[i].second : 0.0; // a helper is pulled towards nothing
       G(i, i) += pull * pull;
-      h[i] += pull * pull * inf[i].second;
-      start[i] = std::max(0.0, inf[i].second);
+      h[i] += pull * pull * given;
+      start[i] = std::max(0.0, given);
     }
     // Too many joints: refit on the k largest of the fit, and on the k
     // largest given weights, and keep whichever has the smaller objective
@@ -131,11 +222,91 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
     // at the rump); choosing the subset with the least residual (dropping
     // joints one at a time) fitted the poses closer but played unseen clips
     // worse (docs/bake.md).
-    const Eigen::VectorXd sol = detail::convex_least_squares_top_k(G, h, start, max_influences);
+    Fit out;
+    out.sol = detail::convex_least_squares_top_k(G, h, start, max_influences);
+    if (plain && c > m) {
+      const Eigen::VectorXd alone = detail::convex_least_squares_top_k(G.topLeftCorner(m, m), h.head(m),
+                                                                       start.head(m), max_influences);
+      // The gain: how much closer the vertex comes over the poses (the root
+      // mean square distance, without the pull) with the pairs than without.
+      const double poses_n = static_cast<double>(poses.size());
+      out.gain = std::max(0.0, ((A.leftCols(m) * alone - b).norm() - (A * out.sol - b).norm()) / std::sqrt(poses_n));
+    }
+    return out;
+  };
+
+  // Rank the pairs by the most any vertex owes one: its weight on the pair
+  // times how much closer the pairs brought it. The goal is the worst
+  // vertex, so a pair that one badly served vertex needs ranks with one
+  // that many vertices share a little of (a sum over the vertices ranked
+  // them about as well on the mean and worse on the worst vertex; see
+  // docs/bake.md).
+  std::vector<int> chosen; // indices into `offered`, by rank
+  if (with_pairs) {
+    std::vector<std::vector<std::pair<int, double>>> credit(static_cast<size_t>(n));
+    tbb::parallel_for(0, n, [&](int v) {
+      std::vector<std::pair<int, double>> inf;
+      joints_of(v, inf);
+      if (inf.size() <= 1)
+        return;
+      std::vector<int> cols;
+      for (const auto& q : pairs_of(inf))
+        cols.push_back(offered_index(q));
+      const Fit f = fit_vertex(v, inf, cols, true);
+      const int m = static_cast<int>(inf.size());
+      for (size_t i = 0; i < cols.size(); ++i)
+        if (f.sol[m + static_cast<int>(i)] > 0)
+          credit[static_cast<size_t>(v)].emplace_back(cols[i], f.sol[m + static_cast<int>(i)] * f.gain);
+    });
+    std::vector<double> score(offered.size(), 0.0);
+    for (const auto& per : credit)
+      for (const auto& [q, s] : per)
+        score[static_cast<size_t>(q)] = std::max(score[static_cast<size_t>(q)], s);
+    std::vector<int> order;
+    for (size_t q = 0; q < offered.size(); ++q)
+      if (score[q] > 0)
+        order.push_back(static_cast<int>(q));
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return score[a] > score[b]; });
+    if (static_cast<int>(order.size()) > helpers)
+      order.resize(static_cast<size_t>(helpers));
+    chosen = order;
+    std::set<std::string> names(w.joints.begin(), w.joints.end());
+    for (const int q : chosen) {
+      const auto [a, b] = offered[static_cast<size_t>(q)];
+      std::string name = w.joints[static_cast<size_t>(a)] + "~" + w.joints[static_cast<size_t>(b)];
+      for (int copy = 2; names.count(name); ++copy)
+        name = w.joints[static_cast<size_t>(a)] + "~" + w.joints[static_cast<size_t>(b)] + "~" + std::to_string(copy);
+      names.insert(name);
+      w.joints.push_back(name);
+      w.helpers.push_back({a, b});
+    }
+  }
+  std::vector<int> helper_of(offered.size(), -1); // offered pair -> helper number
+  for (size_t i = 0; i < chosen.size(); ++i)
+    helper_of[static_cast<size_t>(chosen[i])] = static_cast<int>(i);
+
+  tbb::parallel_for(0, n, [&](int v) {
+    std::vector<std::pair<int, double>> inf;
+    joints_of(v, inf);
+    const int m = static_cast<int>(inf.size());
+    if (m <= 1 || poses.empty()) {
+      store(inf, max_influences, w, v);
+      return;
+    }
+    std::vector<int> cols;
+    if (!chosen.empty())
+      for (const auto& q : pairs_of(inf))
+        if (helper_of[static_cast<size_t>(offered_index(q))] >= 0)
+          cols.push_back(offered_index(q));
+    const Fit f = fit_vertex(v, inf, cols, false);
     std::vector<std::pair<int, double>> fitted;
-    for (int i = 0; i < c; ++i)
-      if (sol[i] > 0)
-        fitted.emplace_back(inf[i].first, sol[i]);
+    for (int i = 0; i < m; ++i)
+      if (f.sol[i] > 0)
+        fitted.emplace_back(inf[i].first, f.sol[i]);
+    for (size_t i = 0; i < cols.size(); ++i)
+      if (f.sol[m + static_cast<int>(i)] > 0)
+        fitted.emplace_back(static_cast<int>(nj) + helper_of[static_cast<size_t>(cols[i])],
+                            f.sol[m + static_cast<int>(i)]);
     if (fitted.empty())
       fitted = inf;
     store(fitted, max_influences, w, v);
@@ -145,6 +316,10 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
 
 std::vector<Vec3> skin_positions(const SkinWeights& w, std::span<const Vec3> rest, std::span<const Mat4> skinning,
                                  Skinning method) {
+  if (!w.helpers.empty() && skinning.size() == static_cast<size_t>(w.rig_joints())) {
+    const std::vector<Mat4> full = with_helpers(w, skinning);
+    return skin_positions(w, rest, full, method);
+  }
   if (static_cast<int>(rest.size()) != w.num_vertices() || skinning.size() != w.joints.size())
     throw Error("skin_positions: " + std::to_string(rest.size()) + " positions and " + std::to_string(skinning.size()) +
                 " matrices for weights of " + std::to_string(w.num_vertices()) + " vertices and " +

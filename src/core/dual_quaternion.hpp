@@ -71,6 +71,19 @@ public:
     q.coeffs() = b0_ / b0_.norm();
     return q;
   }
+  /// The blend as one matrix: apply(p) is matrix() * p (valid() must hold).
+  [[nodiscard]] Mat4 matrix() const {
+    sum();
+    const double n = b0_.norm();
+    Eigen::Quaterniond q0, q1;
+    q0.coeffs() = b0_ / n;
+    q1.coeffs() = b1_ / n;
+    const Eigen::Vector3d v0 = q0.vec(), v1 = q1.vec();
+    Mat4 m = Mat4::Identity();
+    m.topLeftCorner<3, 3>() = rigid_ ? q0.toRotationMatrix() : Eigen::Matrix3d(q0.toRotationMatrix() * stretch_);
+    m.block<3, 1>(0, 3) = 2 * (q0.w() * v1 - q1.w() * v0 + v0.cross(v1));
+    return m;
+  }
   [[nodiscard]] Eigen::Vector3d apply(const Eigen::Vector3d& p) const {
     sum();
     const double n = b0_.norm();

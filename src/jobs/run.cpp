@@ -544,6 +544,11 @@ BakeSummary run(const BakeJob& job) {
   } else if (!job.clip_names.empty()) {
     throw InputError("--clip-name", job.clip_names.front(), "give the clip file with --clip");
   }
+  if (job.helpers < 0)
+    throw InputError("--helpers", std::to_string(job.helpers), "must be 0 or more");
+  if (job.helpers > 0 && job.fit.empty() && job.weights == BakeJob::Weights::Harmonic)
+    throw InputError("--helpers", std::to_string(job.helpers),
+                     "helper joints are fitted: give --weights fitted, or the clips to fit over with --fit");
   Scene scene = read_scene(job.scene);
   if (!job.fit.empty()) {
     fit = load_skinned_mesh(job.fit);
@@ -620,9 +625,10 @@ BakeSummary run(const BakeJob& job) {
             else
               it->second = x;
           }
-        });
+        },
+        job.helpers);
   } else {
-    w = poses.empty() ? bake_weights(b, job.max_influences) : fit_weights(b, poses, job.max_influences);
+    w = poses.empty() ? bake_weights(b, job.max_influences) : fit_weights(b, poses, job.max_influences, job.helpers);
   }
   GltfBakeOptions opt;
   opt.up = job.up;
@@ -646,6 +652,7 @@ BakeSummary run(const BakeJob& job) {
   }
   out.mean_joints = w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0;
   out.joints = static_cast<int>(w.joints.size());
+  out.helpers = static_cast<int>(w.helpers.size());
   out.influences = w.influences;
   out.training_poses = skeleton_poses;
   out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;

@@ -4,7 +4,8 @@ SkinnedMesh.getVertexPosition, as a game or web engine plays it. The test
 checks that it agrees with curvenet's own evaluation of the same file
 (its glTF reader, its clip sampler, linear blend skinning) to 1e-6 of the
 diagonal: for the hand with the example rig, CesiumMan with its starter net,
-and a low-poly wolf with its starter net, each clip at its start, middle and end.
+and a low-poly wolf with its starter net, plain and with helper joints
+(bake --helpers), each clip at its start, middle and end.
 
 Run: test_three.py CLI DATA_DIR NODE_MODULES OUT_DIR (with the Python module on PYTHONPATH).
 Exit 77 (skipped) when three.js or the shared data is missing.
@@ -89,4 +90,14 @@ wolf = os.path.join(repo, "tests", "data", "quaternius", "Wolf_decimated.glb")
 run("starter", wolf, "-o", os.path.join(out, "wolf.cnrig.json"))
 run("bake", wolf, os.path.join(out, "wolf.cnrig.json"), "-o", os.path.join(out, "wolf.glb"), "--clip", wolf)
 check("wolf", os.path.join(out, "wolf.glb"))
+# With helper joints (bake --helpers): nodes the file keys half way between
+# two joints, which the engine plays as any other joint of the skin.
+run("bake", wolf, os.path.join(out, "wolf.cnrig.json"), "-o", os.path.join(out, "wolf_helpers.glb"), "--clip", wolf,
+    "--weights", "fitted", "--helpers", "12")
+helped = curvenet.load_skinned_mesh(os.path.join(out, "wolf_helpers.glb"))
+plain = curvenet.load_skinned_mesh(os.path.join(out, "wolf.glb"))
+if not len(helped.joints) > len(plain.joints):
+    sys.exit("wolf with helpers: the baked skin has no helper joints")
+check("wolf with %d helper joints" % (len(helped.joints) - len(plain.joints)),
+      os.path.join(out, "wolf_helpers.glb"))
 print("three.js agrees with curvenet on every baked file")
