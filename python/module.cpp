@@ -1356,7 +1356,8 @@ PYBIND11_MODULE(_curvenet, m) {
 
   // Baking to a linear-blend skin.
   py::class_<SkinWeights>(m, "SkinWeights", "A linear-blend skin: `influences` (joint, weight) slots per input vertex")
-      .def(py::init([](const std::vector<std::string>& joints, const py::object& joint, const py::object& weight) {
+      .def(py::init([](const std::vector<std::string>& joints, const py::object& joint, const py::object& weight,
+                       const std::vector<std::array<int, 2>>& helpers) {
              const Indices j = Indices::ensure(joint);
              const Points w = Points::ensure(weight);
              if (!j || !w || j.ndim() != 2 || w.ndim() != 2 || j.shape(0) != w.shape(0) || j.shape(1) != w.shape(1) ||
@@ -1367,6 +1368,13 @@ PYBIND11_MODULE(_curvenet, m) {
              s.joints = joints;
              s.joint.assign(j.data(), j.data() + j.size());
              s.weight.assign(w.data(), w.data() + w.size());
+             s.helpers = helpers;
+             if (helpers.size() > joints.size())
+               throw InputError("weights", "helpers", "more helpers than joints");
+             for (const auto& [a, b] : helpers)
+               if (a < 0 || b < 0 || a >= s.rig_joints() || b >= s.rig_joints() || a == b)
+                 throw InputError("weights", "helper (" + std::to_string(a) + ", " + std::to_string(b) + ")",
+                                  "names no two rig joints");
              for (size_t i = 0; i < s.joint.size(); ++i) {
                if (s.joint[i] < -1 || s.joint[i] >= static_cast<int>(joints.size()))
                  throw InputError("weights", "slot " + std::to_string(i), "names no joint");
@@ -1375,7 +1383,8 @@ PYBIND11_MODULE(_curvenet, m) {
              }
              return s;
            }),
-           py::arg("joints"), py::arg("joint"), py::arg("weight"))
+           py::arg("joints"), py::arg("joint"), py::arg("weight"),
+           py::arg("helpers") = std::vector<std::array<int, 2>>{})
       .def_readonly("influences", &SkinWeights::influences)
       .def_readonly("joints", &SkinWeights::joints)
       .def_readonly("helpers", &SkinWeights::helpers)
@@ -1461,6 +1470,28 @@ PYBIND11_MODULE(_curvenet, m) {
         return points_array(skin_positions(w, X, M));
       },
       py::arg("weights"), py::arg("rest"), py::arg("skinning"), "Linear blend skinning with baked weights");
+  m.def(
+      "helper_matrix",
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& b) {
+        if (a.ndim() != 2 || b.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4 || b.shape(0) != 4 || b.shape(1) != 4)
+          throw py::value_error("helper_matrix: expected two (4, 4) arrays");
+        Mat4 x, y;
+        for (int i = 0; i < 4; ++i)
+          for (int k = 0; k < 4; ++k) {
+            x(i, k) = a.at(i, k);
+            y(i, k) = b.at(i, k);
+          }
+        const Mat4 h = helper_matrix(x, y);
+        py::array_t<double> out({py::ssize_t{4}, py::ssize_t{4}});
+        auto r = out.mutable_unchecked<2>();
+        for (int i = 0; i < 4; ++i)
+          for (int k = 0; k < 4; ++k)
+            r(i, k) = h(i, k);
+        return out;
+      },
+      py::arg("a"), py::arg("b"),
+      "A helper joint's skinning matrix: the dual-quaternion mean of two joints' skinning matrices (4, 4)");
   m.def("weights_csv", &weights_csv, py::arg("weights"));
   m.def(
       "skinned_glb",

@@ -767,10 +767,23 @@ TEST(Cli, BakeWritesASkinnedGlbAndTheWeightsOrNothing) {
   r = run("bake " + mesh + " " + rig + " --weights-csv " + (dir / "fit.csv").string() + " --fit " + clips, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("fitted"), std::string::npos);
+  // With helper joints: said in the weights line, written to the GLB after
+  // the rig's joints, and the floor said to be of the rig's joints alone.
+  r = run("bake " + mesh + " " + rig + " -o " + (dir / "helpers.glb").string() + " --weights fitted --helpers 6" +
+              " --clip " + clips + " --clip-name Grip",
+          dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find(" joints (6 helpers of the 6 allowed, each keyed half way between two joints)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find(" rig joints alone there comes closer"), std::string::npos) << r.out;
+  EXPECT_EQ(load_skinned_mesh((dir / "helpers.glb").string()).joints.size(), back.joints.size() + 6);
   // Refusals: one line, exit 2, nothing written.
   for (const std::string& bad :
        {std::string(" -o ") + (dir / "x.glb").string() + " --clip " + clips + " --clip-name NoSuchClip",
         std::string(" -o ") + (dir / "x.glb").string() + " --max-influences 9",
+        std::string(" -o ") + (dir / "x.glb").string() + " --helpers 4", // helpers are fitted
+        std::string(" -o ") + (dir / "x.glb").string() + " --weights fitted --helpers -1",
         std::string(" --clip-name Grip -o ") + (dir / "x.glb").string(), std::string("")}) {
     r = run("bake " + mesh + " " + rig + bad, dir);
     EXPECT_EQ(r.code, 2) << bad;

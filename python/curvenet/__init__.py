@@ -41,6 +41,7 @@ from ._curvenet import (  # noqa: F401
     farm_status,
     farm_submit,
     fit_weights,
+    helper_matrix,
     load_mesh,
     merge_nodes,
     move_node,

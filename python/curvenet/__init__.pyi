@@ -538,8 +538,12 @@ def set_joint_weight(rig: Rig, nodes: Sequence[str], joint: str, weight: float, 
 class SkinWeights:
     """A linear-blend skin: `influences` (joint, weight) slots per input vertex, largest first."""
 
-    def __init__(self, joints: Sequence[str], joint: npt.ArrayLike, weight: npt.ArrayLike) -> None:
-        """joint: (n, k) indices into `joints` (-1 unused); weight: (n, k), non-negative."""
+    def __init__(
+        self, joints: Sequence[str], joint: npt.ArrayLike, weight: npt.ArrayLike,
+        helpers: Sequence[tuple[int, int]] = ()
+    ) -> None:
+        """joint: (n, k) indices into `joints` (-1 unused); weight: (n, k), non-negative; helpers: the last
+        len(helpers) of `joints` are helper joints, each half way between these two rig joints."""
     influences: int
     joints: list[str]
     helpers: list[tuple[int, int]]
@@ -597,6 +601,9 @@ def training_poses(
 def skin_positions(weights: SkinWeights, rest: npt.ArrayLike, skinning: npt.ArrayLike) -> FloatArray:
     """Linear blend skinning: rest (n, 3) moved by skinning (J, 4, 4) with the weights; J is every joint of the
     weights, or their rig joints alone, each helper's matrix then the dual-quaternion mean of its two joints'."""
+
+def helper_matrix(a: npt.ArrayLike, b: npt.ArrayLike) -> FloatArray:
+    """A helper joint's skinning matrix (4, 4): the dual-quaternion mean of two joints' skinning matrices."""
 
 def weights_csv(weights: SkinWeights) -> str:
     """The weights as CSV: `vertex,joint_0,weight_0,...`, joints by name."""

@@ -79,6 +79,32 @@ for name in ("Grip", "Pistol"):
             name, time, err / diag))
 t.render_workbench([obj], os.path.join(t.OUT, "hand_baked_glb.png"), colour="SINGLE", size=(640, 480))
 
+# --- 1b. with helper joints (bake --helpers): Blender plays their keys ------
+t.empty_scene()
+helped = curvenet.fit_weights(binding, curvenet.training_poses(binding), 4, helpers=8)
+t.check(len(helped.helpers) > 0 and len(helped.joints) == len(binding.joints) + len(helped.helpers),
+        "fit_weights with helpers=8 adds %d helper joints after the rig's" % len(helped.helpers))
+glb = os.path.join(t.OUT, "hand_baked_helpers.glb")
+curvenet.write_file(glb, curvenet.skinned_glb(source, binding, helped, clips, clip_names=["Grip"]))
+meshes, arms = t.import_gltf(glb)
+obj, arm = meshes[0], arms[0]
+t.check({b.name for b in arm.data.bones} >= set(helped.joints[len(binding.joints):]),
+        "the helpers import as bones of the armature")
+action = next(a for a in bpy.data.actions if a.name.startswith("Grip"))
+arm.animation_data.action = action
+c = clips.find_clip("Grip")
+t0, t1 = clips.clip_range(c)
+scene = bpy.context.scene  # empty_scene() made a new one
+for key in sorted({0, int(round((t1 - t0) * 24))}):
+    time = t0 + key / 24.0
+    frame = time * fps + 1
+    scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
+    got = blender_world(obj)
+    want = curvenet.skin_positions(helped, rest, curvenet.clip_skinning_matrices(binding, clips, c, time))
+    err = np.abs(got - want).max()
+    t.check(err < 1e-4 * diag, "Grip at %.3f s with helpers: Blender poses it as our LBS with the helpers' matrices "
+            "(max %.2e of the diagonal)" % (time, err / diag))
+
 # --- 2. bake to vertex groups on a bound hand -------------------------------
 t.empty_scene()
 t.enable_addon()

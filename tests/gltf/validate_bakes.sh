@@ -24,6 +24,11 @@ hand=$data/xr_tools_hand
   --to "$data/cesium_man/variants/cesium_man_e_decimated_326.obj" -o "$out/cesium_326.cnrig.json" >/dev/null
 "$cli" bake "$data/cesium_man/variants/cesium_man_e_decimated_326.obj" "$out/cesium_326.cnrig.json" \
   --skeleton "$data/cesium_man/CesiumMan.glb" -o "$out/cesium_326.glb" --clip "$data/cesium_man/CesiumMan.glb" >/dev/null
+# Helper joints (bake --helpers): nodes under the rig's joints, keyed in every
+# clip, with extras naming their two joints; eight influences (JOINTS_1).
+"$cli" starter "$data/quaternius/Trex.glb" -o "$out/trex.cnrig.json" >/dev/null
+"$cli" bake "$data/quaternius/Trex.glb" "$out/trex.cnrig.json" -o "$out/trex_helpers.glb" --weights fitted \
+  --helpers 16 --max-influences 8 --clip "$data/quaternius/Trex.glb" >/dev/null
 dir=$(cd "$(dirname "$0")" && pwd)
 report=$(node "$dir/validate.js" "$modules" "$out"/*.glb)
 echo "$report"

@@ -331,7 +331,14 @@ def test_bake_from_python_is_the_clis_bake_to_the_byte_and_reports_what_it_print
         "--envelope", "0.5")
     r = curvenet.bake(mesh, rig, weights_csv=str(tmp_path / "py_layer.csv"), over_skin=True, fit=clips, envelope=0.5)
     assert (tmp_path / "py_layer.csv").read_bytes() == (tmp_path / "cli_layer.csv").read_bytes()
+    # With helper joints, as `bake --helpers`.
+    cli("bake", mesh, rig, "-o", str(tmp_path / "cli_helpers.glb"), "--weights", "fitted", "--helpers", "4")
+    r = curvenet.bake(mesh, rig, output=str(tmp_path / "py_helpers.glb"), weights="fitted", helpers=4)
+    assert (tmp_path / "py_helpers.glb").read_bytes() == (tmp_path / "cli_helpers.glb").read_bytes()
+    assert r["helpers"] == 4
     # Bad input: one error naming the element, nothing written.
+    with pytest.raises(curvenet.InputError, match="helpers"):
+        curvenet.bake(mesh, rig, output=str(tmp_path / "bad.glb"), helpers=4)  # harmonic weights are not fitted
     with pytest.raises(curvenet.InputError, match="max influences"):
         curvenet.bake(mesh, rig, output=str(tmp_path / "bad.glb"), max_influences=9)
     with pytest.raises(ValueError, match="weights"):
@@ -635,6 +642,18 @@ def test_fitted_weights_over_poses():
     assert (w.weight >= 0).all()
     with pytest.raises(ValueError):
         curvenet.fit_weights(b, poses[:, :3], 4)
+    # With helper joints: listed after the rig's, and skinned from the rig's matrices alone.
+    h = curvenet.fit_weights(b, poses, 4, helpers=5)
+    assert 0 < len(h.helpers) <= 5 and h.rig_joints == len(b.joints) == len(h.joints) - len(h.helpers)
+    assert all(0 <= a < len(b.joints) and 0 <= c < len(b.joints) and a != c for a, c in h.helpers)
+    rest = b.deform(np.stack([np.eye(4)] * len(b.joints)))
+    M = poses[1]
+    full = np.concatenate([M, [curvenet.helper_matrix(M[a], M[c]) for a, c in h.helpers]])
+    np.testing.assert_allclose(curvenet.skin_positions(h, rest, M), curvenet.skin_positions(h, rest, full), atol=0)
+    again = curvenet.SkinWeights(h.joints, h.joint, h.weight, h.helpers)
+    assert again.helpers == h.helpers and curvenet.weights_csv(again) == curvenet.weights_csv(h)
+    with pytest.raises(curvenet.InputError):
+        curvenet.SkinWeights(h.joints, h.joint, h.weight, [(0, len(h.joints))])
 
 
 @needs_data
