@@ -59,10 +59,10 @@ SkinWeights bake_weights(const Binding& binding, int max_influences = 4);
 /// With `helpers` > 0 the fit may also use up to that many helper joints
 /// (SkinWeights::helpers), each half way between two joints that bound a
 /// vertex together: every such pair is first offered to every vertex it
-/// could serve, the pairs are ranked by what they buy (a vertex's weight on
-/// the pair times how much closer the vertex comes over the poses with the
-/// pairs than without), and the fit is redone with the best `helpers`
-/// pairs. A linear skin follows a dual-quaternion blend only to first
+/// could serve, each pair is ranked by the most any vertex owes it (that
+/// vertex's weight on the pair times how much closer, in root mean square
+/// over the poses, it comes with the pairs than without), and the fit is
+/// redone with the best `helpers` pairs. A linear skin follows a dual-quaternion blend only to first
 /// order in the joints' turn; a helper keyed half way round a bend carries
 /// the arc a bent knee or ankle needs (docs/bake.md).
 /// \throw InputError when max_influences is not between 1 and 8, helpers is
