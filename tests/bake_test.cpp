@@ -12,6 +12,7 @@
 #include "helpers.hpp"
 
 #include <gtest/gtest.h>
+#include <tiny_gltf.h>
 
 #include <cmath>
 #include <filesystem>
@@ -679,4 +680,76 @@ TEST(Bake, AGlbWithHelperJointsKeysThemSoTheFilePlaysAsTheSkinWasFitted) {
   // A skeleton that is not the weights' is refused.
   std::vector<Joint> fewer(b.joints().begin(), b.joints().end() - 1);
   EXPECT_THROW(skinned_glb(mesh_file, fewer, w), InputError);
+}
+
+TEST(Bake, AHelperWhoseJointAClipScalesUnevenlyOrFlattensIsARootNodeThatStillPlaysExactly) {
+  // Under a joint that a clip stretches unevenly, the helper's local
+  // transform would need a shear, which a glTF node's translation, rotation
+  // and scale cannot hold; under a joint scaled to nothing it has no local
+  // transform at all. The bake then writes that helper as a root node, and
+  // the file still plays the skin that was fitted.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const Trex t;
+  const Binding b = bind(t.mesh, t.rig);
+  const SkinWeights w = fit_weights(b, training_poses(b.joints()), 4, 8);
+  ASSERT_FALSE(w.helpers.empty());
+  const size_t nj = b.joints().size();
+  const std::string mesh_file = test::data("quaternius/Trex.glb");
+  auto depth = [&](int j) {
+    int d = 0;
+    for (auto p = b.joints()[static_cast<size_t>(j)].parent; p; ++d)
+      p = std::find_if(b.joints().begin(), b.joints().end(), [&](const Joint& q) { return q.name == *p; })->parent;
+    return d;
+  };
+  const auto [a0, c0] = w.helpers[0];
+  const std::string parent = b.joints()[static_cast<size_t>(depth(c0) > depth(a0) ? c0 : a0)].name;
+  // A clip file of the same skeleton (a plain bake of the walk), its
+  // helper's parent's scale keys overwritten.
+  GltfBakeOptions opt;
+  opt.clips = {"Armature|TRex_Walk"};
+  const std::string plain = temp("trex_walk_plain.glb");
+  write_file_atomic(plain, skinned_glb(mesh_file, b.joints(), fit_weights(b, training_poses(b.joints()), 4), &t.file, opt));
+  for (const Vec3 scale : {Vec3(1.5, 0.6, 1.0), Vec3(0, 0, 0)}) {
+    tinygltf::Model model;
+    tinygltf::TinyGLTF io;
+    std::string err, warn;
+    ASSERT_TRUE(io.LoadBinaryFromFile(&model, &err, &warn, plain)) << err;
+    int edited = 0;
+    for (const auto& ch : model.animations[0].channels) {
+      if (ch.target_path != "scale" || model.nodes[static_cast<size_t>(ch.target_node)].name != parent)
+        continue;
+      const auto& acc = model.accessors[static_cast<size_t>(model.animations[0].samplers[static_cast<size_t>(ch.sampler)].output)];
+      const auto& view = model.bufferViews[static_cast<size_t>(acc.bufferView)];
+      auto* f = reinterpret_cast<float*>(model.buffers[0].data.data() + view.byteOffset + acc.byteOffset);
+      for (size_t k = 0; k < acc.count; ++k)
+        for (int d = 0; d < 3; ++d)
+          f[3 * k + static_cast<size_t>(d)] = static_cast<float>(scale[d]);
+      ++edited;
+    }
+    ASSERT_EQ(edited, 1) << "the walk keys " << parent;
+    const std::string clip_file = temp("trex_walk_scaled.glb");
+    ASSERT_TRUE(io.WriteGltfSceneToFile(&model, clip_file, true, true, false, true));
+    const SkinnedMesh clips = load_skinned_mesh(clip_file);
+    const std::string path = temp("trex_helpers_scaled.glb");
+    write_file_atomic(path, skinned_glb(mesh_file, b.joints(), w, &clips, opt));
+    const SkinnedMesh back = load_skinned_mesh(path);
+    ASSERT_EQ(back.joints.size(), w.joints.size());
+    EXPECT_FALSE(back.joints[nj].parent.has_value()) << "the helper under " << parent << " is a root node";
+    const InputTopology topo = read_input_topology(mesh_file);
+    const int clip = back.find_clip("Armature|TRex_Walk");
+    const auto [t0, t1] = back.clip_range(clip);
+    double worst = 0;
+    for (double time : {t0, 0.5 * (t0 + t1), t1}) {
+      const double key = std::round((time - t0) * opt.fps) / opt.fps + t0;
+      const auto M = clip_skinning_matrices(b.joints(), clips, 0, key);
+      const double s = std::cbrt(std::abs(M[0].topLeftCorner<3, 3>().determinant()));
+      const auto ours = skin_positions(w, topo.faces.positions, M);
+      const auto theirs = skin_positions(back, topo.faces.positions, back.skinning_matrices(clip, key));
+      for (const auto& x : theirs)
+        ASSERT_TRUE(x.allFinite());
+      worst = std::max(worst, max_distance(ours, theirs) / (s * t.mesh.bbox_diagonal()));
+    }
+    EXPECT_LT(worst, 1e-5) << "scale " << scale.transpose();
+  }
 }

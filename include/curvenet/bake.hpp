@@ -36,8 +36,11 @@ struct SkinWeights {
 
 /// A helper joint's skinning matrix: the dual-quaternion mean of two
 /// joints' skinning matrices (their rotations and translations blended half
-/// and half as unit dual quaternions, the short way round; their stretches
-/// averaged). Rigid when both are; the identity when both are.
+/// and half as unit dual quaternions, the short way round), scaled by the
+/// mean of their volume scales (the cube roots of their determinants). A
+/// similarity, so that a glTF node carries it exactly in any pose (a
+/// non-uniform stretch would need a shear no node's TRS has); rigid when
+/// both are; the identity when both are.
 Mat4 helper_matrix(const Mat4& a, const Mat4& b);
 
 /// `skinning` (one matrix per rig joint of the weights) followed by each
@@ -62,7 +65,8 @@ SkinWeights bake_weights(const Binding& binding, int max_influences = 4);
 /// could serve, each pair is ranked by the most any vertex owes it (that
 /// vertex's weight on the pair times how much closer, in root mean square
 /// over the poses, it comes with the pairs than without), and the fit is
-/// redone with the best `helpers` pairs. A linear skin follows a dual-quaternion blend only to first
+/// redone with the best `helpers` pairs (a chosen pair that ends with no
+/// weight on any vertex is dropped). A linear skin follows a dual-quaternion blend only to first
 /// order in the joints' turn; a helper keyed half way round a bend carries
 /// the arc a bent knee or ankle needs (docs/bake.md).
 /// \throw InputError when max_influences is not between 1 and 8, helpers is
@@ -132,7 +136,10 @@ struct GltfBakeOptions {
 /// and, when `clips` is given, its animations retargeted to the joints by name.
 /// A helper joint of the weights is a node under the deeper of its two
 /// joints, at that joint's rest frame, keyed in every clip so that its
-/// skinning matrix is helper_matrix of theirs; its `extras` name the two
+/// skinning matrix is helper_matrix of theirs; where a clip scales or
+/// flattens that joint so that no local TRS under it can carry the helper,
+/// it is a root node instead, at a rigid frame (that joint's rest position
+/// and turn, and its volume scale). Its `extras` name the two
 /// (`{"curvenet_helper": ["a", "b"]}`) for an engine that plays clips of
 /// its own and must drive it.
 /// \throw InputError when the weights do not fit the mesh or the joints, or a

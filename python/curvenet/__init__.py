@@ -80,11 +80,13 @@ __version__ = "0.1.0"
 
 def write_weights_npz(path, weights):
     """Writes baked weights as a numpy .npz: `joint` (n, k) int (-1 unused),
-    `weight` (n, k) float, `joints` (the joint names), for pipelines that
-    paint on top. Read back with numpy.load(path)."""
+    `weight` (n, k) float, `joints` (the joint names), and `helpers` (h, 2)
+    int, the two rig joints of each helper joint (the last h of `joints`),
+    for pipelines that paint on top. Read back with numpy.load(path)."""
     import numpy as np
 
-    np.savez(path, joint=weights.joint, weight=weights.weight, joints=np.array(weights.joints))
+    helpers = np.array(weights.helpers, dtype=np.int64).reshape(-1, 2)
+    np.savez(path, joint=weights.joint, weight=weights.weight, joints=np.array(weights.joints), helpers=helpers)
 
 # The exceptions carry the file and element at fault (empty when none).
 for _cls in (Error, EmbedError, TopologyError, InputError):

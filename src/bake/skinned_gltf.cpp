@@ -186,8 +186,8 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   if (joints.size() != static_cast<size_t>(weights.rig_joints()) || weights.helpers.size() > weights.joints.size() ||
       joints.empty())
     throw InputError(mesh_path, "skeleton",
-                     "the weights name " + std::to_string(weights.joints.size() - weights.helpers.size()) +
-                         " joints, the skeleton has " + std::to_string(joints.size()));
+                     "the weights name " + std::to_string(weights.rig_joints()) + " joints, the skeleton has " +
+                         std::to_string(joints.size()));
   for (const auto& [a, b] : weights.helpers)
     if (a < 0 || b < 0 || a >= static_cast<int>(joints.size()) || b >= static_cast<int>(joints.size()))
       throw InputError(mesh_path, "helper joint", "it names a joint the skeleton does not have");
@@ -420,8 +420,61 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     else
       roots.push_back(1 + j);
   }
-  // Helper joints: a node under the deeper of its two joints, at that
-  // joint's rest frame (identity local at rest), after the rig's joints.
+  // The clips to carry, and each key's local and posed world transforms
+  // (each joint's rest local times its pose entry, one key per frame).
+  std::set<std::string> wanted(options.clips.begin(), options.clips.end());
+  std::vector<int> carried;
+  if (clips) {
+    for (const auto& name : options.clips)
+      if (clips->find_clip(name) < 0)
+        throw InputError(clips->source, "clip '" + name + "'", "no clip has this name");
+    int matched = 0;
+    for (const auto& j : clips->joints)
+      matched += joint_index.count(j.name) > 0;
+    if (clips->num_clips() > 0 && matched == 0)
+      throw InputError(clips->source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
+    for (int c = 0; c < clips->num_clips(); ++c)
+      if (wanted.empty() || wanted.count(clips->clip_names[c]))
+        carried.push_back(c);
+  }
+  auto key_times = [&](int c) {
+    const auto [t0, t1] = clips->clip_range(c);
+    const double span = std::ceil((t1 - t0) * options.fps - 1e-9);
+    if (!(span < kMaxKeys))
+      throw InputError(clips->source, "clip '" + clips->clip_names[static_cast<size_t>(c)] + "'",
+                       "it comes to more than " + std::to_string(static_cast<long long>(kMaxKeys)) +
+                           " keys at the fps of the bake");
+    const int keys = std::max(2, static_cast<int>(span) + 1);
+    std::vector<float> times;
+    for (int i = 0; i < keys; ++i)
+      times.push_back(static_cast<float>(std::min(t1, t0 + i / options.fps)));
+    if (times.size() >= 2 && times[times.size() - 1] <= times[times.size() - 2])
+      times.back() = std::nextafter(times[times.size() - 2], std::numeric_limits<float>::infinity());
+    return times;
+  };
+  auto pose_at = [&](int c, double time, std::vector<Mat4>& local, std::vector<Mat4>& posed,
+                     std::vector<bool>& animated) {
+    const Pose pose = pose_from_clip(*clips, c, time);
+    for (int j = 0; j < nj; ++j) {
+      const auto it = pose.find(joints[j].name);
+      local[j] = rest_local[j];
+      if (it != pose.end()) {
+        animated[j] = true;
+        local[j] = rest_local[j] * it->second.matrix();
+      }
+      const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
+      posed[j] = p >= 0 ? Mat4(posed[p] * local[j]) : local[j];
+    }
+  };
+
+  // Helper joints, after the rig's: a helper's skinning matrix is the mean
+  // of its joints' (helper_matrix). It is a node under the deeper of its two
+  // joints, at that joint's rest frame (its local the identity at rest), so
+  // that an engine that does not drive it still carries it with the limb.
+  // Where a clip scales that joint so that no local translation, rotation
+  // and scale under it carries the helper (a shear), or flattens it, the
+  // helper is a root node instead, at a rigid frame scaled as that joint is
+  // at rest: a similarity times a similarity, which a node carries exactly.
   auto depth = [&](int j) {
     int d = 0;
     for (int p = j; joints[p].parent; p = joint_index.at(*joints[p].parent))
@@ -433,22 +486,78 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   for (int h = 0; h < nh; ++h) {
     const auto [a, b] = weights.helpers[h];
     helper_parent[h] = depth(b) > depth(a) ? b : a;
-    world.push_back(world[helper_parent[h]]);
+  }
+  auto helper_skinning = [&](int h, const std::vector<Mat4>& posed) {
+    const auto [a, b] = weights.helpers[h];
+    return helper_matrix(Mat4(posed[a] * world[a].inverse()), Mat4(posed[b] * world[b].inverse()));
+  };
+  auto under_parent = [&](int h, const std::vector<Mat4>& posed, const Mat4& S) {
+    const int p = helper_parent[h];
+    return Mat4(posed[p].inverse() * S * world[p]);
+  };
+  // Carried: its linear part is a rotation and scales along the local axes
+  // to within a millionth (a clip's single-precision keys leave shears of
+  // about 1e-7; the keys are written in single precision anyway).
+  auto carried_by_trs = [](const Mat4& L) {
+    if (!L.allFinite())
+      return false;
+    const Eigen::Matrix3d A = L.topLeftCorner<3, 3>();
+    const double size = A.cwiseAbs().maxCoeff();
+    const Eigen::Matrix3d back = compose(decompose(L)).topLeftCorner<3, 3>();
+    return size > 0 && (back - A).cwiseAbs().maxCoeff() <= 1e-6 * size;
+  };
+  std::vector<char> rooted(nh, 0);
+  if (nh > 0 && clips) {
+    std::vector<Mat4> local(nj), posed(nj);
+    std::vector<bool> animated(nj, false);
+    for (const int c : carried)
+      for (const float time : key_times(c)) {
+        pose_at(c, time, local, posed, animated);
+        for (int h = 0; h < nh; ++h)
+          if (!rooted[h])
+            rooted[h] = !carried_by_trs(under_parent(h, posed, helper_skinning(h, posed)));
+      }
+  }
+  std::vector<Mat4> helper_rest(nh); // the rest world of a rooted helper
+  std::vector<int> helper_roots;
+  for (int h = 0; h < nh; ++h) {
+    const Mat4& W = world[helper_parent[h]];
+    const int j = nj + h;
     tinygltf::Node n;
-    n.name = weights.joints[static_cast<size_t>(nj + h)];
+    n.name = weights.joints[static_cast<size_t>(j)];
+    for (const auto& other : joints)
+      if (other.name == n.name)
+        throw InputError(mesh_path, "helper joint '" + n.name + "'", "a joint of the skeleton has its name");
+    const auto [a, b] = weights.helpers[h];
     tinygltf::Value::Array between{tinygltf::Value(joints[a].name), tinygltf::Value(joints[b].name)};
     tinygltf::Value::Object extras;
     extras["curvenet_helper"] = tinygltf::Value(between);
     n.extras = tinygltf::Value(extras);
+    if (rooted[h]) {
+      Mat4 R = Mat4::Identity();
+      const Eigen::Matrix3d w3 = W.topLeftCorner<3, 3>();
+      R.topLeftCorner<3, 3>() = std::cbrt(std::abs(w3.determinant())) * decompose(W).r.toRotationMatrix();
+      R.block<3, 1>(0, 3) = W.block<3, 1>(0, 3);
+      helper_rest[h] = R;
+      const Trs x = decompose(R);
+      n.translation = {x.t.x(), x.t.y(), x.t.z()};
+      n.rotation = {x.r.x(), x.r.y(), x.r.z(), x.r.w()};
+      n.scale = {x.s.x(), x.s.y(), x.s.z()};
+      world.push_back(R);
+      helper_roots.push_back(1 + j);
+    } else {
+      world.push_back(W);
+      model.nodes[1 + helper_parent[h]].children.push_back(1 + j);
+    }
     model.nodes.push_back(n);
-    skin.joints.push_back(1 + nj + h);
-    model.nodes[1 + helper_parent[h]].children.push_back(1 + nj + h);
+    skin.joints.push_back(1 + j);
   }
   std::vector<float> ibm;
   for (int j = 0; j < nj + nh; ++j) {
     const Mat4 inv = world[j].inverse();
     if (!inv.allFinite())
-      throw InputError(mesh_path, "joint '" + joints[j].name + "'", "its rest transform is singular");
+      throw InputError(mesh_path, "joint '" + weights.joints[static_cast<size_t>(j)] + "'",
+                       "its rest transform is singular");
     for (int c = 0; c < 4; ++c)
       for (int r = 0; r < 4; ++r)
         ibm.push_back(static_cast<float>(inv(r, c))); // column-major
@@ -461,58 +570,23 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   scene.name = "curvenet bake";
   scene.nodes.push_back(0);
   scene.nodes.insert(scene.nodes.end(), roots.begin(), roots.end());
+  scene.nodes.insert(scene.nodes.end(), helper_roots.begin(), helper_roots.end());
   model.scenes.push_back(scene);
   model.defaultScene = 0;
 
-  // Clips, retargeted by joint name: each joint's rest local times its pose
-  // entry, one key per frame.
+  // Clips, retargeted by joint name, one key per frame.
   if (clips) {
-    std::set<std::string> wanted(options.clips.begin(), options.clips.end());
-    for (const auto& name : options.clips)
-      if (clips->find_clip(name) < 0)
-        throw InputError(clips->source, "clip '" + name + "'", "no clip has this name");
-    int matched = 0;
-    for (const auto& j : clips->joints)
-      matched += joint_index.count(j.name) > 0;
-    if (clips->num_clips() > 0 && matched == 0)
-      throw InputError(clips->source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
-    for (int c = 0; c < clips->num_clips(); ++c) {
-      if (!wanted.empty() && !wanted.count(clips->clip_names[c]))
-        continue;
-      const auto [t0, t1] = clips->clip_range(c);
-      const double span = std::ceil((t1 - t0) * options.fps - 1e-9);
-      if (!(span < kMaxKeys))
-        throw InputError(clips->source, "clip '" + clips->clip_names[static_cast<size_t>(c)] + "'",
-                         "it comes to more than " + std::to_string(static_cast<long long>(kMaxKeys)) +
-                             " keys at the fps of the bake");
-      const int keys = std::max(2, static_cast<int>(span) + 1);
-      std::vector<float> times;
-      for (int i = 0; i < keys; ++i)
-        times.push_back(static_cast<float>(std::min(t1, t0 + i / options.fps)));
-      if (times.size() >= 2 && times[times.size() - 1] <= times[times.size() - 2])
-        times.back() = std::nextafter(times[times.size() - 2], std::numeric_limits<float>::infinity());
+    for (const int c : carried) {
+      const std::vector<float> times = key_times(c);
+      const int keys = static_cast<int>(times.size());
       std::vector<std::vector<float>> tr(nj + nh), rot(nj + nh), sc(nj + nh);
       std::vector<bool> animated(nj + nh, false);
       std::vector<Mat4> local(nj + nh), posed(nj);
       for (int i = 0; i < keys; ++i) {
-        const Pose pose = pose_from_clip(*clips, c, times[i]);
-        for (int j = 0; j < nj; ++j) {
-          const auto it = pose.find(joints[j].name);
-          local[j] = rest_local[j];
-          if (it != pose.end()) {
-            animated[j] = true;
-            local[j] = rest_local[j] * it->second.matrix();
-          }
-          const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
-          posed[j] = p >= 0 ? Mat4(posed[p] * local[j]) : local[j];
-        }
-        // A helper's skinning matrix is the mean of its joints' (helper_matrix):
-        // its local is that carried to its rest frame, under its parent as posed.
+        pose_at(c, times[i], local, posed, animated);
         for (int h = 0; h < nh; ++h) {
-          const auto [a, b] = weights.helpers[h];
-          const int p = helper_parent[h];
-          const Mat4 S = helper_matrix(Mat4(posed[a] * world[a].inverse()), Mat4(posed[b] * world[b].inverse()));
-          local[nj + h] = posed[p].inverse() * S * world[p];
+          const Mat4 S = helper_skinning(h, posed);
+          local[nj + h] = rooted[h] ? Mat4(S * helper_rest[h]) : under_parent(h, posed, S);
           animated[nj + h] = true;
         }
         for (int j = 0; j < nj + nh; ++j) {

@@ -71,14 +71,30 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
       [&](std::span<const Mat4> M, std::span<Vec3> out) { binding.deform_frames(M, out); }, nullptr, helpers);
 }
 
-Mat4 helper_matrix(const Mat4& a, const Mat4& b) {
-  const detail::DualJoint da = detail::split_joint(a), db = detail::split_joint(b);
+namespace {
+
+/// The helper half way between two split joints (helper_matrix): their
+/// rigid parts' dual-quaternion mean, scaled by the mean of their volume
+/// scales. A similarity, so that a glTF node's translation, rotation and
+/// uniform scale carry it exactly in any pose.
+Mat4 helper_of(const detail::DualJoint& a, const detail::DualJoint& b) {
+  detail::DualJoint ra = a, rb = b; // the rigid parts
+  ra.stretch = rb.stretch = Eigen::Matrix3d::Identity();
+  ra.rigid = rb.rigid = true;
   detail::DualBlend half;
-  half.add(da, 0.5);
-  half.add(db, 0.5);
-  // Two rotations half a turn apart in opposite senses have no mean: the
-  // first joint's then, as a blend of them would skin.
-  return half.valid() ? half.matrix() : a;
+  half.add(ra, 0.5);
+  half.add(rb, 0.5);
+  Mat4 m = half.matrix(); // valid: aligned to one hemisphere, the sum's norm is at least 1/sqrt(2)
+  const double s =
+      0.5 * (std::cbrt(std::abs(a.stretch.determinant())) + std::cbrt(std::abs(b.stretch.determinant())));
+  m.topLeftCorner<3, 3>() *= s;
+  return m;
+}
+
+} // namespace
+
+Mat4 helper_matrix(const Mat4& a, const Mat4& b) {
+  return helper_of(detail::split_joint(a), detail::split_joint(b));
 }
 
 std::vector<Mat4> with_helpers(const SkinWeights& w, std::span<const Mat4> skinning) {
@@ -87,6 +103,10 @@ std::vector<Mat4> with_helpers(const SkinWeights& w, std::span<const Mat4> skinn
     throw Error("with_helpers: " + std::to_string(skinning.size()) + " matrices for " + std::to_string(rig) +
                 " rig joints");
   std::vector<Mat4> out(skinning.begin(), skinning.end());
+  for (const auto& [a, b] : w.helpers)
+    if (a < 0 || b < 0 || static_cast<size_t>(a) >= rig || static_cast<size_t>(b) >= rig)
+      throw Error("with_helpers: a helper between joints " + std::to_string(a) + " and " + std::to_string(b) + " of " +
+                  std::to_string(rig));
   for (const auto& [a, b] : w.helpers)
     out.push_back(helper_matrix(skinning[static_cast<size_t>(a)], skinning[static_cast<size_t>(b)]));
   return out;
@@ -167,14 +187,9 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
       std::vector<detail::DualJoint> d(nj);
       for (size_t j = 0; j < nj; ++j)
         d[j] = detail::split_joint(poses[p][j]);
-      detail::DualBlend half;
       pair_matrix[p].resize(offered.size());
-      for (size_t q = 0; q < offered.size(); ++q) {
-        half.clear();
-        half.add(d[static_cast<size_t>(offered[q][0])], 0.5);
-        half.add(d[static_cast<size_t>(offered[q][1])], 0.5);
-        pair_matrix[p][q] = half.valid() ? half.matrix() : poses[p][static_cast<size_t>(offered[q][0])];
-      }
+      for (size_t q = 0; q < offered.size(); ++q)
+        pair_matrix[p][q] = helper_of(d[static_cast<size_t>(offered[q][0])], d[static_cast<size_t>(offered[q][1])]);
     });
   }
   auto offered_index = [&](const std::array<int, 2>& q) {
@@ -311,6 +326,31 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
       fitted = inf;
     store(fitted, max_influences, w, v);
   });
+  // A chosen pair can end with no weight anywhere (ranked where the fit had
+  // every pair, refitted with the chosen alone, or cut past k): it would
+  // cost an engine an update a frame for nothing, so it is dropped.
+  if (!w.helpers.empty()) {
+    std::vector<char> used(w.joints.size(), 0);
+    for (const int j : w.joint)
+      if (j >= 0)
+        used[static_cast<size_t>(j)] = 1;
+    std::vector<int> remap(w.joints.size(), -1);
+    std::vector<std::string> names(w.joints.begin(), w.joints.begin() + static_cast<std::ptrdiff_t>(nj));
+    std::vector<std::array<int, 2>> kept;
+    for (size_t j = 0; j < w.joints.size(); ++j)
+      if (j < nj) {
+        remap[j] = static_cast<int>(j);
+      } else if (used[j]) {
+        remap[j] = static_cast<int>(names.size());
+        names.push_back(w.joints[j]);
+        kept.push_back(w.helpers[j - nj]);
+      }
+    for (int& j : w.joint)
+      if (j >= 0)
+        j = remap[static_cast<size_t>(j)];
+    w.joints = std::move(names);
+    w.helpers = std::move(kept);
+  }
   return w;
 }
 

@@ -632,7 +632,7 @@ def test_baked_weights_and_glb_are_exactly_the_clis(tmp_path):
 
 
 @needs_data
-def test_fitted_weights_over_poses():
+def test_fitted_weights_over_poses(tmp_path):
     b = curvenet.bind(curvenet.load_mesh(hand()), curvenet.read_rig(example("hand_l.cnrig.json")))
     clips = curvenet.load_skinned_mesh(hand("hand_l_poses.glb"))
     poses = np.stack([curvenet.clip_skinning_matrices(b, clips, c, clips.clip_range(c)[1])
@@ -652,6 +652,10 @@ def test_fitted_weights_over_poses():
     np.testing.assert_allclose(curvenet.skin_positions(h, rest, M), curvenet.skin_positions(h, rest, full), atol=0)
     again = curvenet.SkinWeights(h.joints, h.joint, h.weight, h.helpers)
     assert again.helpers == h.helpers and curvenet.weights_csv(again) == curvenet.weights_csv(h)
+    curvenet.write_weights_npz(str(tmp_path / "h.npz"), h)
+    z = np.load(tmp_path / "h.npz")
+    back = curvenet.SkinWeights(list(z["joints"]), z["joint"], z["weight"], [tuple(p) for p in z["helpers"]])
+    assert back.helpers == h.helpers and curvenet.weights_csv(back) == curvenet.weights_csv(h)
     with pytest.raises(curvenet.InputError):
         curvenet.SkinWeights(h.joints, h.joint, h.weight, [(0, len(h.joints))])
 
