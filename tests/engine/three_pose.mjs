@@ -2,17 +2,24 @@
 // SkinnedMesh.getVertexPosition), as a game or web engine plays it, and
 // writes the posed world-space positions of every skinned mesh's vertices
 // (each vertex buffer once).
-//   node three_pose.mjs NODE_MODULES FILE.glb TIMES_JSON OUT.bin
+//   node three_pose.mjs NODE_MODULES FILE.glb TIMES_JSON OUT.bin [drive-helpers]
 // TIMES_JSON: [[clip index, seconds], ...]. OUT.bin: float64, for each
 // (clip, time) in order, every vertex of every skinned mesh (in the order
-// the loader's scene traversal meets them), x y z.
+// the loader's scene traversal meets them), x y z. With drive-helpers, the
+// clips' keys of helper joints (bake --helpers) are taken out, and the
+// helpers are driven from their two joints by curvenet_helpers.mjs, as an
+// engine playing clips of its own must.
 import fs from "fs";
 import path from "path";
 import { pathToFileURL } from "url";
 
-const [modules, file, timesJson, out] = process.argv.slice(2);
+const [modules, file, timesJson, out, mode] = process.argv.slice(2);
 const three = pathToFileURL(path.join(path.resolve(modules), "three"));
 const THREE = await import(three.href + "/build/three.module.js");
+const drive = mode === "drive-helpers";
+const { findHelpers, driveHelpers } = drive
+  ? await import(pathToFileURL(path.join(path.dirname(new URL(import.meta.url).pathname), "curvenet_helpers.mjs")).href)
+  : {};
 const { GLTFLoader } = await import(three.href + "/examples/jsm/loaders/GLTFLoader.js");
 
 const bytes = fs.readFileSync(file);
@@ -35,6 +42,13 @@ scene.traverse((o) => {
   }
 });
 if (meshes.length === 0) throw new Error(file + ": no skinned mesh");
+const helpers = drive ? meshes.map((m) => findHelpers(THREE, m)) : [];
+if (drive) {
+  const names = new Set(helpers.flat().map((h) => h.bone.name));
+  if (names.size === 0) throw new Error(file + ": no helper joints to drive");
+  for (const clip of gltf.animations)
+    clip.tracks = clip.tracks.filter((track) => !names.has(track.name.slice(0, track.name.lastIndexOf("."))));
+}
 const mixer = new THREE.AnimationMixer(scene);
 const times = JSON.parse(timesJson);
 const count = meshes.reduce((n, m) => n + m.geometry.attributes.position.count, 0);
@@ -49,6 +63,7 @@ for (const [clip, t] of times) {
   action.play();
   mixer.setTime(t);
   scene.updateMatrixWorld(true);
+  if (drive) meshes.forEach((m, i) => driveHelpers(THREE, m, helpers[i]));
   for (const m of meshes) {
     m.skeleton.update();
     const n = m.geometry.attributes.position.count;
