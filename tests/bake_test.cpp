@@ -558,6 +558,17 @@ struct Trex {
   }
 };
 
+/// The joint a helper's node is under: the deeper of its two.
+int helper_parent(const std::vector<Joint>& joints, const std::array<int, 2>& pair) {
+  auto depth = [&](int j) {
+    int d = 0;
+    for (auto p = joints[static_cast<size_t>(j)].parent; p; ++d)
+      p = std::find_if(joints.begin(), joints.end(), [&](const Joint& q) { return q.name == *p; })->parent;
+    return d;
+  };
+  return depth(pair[1]) > depth(pair[0]) ? pair[1] : pair[0];
+}
+
 /// Mean and worst vertex of a skin against the rig over every frame (24 fps)
 /// of a clip, as fractions of the diagonal at the pose's scale.
 std::pair<double, double> clip_gap(const Binding& b, const SurfaceMesh& m, const SkinWeights& w,
@@ -645,18 +656,9 @@ TEST(Bake, AGlbWithHelperJointsKeysThemSoTheFilePlaysAsTheSkinWasFitted) {
   // at that joint's rest frame.
   const size_t nj = b.joints().size();
   ASSERT_EQ(back.joints.size(), w.joints.size());
-  auto depth = [&](int j) {
-    int d = 0;
-    for (auto p = b.joints()[static_cast<size_t>(j)].parent; p; ++d) {
-      const auto it = std::find_if(b.joints().begin(), b.joints().end(), [&](const Joint& q) { return q.name == *p; });
-      p = it->parent;
-    }
-    return d;
-  };
   for (size_t h = 0; h < w.helpers.size(); ++h) {
     const Joint& j = back.joints[nj + h];
-    const auto [a, c] = w.helpers[h];
-    const int parent = depth(c) > depth(a) ? c : a;
+    const int parent = helper_parent(b.joints(), w.helpers[h]);
     EXPECT_EQ(j.name, w.joints[nj + h]);
     ASSERT_TRUE(j.parent.has_value());
     EXPECT_EQ(*j.parent, b.joints()[static_cast<size_t>(parent)].name);
@@ -696,14 +698,7 @@ TEST(Bake, AHelperWhoseJointAClipScalesUnevenlyOrFlattensIsARootNodeThatStillPla
   ASSERT_FALSE(w.helpers.empty());
   const size_t nj = b.joints().size();
   const std::string mesh_file = test::data("quaternius/Trex.glb");
-  auto depth = [&](int j) {
-    int d = 0;
-    for (auto p = b.joints()[static_cast<size_t>(j)].parent; p; ++d)
-      p = std::find_if(b.joints().begin(), b.joints().end(), [&](const Joint& q) { return q.name == *p; })->parent;
-    return d;
-  };
-  const auto [a0, c0] = w.helpers[0];
-  const std::string parent = b.joints()[static_cast<size_t>(depth(c0) > depth(a0) ? c0 : a0)].name;
+  const std::string parent = b.joints()[static_cast<size_t>(helper_parent(b.joints(), w.helpers[0]))].name;
   // A clip file of the same skeleton (a plain bake of the walk), its
   // helper's parent's scale keys overwritten.
   GltfBakeOptions opt;

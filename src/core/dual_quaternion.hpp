@@ -73,18 +73,25 @@ public:
   }
   /// The blend as one matrix: apply(p) is matrix() * p (valid() must hold).
   [[nodiscard]] Mat4 matrix() const {
-    sum();
-    const double n = b0_.norm();
-    Eigen::Quaterniond q0, q1;
-    q0.coeffs() = b0_ / n;
-    q1.coeffs() = b1_ / n;
-    const Eigen::Vector3d v0 = q0.vec(), v1 = q1.vec();
+    const Unit u = unit();
     Mat4 m = Mat4::Identity();
-    m.topLeftCorner<3, 3>() = rigid_ ? q0.toRotationMatrix() : Eigen::Matrix3d(q0.toRotationMatrix() * stretch_);
-    m.block<3, 1>(0, 3) = 2 * (q0.w() * v1 - q1.w() * v0 + v0.cross(v1));
+    m.topLeftCorner<3, 3>() = rigid_ ? u.q0.toRotationMatrix() : Eigen::Matrix3d(u.q0.toRotationMatrix() * stretch_);
+    m.block<3, 1>(0, 3) = u.t;
     return m;
   }
   [[nodiscard]] Eigen::Vector3d apply(const Eigen::Vector3d& p) const {
+    const Unit u = unit();
+    const Eigen::Vector3d x = rigid_ ? p : Eigen::Vector3d(stretch_ * p);
+    return u.q0 * x + u.t;
+  }
+
+private:
+  struct Unit {
+    Eigen::Quaterniond q0; ///< the blend's rotation
+    Eigen::Vector3d t;     ///< and translation
+  };
+  /// The blend normalised to a unit dual quaternion, as a rotation and a translation.
+  [[nodiscard]] Unit unit() const {
     sum();
     const double n = b0_.norm();
     Eigen::Quaterniond q0, q1;
@@ -93,12 +100,8 @@ public:
     // The translation of a unit dual quaternion: 2 (q1 q0*) minus its
     // component along q0 that normalisation leaves: t = 2 (w0 v1 - w1 v0 + v0 x v1).
     const Eigen::Vector3d v0 = q0.vec(), v1 = q1.vec();
-    const Eigen::Vector3d t = 2 * (q0.w() * v1 - q1.w() * v0 + v0.cross(v1));
-    const Eigen::Vector3d x = rigid_ ? p : Eigen::Vector3d(stretch_ * p);
-    return q0 * x + t;
+    return {q0, 2 * (q0.w() * v1 - q1.w() * v0 + v0.cross(v1))};
   }
-
-private:
   struct Entry {
     const DualJoint* joint;
     double w;
