@@ -538,10 +538,13 @@ def _link_like(new, obj):
 
 def armature_joints(obj, arm):
     """The armature's bones as joints in the mesh object's space, rest pose:
-    bind = obj^-1 * arm * bone.matrix_local. Parents come first."""
+    bind = obj^-1 * arm * bone.matrix_local. Parents come first. The helper
+    bones of a Bake to Vertex Groups are not joints: their constraint poses them."""
     to_obj = obj.matrix_world.inverted() @ arm.matrix_world
     joints = []
     for bone in _bones_parents_first(arm):
+        if HELPER_KEY in bone:
+            continue
         bind = np.array(to_obj @ bone.matrix_local, dtype=np.float64)
         joints.append(curvenet.Joint(bone.name, bone.parent.name if bone.parent else None, bind))
     return joints
@@ -614,7 +617,7 @@ def deforming_bones(obj, arm):
     group of the mesh's with that name (or every Deform bone when the mesh
     has no groups yet)."""
     groups = {g.name for g in obj.vertex_groups}
-    bones = [b.name for b in arm.data.bones if b.use_deform]
+    bones = [b.name for b in arm.data.bones if b.use_deform and HELPER_KEY not in b]
     return [b for b in bones if b in groups] if groups else bones
 
 
@@ -1084,28 +1087,97 @@ def live_objects():
             if o.type == "MESH" and o.get(DEFORMATION_KEY) in ("live", "layer") and has_rig(o)]
 
 
-def bake_vertex_groups(obj, arm, max_influences=4, fitted=False):
+HELPER_KEY = "curvenet_helper"  # on a helper bone: its two joints, "a|b"
+
+
+def _remove_helper_bones(arm):
+    """Removes the helper bones an earlier Bake to Vertex Groups made."""
+    names = [b.name for b in arm.data.bones if HELPER_KEY in b]
+    if not names:
+        return
+    view_layer = bpy.context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    for name in names:
+        eb = arm.data.edit_bones.get(name)
+        if eb is not None:
+            arm.data.edit_bones.remove(eb)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    view_layer.objects.active = previous
+
+
+def _add_helper_bones(arm, w):
+    """A bone for each helper joint of the weights: at the rest place of the
+    deeper of its two bones, with no parent, and posed by an Armature
+    constraint on the two at half weight each with Preserve Volume, which
+    blends them as dual quaternions: helper_matrix, in stock Blender.
+    Returns the weights' helper names -> the bones' names."""
+    rig_count = len(w.joints) - len(w.helpers)
+
+    def depth(name):
+        d, b = 0, arm.data.bones[name]
+        while b.parent is not None:
+            d, b = d + 1, b.parent
+        return d
+
+    view_layer = bpy.context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    made = {}
+    for h, (a, b) in enumerate(w.helpers):
+        na, nb = w.joints[a], w.joints[b]
+        under = arm.data.edit_bones[nb if depth(nb) > depth(na) else na]
+        eb = arm.data.edit_bones.new(w.joints[rig_count + h])
+        eb.head, eb.tail, eb.roll = under.head.copy(), under.tail.copy(), under.roll
+        eb.use_deform = True
+        made[w.joints[rig_count + h]] = (eb.name, na, nb)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    view_layer.objects.active = previous
+    names = {}
+    for helper, (bone, na, nb) in made.items():
+        arm.data.bones[bone][HELPER_KEY] = na + "|" + nb
+        pb = arm.pose.bones[bone]
+        c = pb.constraints.new("ARMATURE")
+        c.name = "curvenet helper"
+        c.use_deform_preserve_volume = True
+        for target in (na, nb):
+            t = c.targets.new()
+            t.target, t.subtarget, t.weight = arm, target, 0.5
+        names[helper] = bone
+    return names
+
+
+def bake_vertex_groups(obj, arm, max_influences=4, fitted=False, helpers=0):
     """Bakes the binding to an ordinary skin: the top-k weights of each
     vertex (or, `fitted`, weights fitted to the net's own deformation over
     poses of the skeleton, as `curvenet bake --weights fitted` fits them) as
     vertex groups named after the bones, and an Armature modifier on the
     armature, which becomes the one deformation ('groups'): the mesh then
-    plays with stock Blender, without the add-on. Returns the
-    curvenet.SkinWeights."""
+    plays with stock Blender, without the add-on. With `helpers` (fitted
+    only), up to that many helper bones, each half way between two bones
+    (`curvenet bake --helpers`): made by _add_helper_bones, and removed by
+    the next bake. Returns the curvenet.SkinWeights."""
+    if helpers and not fitted:
+        raise Refused("Helper bones are fitted with the weights: choose Fitted weights.")
     if bound_armature(obj) != arm:
         obj[ARMATURE_KEY] = arm
     binding = ensure_binding(obj)
     if binding is None:
         raise Refused("Bind %s to an armature first." % obj.name)
     if fitted:
-        w = curvenet.fit_weights(binding, curvenet.training_poses(binding), max_influences)
+        w = curvenet.fit_weights(binding, curvenet.training_poses(binding), max_influences, helpers=helpers)
     else:
         w = curvenet.bake_weights(binding, max_influences)
-    # Groups named after bones deform with them: those of another skin go.
+    # Groups named after bones deform with them: those of another skin go,
+    # and so do the helper bones of an earlier bake.
     bones = {b.name for b in arm.data.bones}
     for vg in list(obj.vertex_groups):
         if vg.name in bones:
             obj.vertex_groups.remove(vg)
+    _remove_helper_bones(arm)
+    bone_of = _add_helper_bones(arm, w) if w.helpers else {}
     groups = {}
     J, Wt = w.joint, w.weight
     for v in range(w.num_vertices):
@@ -1113,7 +1185,7 @@ def bake_vertex_groups(obj, arm, max_influences=4, fitted=False):
             j = int(J[v, i])
             if j < 0:
                 continue
-            name = w.joints[j]
+            name = bone_of.get(w.joints[j], w.joints[j])
             vg = groups.get(name)
             if vg is None:
                 vg = groups[name] = obj.vertex_groups.new(name=name)

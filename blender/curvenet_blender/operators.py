@@ -530,6 +530,11 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
                ("FITTED", "Fitted", "Weights fitted to follow the net's deformation as each bone bends and twists: "
                                     "closer than Harmonic when the bind Mode is Harmonic, about the same with DQ")),
         default="HARMONIC")
+    helpers: IntProperty(
+        name="Helper Bones", default=0, min=0, max=1000,
+        description="Fitted only: up to this many helper bones, each half way between two bones (an Armature "
+                    "constraint on the two with Preserve Volume), where they bring the skin closest to the net: "
+                    "a knee or ankle bent far keeps its shape")
 
     def execute(self, context):
         obj = _mesh(context)
@@ -538,12 +543,15 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
             self.report({"ERROR"}, "Select an armature (or set one in the panel)")
             return {"CANCELLED"}
         ok, w = _attempt(self, context, "Bake to vertex groups",
-                         lambda: core.bake_vertex_groups(obj, arm, self.max_influences, self.weights == "FITTED"))
+                         lambda: core.bake_vertex_groups(obj, arm, self.max_influences, self.weights == "FITTED",
+                                                         self.helpers))
         if not ok:
             return {"CANCELLED"}
         used = int((w.joint >= 0).sum())
-        return _done(self, context, "Vertex groups (%s weights): %d vertices, %.2f joints each; playing: %s" % (
-            self.weights.lower(), w.num_vertices, used / max(1, w.num_vertices), core.describe_deformation(obj)))
+        extra = ", %d helper bones" % len(w.helpers) if w.helpers else ""
+        return _done(self, context, "Vertex groups (%s weights%s): %d vertices, %.2f joints each; playing: %s" % (
+            self.weights.lower(), extra, w.num_vertices, used / max(1, w.num_vertices),
+            core.describe_deformation(obj)))
 
 
 class CURVENET_OT_clear(_MeshOperator, bpy.types.Operator):

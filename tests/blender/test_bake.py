@@ -141,7 +141,59 @@ t.check(bpy.context.scene.curvenet.status.startswith("Vertex groups (fitted weig
 t.check(group_weight.keys() == want_fit.keys()
         and max(abs(group_weight[k] - want_fit[k]) for k in want_fit) < 1e-6,
         "Bake to Vertex Groups, fitted: the groups are fit_weights over training_poses")
+# With helper bones: each half way between two bones, posed by an Armature
+# constraint with Preserve Volume, so stock Blender plays the fitted skin.
+rig_bones = [b.name for b in arm.data.bones]
+t.check(bpy.ops.curvenet.bake_vertex_groups(max_influences=4, weights="FITTED", helpers=8) == {"FINISHED"},
+        bpy.context.scene.curvenet.status)
+helped = curvenet.fit_weights(binding, curvenet.training_poses(binding), 4, helpers=8)
+helper_names = helped.joints[len(helped.joints) - len(helped.helpers):]
+t.check(len(helper_names) > 0 and all(n in arm.data.bones and arm.data.bones[n].parent is None for n in helper_names),
+        "Bake to Vertex Groups with Helper Bones 8: %d helper bones, without parents" % len(helper_names))
+for n, (a, b) in zip(helper_names, helped.helpers):
+    c = arm.pose.bones[n].constraints[0]
+    t.check(c.type == "ARMATURE" and c.use_deform_preserve_volume
+            and sorted((x.subtarget, x.weight) for x in c.targets) == sorted([(helped.joints[a], 0.5),
+                                                                               (helped.joints[b], 0.5)]),
+            "%s: an Armature constraint on its two bones, half each, Preserve Volume" % n)
+t.check("Hel" in bpy.context.scene.curvenet.status or "helper bones" in bpy.context.scene.curvenet.status,
+        "the status says so: " + bpy.context.scene.curvenet.status)
+try:
+    bpy.ops.curvenet.bake_vertex_groups(max_influences=4, weights="HARMONIC", helpers=8)
+    refusal = ""
+except RuntimeError as e:  # an operator's error report, raised in a script
+    refusal = str(e)
+t.check("choose Fitted weights" in refusal, "helper bones with harmonic weights are refused: " + refusal)
+t.check(all(n in arm.data.bones for n in helper_names), "and the refusal leaves the bake as it was")
+rest_h = np.array([v.co[:] for v in obj.data.vertices])
+for name, angle in (("Index_Proximal_L", 70), ("Thumb_Proximal_L", -40), ("Wrist_L", 25)):
+    pb = arm.pose.bones[name]
+    pb.rotation_mode = "QUATERNION"
+    pb.rotation_quaternion = Quaternion((1, 0, 0.3), np.radians(angle))
+bpy.context.view_layer.update()
+got = t.evaluated_positions(obj)
+O, A = obj.matrix_world, arm.matrix_world
+index = {n: i for i, n in enumerate(rig_bones)}
+J = np.full((len(rest_h), 8), -1)
+Wt = np.zeros((len(rest_h), 8))
+all_names = rig_bones + helper_names
+at = {n: i for i, n in enumerate(all_names)}
+for v in obj.data.vertices:
+    for i, g in enumerate(v.groups):
+        J[v.index, i] = at[obj.vertex_groups[g.group].name]
+        Wt[v.index, i] = g.weight
+pairs = [(index[helped.joints[a]], index[helped.joints[b]]) for a, b in helped.helpers]
+w_h = curvenet.SkinWeights(all_names, J, Wt, pairs)
+M = np.array([np.array(O.inverted() @ A @ arm.pose.bones[n].matrix @ arm.pose.bones[n].bone.matrix_local.inverted()
+                       @ A.inverted() @ O) for n in rig_bones])
+err = np.abs(got - curvenet.skin_positions(w_h, rest_h, M)).max()
+t.check(err < 1e-5 * diag, "the Armature modifier with the helper bones' constraints poses it as our LBS with "
+        "helper_matrix (max %.2e of the diagonal)" % (err / diag))
+for name in ("Index_Proximal_L", "Thumb_Proximal_L", "Wrist_L"):
+    arm.pose.bones[name].rotation_quaternion = Quaternion()
+bpy.context.view_layer.update()
 t.check(bpy.ops.curvenet.bake_vertex_groups(max_influences=4) == {"FINISHED"}, bpy.context.scene.curvenet.status)
+t.check(not any(n in arm.data.bones for n in helper_names), "baking again without helpers removes the helper bones")
 t.check(obj.data.shape_keys is None or obj.data.shape_keys.key_blocks.get(core.SHAPE_KEY) is None,
         "live deformation is off")
 mod = [m for m in obj.modifiers if m.type == "ARMATURE"]
