@@ -182,6 +182,14 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
     }
     std::sort(offered.begin(), offered.end());
     offered.erase(std::unique(offered.begin(), offered.end()), offered.end());
+    // A matrix per pose and pair: refused past 2 GB rather than run out of memory.
+    const double bytes = static_cast<double>(poses.size()) * static_cast<double>(offered.size()) * sizeof(Mat4);
+    if (bytes > 2e9) {
+      std::ostringstream why;
+      why << std::setprecision(3) << "the " << offered.size() << " pairs of joints over " << poses.size()
+          << " poses would take " << bytes / 1e9 << " GB: fit over fewer clip frames, or bake without helpers";
+      throw InputError("helpers", std::to_string(helpers), why.str());
+    }
     pair_matrix.resize(poses.size());
     tbb::parallel_for(size_t{0}, poses.size(), [&](size_t p) {
       std::vector<detail::DualJoint> d(nj);
