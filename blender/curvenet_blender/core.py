@@ -1088,6 +1088,7 @@ def live_objects():
 
 
 HELPER_KEY = "curvenet_helper"  # on a helper bone: its two joints, "a|b"
+HELPER_LAYER = 31  # the bone layer helper bones are put on (hidden unless shown)
 
 
 def _remove_helper_bones(arm):
@@ -1138,6 +1139,8 @@ def _add_helper_bones(arm, w):
     names = {}
     for helper, (bone, na, nb) in made.items():
         arm.data.bones[bone][HELPER_KEY] = na + "|" + nb
+        if hasattr(arm.data.bones[bone], "layers"):  # out of the way: on the last bone layer alone
+            arm.data.bones[bone].layers = [i == HELPER_LAYER for i in range(32)]
         pb = arm.pose.bones[bone]
         c = pb.constraints.new("ARMATURE")
         c.name = "curvenet helper"

@@ -536,6 +536,14 @@ class CURVENET_OT_bake_vertex_groups(_MeshOperator, bpy.types.Operator):
                     "constraint on the two with Preserve Volume), where they bring the skin closest to the net: "
                     "a knee or ankle bent far keeps its shape")
 
+    def draw(self, context):
+        layout = self.layout
+        layout.prop(self, "max_influences")
+        layout.prop(self, "weights")
+        row = layout.row()
+        row.enabled = self.weights == "FITTED"  # helpers are fitted with the weights
+        row.prop(self, "helpers")
+
     def execute(self, context):
         obj = _mesh(context)
         arm = _armature(context) or core.bound_armature(obj)

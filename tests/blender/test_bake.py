@@ -150,6 +150,8 @@ helped = curvenet.fit_weights(binding, curvenet.training_poses(binding), 4, help
 helper_names = helped.joints[len(helped.joints) - len(helped.helpers):]
 t.check(len(helper_names) > 0 and all(n in arm.data.bones and arm.data.bones[n].parent is None for n in helper_names),
         "Bake to Vertex Groups with Helper Bones 8: %d helper bones, without parents" % len(helper_names))
+t.check(all(list(arm.data.bones[n].layers) == [i == core.HELPER_LAYER for i in range(32)] for n in helper_names),
+        "on their own bone layer, out of the way of the rig's")
 for n, (a, b) in zip(helper_names, helped.helpers):
     c = arm.pose.bones[n].constraints[0]
     t.check(c.type == "ARMATURE" and c.use_deform_preserve_volume
