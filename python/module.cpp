@@ -1318,7 +1318,8 @@ PYBIND11_MODULE(_curvenet, m) {
                                    "worst_joint"_a = f.worst_joint, "worst_time"_a = f.worst_time,
                                    "worst_floor"_a = f.worst_floor, "worst_joints"_a = f.worst_joints));
         return py::dict("notes"_a = r.notes, "vertices"_a = r.vertices, "bind"_a = from_json(report_to_json(r.bind)),
-                        "joints"_a = r.joints, "helpers"_a = r.helpers, "influences"_a = r.influences,
+                        "joints"_a = r.joints, "helpers"_a = r.helpers, "helper_joints"_a = r.helper_joints,
+                        "influences"_a = r.influences,
                         "mean_joints"_a = r.mean_joints,
                         "most_joints"_a = r.most_joints, "clips"_a = r.clips, "training_poses"_a = r.training_poses,
                         "fidelity"_a = fidelity);

@@ -777,6 +777,8 @@ TEST(Cli, BakeWritesASkinnedGlbAndTheWeightsOrNothing) {
             std::string::npos)
       << r.out;
   EXPECT_NE(r.out.find(" rig joints alone there comes closer"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\nhelpers: "), std::string::npos) << r.out; // named, each a~b
+  EXPECT_NE(r.out.find(" (each node's extras name its two joints)\n"), std::string::npos) << r.out;
   EXPECT_EQ(load_skinned_mesh((dir / "helpers.glb").string()).joints.size(), back.joints.size() + 6);
   // Refusals: one line, exit 2, nothing written.
   for (const std::string& bad :

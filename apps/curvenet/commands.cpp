@@ -204,6 +204,15 @@ int run_bake(const BakeArgs& a) {
     std::cout << " (" << j.helpers << (j.helpers == 1 ? " helper" : " helpers") << " of the " << a.helpers
               << " allowed, each keyed half way between two joints)";
   std::cout << "\n";
+  if (!j.helper_joints.empty()) {
+    const size_t shown = std::min<size_t>(j.helper_joints.size(), 8);
+    std::cout << "helpers:";
+    for (size_t i = 0; i < shown; ++i)
+      std::cout << (i ? ", " : " ") << j.helper_joints[i];
+    if (shown < j.helper_joints.size())
+      std::cout << " and " << j.helper_joints.size() - shown << " more";
+    std::cout << " (each node's extras name its two joints)\n";
+  }
   if (!a.clip_file.empty()) {
     std::cout << "clips: " << j.clips << " from " << a.clip_file << " at " << a.fps << " keys per second\n";
     print_bake_fidelity(std::cout, j.fidelity, j.helpers > 0);

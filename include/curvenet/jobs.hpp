@@ -257,7 +257,8 @@ struct BakeClipFidelity {
 };
 struct BakeSummary : JobSummary {
   int joints = 0, influences = 0;
-  int helpers = 0; ///< helper joints written (counted in `joints`)
+  int helpers = 0;                       ///< helper joints written (counted in `joints`)
+  std::vector<std::string> helper_joints; ///< their names, `a~b`, best ranked first
   double mean_joints = 0; ///< joints of non-zero weight per vertex
   int most_joints = 0;
   int clips = 0;          ///< clips carried into the GLB

@@ -574,7 +574,7 @@ def bake(
     'frames', 'mean', 'max', 'worst_vertex', 'worst_rest', 'worst_joint', 'worst_time', 'worst_floor' and
     'worst_joints' (distances as fractions of the diagonal; docs/bake.md, "What bake reports"). `over_skin`,
     `skinning`, `envelope` and `mask` are the CLI's layer options (with `fit`); `helpers` is `--helpers` (up to that
-    many helper joints, with fitted weights; 'helpers' in the dict counts those written). Raises InputError for bad
+    many helper joints, with fitted weights; 'helpers' in the dict counts those written, 'helper_joints' names them). Raises InputError for bad
     input, writing nothing."""
 def bake_weights(binding: Binding, max_influences: int = 4) -> SkinWeights:
     """The k largest harmonic weights s_j of each input vertex, renormalised (docs/bake.md)."""

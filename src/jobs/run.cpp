@@ -653,6 +653,7 @@ BakeSummary run(const BakeJob& job) {
   out.mean_joints = w.num_vertices() ? static_cast<double>(used) / w.num_vertices() : 0.0;
   out.joints = static_cast<int>(w.joints.size());
   out.helpers = static_cast<int>(w.helpers.size());
+  out.helper_joints.assign(w.joints.begin() + w.rig_joints(), w.joints.end());
   out.influences = w.influences;
   out.training_poses = skeleton_poses;
   out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;

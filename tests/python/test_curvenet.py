@@ -335,7 +335,9 @@ def test_bake_from_python_is_the_clis_bake_to_the_byte_and_reports_what_it_print
     cli("bake", mesh, rig, "-o", str(tmp_path / "cli_helpers.glb"), "--weights", "fitted", "--helpers", "4")
     r = curvenet.bake(mesh, rig, output=str(tmp_path / "py_helpers.glb"), weights="fitted", helpers=4)
     assert (tmp_path / "py_helpers.glb").read_bytes() == (tmp_path / "cli_helpers.glb").read_bytes()
-    assert r["helpers"] == 4
+    assert r["helpers"] == 4 and len(r["helper_joints"]) == 4 and all("~" in n for n in r["helper_joints"])
+    assert "helpers: " + ", ".join(r["helper_joints"]) in cli("bake", mesh, rig, "-o", str(tmp_path / "again.glb"),
+                                                               "--weights", "fitted", "--helpers", "4")
     # Bad input: one error naming the element, nothing written.
     with pytest.raises(curvenet.InputError, match="helpers"):
         curvenet.bake(mesh, rig, output=str(tmp_path / "bad.glb"), helpers=4)  # harmonic weights are not fitted
