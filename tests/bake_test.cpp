@@ -637,14 +637,49 @@ TEST(Bake, HelperJointsCarryTheTrexsFeetRoundTheBendThatNoSkinOfItsJointsFollows
   EXPECT_LT(mean1, mean0);
 }
 
+namespace {
+
+/// The T-rex bound, its weights fitted with up to eight helpers.
+struct TrexWithHelpers {
+  Trex t;
+  Binding b;
+  SkinWeights w;
+  std::string mesh_file = test::data("quaternius/Trex.glb");
+  TrexWithHelpers() : b(bind(t.mesh, t.rig)), w(fit_weights(b, training_poses(b.joints()), 4, 8)) {}
+};
+
+/// How far the baked file `back`, posed by its own skin at keys of its one
+/// clip (at these fractions of it), is from the fitted skin posed by the
+/// source clip `src` of `clips`: the worst vertex, as a fraction of the
+/// diagonal at the pose's scale (infinite where the file poses a vertex to
+/// no finite place).
+double file_against_fit(const TrexWithHelpers& x, const SkinnedMesh& clips, int src, const SkinnedMesh& back,
+                        std::initializer_list<double> fractions, double fps) {
+  const InputTopology topo = read_input_topology(x.mesh_file);
+  const auto [t0, t1] = back.clip_range(0);
+  double worst = 0;
+  for (const double f : fractions) {
+    const double key = std::round(f * (t1 - t0) * fps) / fps + t0;
+    const auto M = clip_skinning_matrices(x.b.joints(), clips, src, key);
+    const double scale = std::cbrt(std::abs(M[0].topLeftCorner<3, 3>().determinant()));
+    const auto ours = skin_positions(x.w, topo.faces.positions, M);
+    const auto theirs = skin_positions(back, topo.faces.positions, back.skinning_matrices(0, key));
+    for (const auto& p : theirs)
+      if (!p.allFinite())
+        return std::numeric_limits<double>::infinity();
+    worst = std::max(worst, max_distance(ours, theirs) / (scale * x.t.mesh.bbox_diagonal()));
+  }
+  return worst;
+}
+
+} // namespace
+
 TEST(Bake, AGlbWithHelperJointsKeysThemSoTheFilePlaysAsTheSkinWasFitted) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const Trex t;
-  const Binding b = bind(t.mesh, t.rig);
-  const SkinWeights w = fit_weights(b, training_poses(b.joints()), 4, 8);
+  const TrexWithHelpers x;
+  const auto& [t, b, w, mesh_file] = x;
   ASSERT_FALSE(w.helpers.empty());
-  const std::string mesh_file = test::data("quaternius/Trex.glb");
   GltfBakeOptions opt;
   opt.clips = {"Armature|TRex_Walk"};
   const std::string bytes = skinned_glb(mesh_file, b.joints(), w, &t.file, opt);
@@ -666,19 +701,8 @@ TEST(Bake, AGlbWithHelperJointsKeysThemSoTheFilePlaysAsTheSkinWasFitted) {
   }
   // Posed by the file's own skin at its keys, it is our skin with the
   // helpers' matrices: the file carries the helpers' keys right.
-  const InputTopology topo = read_input_topology(mesh_file);
-  const int clip = back.find_clip("Armature|TRex_Walk"), src = t.file.find_clip("Armature|TRex_Walk");
-  const auto [t0, t1] = back.clip_range(clip);
-  double worst = 0;
-  for (double time : {t0, 0.3 * t0 + 0.7 * t1, t1}) {
-    const double key = std::round((time - t0) * opt.fps) / opt.fps + t0;
-    const auto M = clip_skinning_matrices(b.joints(), t.file, src, key);
-    const double scale = std::cbrt(std::abs(M[0].topLeftCorner<3, 3>().determinant()));
-    const auto ours = skin_positions(w, topo.faces.positions, M);
-    const auto theirs = skin_positions(back, topo.faces.positions, back.skinning_matrices(clip, key));
-    worst = std::max(worst, max_distance(ours, theirs) / (scale * t.mesh.bbox_diagonal()));
-  }
-  EXPECT_LT(worst, 1e-5);
+  ASSERT_EQ(back.clip_names, opt.clips);
+  EXPECT_LT(file_against_fit(x, t.file, t.file.find_clip("Armature|TRex_Walk"), back, {0, 0.7, 1}, opt.fps), 1e-5);
   // A skeleton that is not the weights' is refused.
   std::vector<Joint> fewer(b.joints().begin(), b.joints().end() - 1);
   EXPECT_THROW(skinned_glb(mesh_file, fewer, w), InputError);
@@ -692,12 +716,10 @@ TEST(Bake, AHelperWhoseJointAClipScalesUnevenlyOrFlattensIsARootNodeThatStillPla
   // the file still plays the skin that was fitted.
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const Trex t;
-  const Binding b = bind(t.mesh, t.rig);
-  const SkinWeights w = fit_weights(b, training_poses(b.joints()), 4, 8);
+  const TrexWithHelpers x;
+  const auto& [t, b, w, mesh_file] = x;
   ASSERT_FALSE(w.helpers.empty());
   const size_t nj = b.joints().size();
-  const std::string mesh_file = test::data("quaternius/Trex.glb");
   const std::string parent = b.joints()[static_cast<size_t>(helper_parent(b.joints(), w.helpers[0]))].name;
   // A clip file of the same skeleton (a plain bake of the walk), its
   // helper's parent's scale keys overwritten.
@@ -731,20 +753,7 @@ TEST(Bake, AHelperWhoseJointAClipScalesUnevenlyOrFlattensIsARootNodeThatStillPla
     const SkinnedMesh back = load_skinned_mesh(path);
     ASSERT_EQ(back.joints.size(), w.joints.size());
     EXPECT_FALSE(back.joints[nj].parent.has_value()) << "the helper under " << parent << " is a root node";
-    const InputTopology topo = read_input_topology(mesh_file);
-    const int clip = back.find_clip("Armature|TRex_Walk");
-    const auto [t0, t1] = back.clip_range(clip);
-    double worst = 0;
-    for (double time : {t0, 0.5 * (t0 + t1), t1}) {
-      const double key = std::round((time - t0) * opt.fps) / opt.fps + t0;
-      const auto M = clip_skinning_matrices(b.joints(), clips, 0, key);
-      const double s = std::cbrt(std::abs(M[0].topLeftCorner<3, 3>().determinant()));
-      const auto ours = skin_positions(w, topo.faces.positions, M);
-      const auto theirs = skin_positions(back, topo.faces.positions, back.skinning_matrices(clip, key));
-      for (const auto& x : theirs)
-        ASSERT_TRUE(x.allFinite());
-      worst = std::max(worst, max_distance(ours, theirs) / (s * t.mesh.bbox_diagonal()));
-    }
-    EXPECT_LT(worst, 1e-5) << "scale " << scale.transpose();
+    ASSERT_EQ(back.clip_names, opt.clips);
+    EXPECT_LT(file_against_fit(x, clips, 0, back, {0, 0.5, 1}, opt.fps), 1e-5) << "scale " << scale.transpose();
   }
 }

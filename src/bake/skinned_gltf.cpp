@@ -487,9 +487,12 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     const auto [a, b] = weights.helpers[h];
     helper_parent[h] = depth(b) > depth(a) ? b : a;
   }
+  std::vector<Mat4> unbind(nj); // the joints' rest worlds inverted, once
+  for (int j = 0; j < nj; ++j)
+    unbind[j] = world[j].inverse();
   auto helper_skinning = [&](int h, const std::vector<Mat4>& posed) {
     const auto [a, b] = weights.helpers[h];
-    return helper_matrix(Mat4(posed[a] * world[a].inverse()), Mat4(posed[b] * world[b].inverse()));
+    return helper_matrix(Mat4(posed[a] * unbind[a]), Mat4(posed[b] * unbind[b]));
   };
   auto under_parent = [&](int h, const std::vector<Mat4>& posed, const Mat4& S) {
     const int p = helper_parent[h];
