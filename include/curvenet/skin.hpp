@@ -46,6 +46,12 @@ public:
   [[nodiscard]] std::vector<Mat4> joint_world(int clip, double t) const;
   /// Linear-blend-skinning matrices M_j = W_j(t) * inverse_bind_j.
   [[nodiscard]] std::vector<Mat4> skinning_matrices(int clip, double t) const;
+  /// Where the file puts the skeleton: the rest world of the node that holds
+  /// its root joints (an armature object: Blender's exports scale it by 100
+  /// and turn it to Y-up), which a clip's root keys are relative to. The
+  /// identity where the roots are scene roots, have parents at different
+  /// places, or the file has no node hierarchy (FBX).
+  [[nodiscard]] Mat4 armature() const;
 
   std::shared_ptr<const detail::GltfScene> scene;
   std::vector<int> joint_node; ///< glTF node of each joint

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -106,6 +107,20 @@ Mat4 compose(const Trs& x) {
   a.scale(x.s);
   return a.matrix();
 }
+
+/// Whether a node's TRS can hold the transform: its linear part is a
+/// rotation and scales along the local axes to within a millionth (a clip's
+/// single-precision keys leave shears of about 1e-7; the keys are written in
+/// single precision anyway).
+bool carried_by_trs(const Mat4& L) {
+  if (!L.allFinite())
+    return false;
+  const Eigen::Matrix3d A = L.topLeftCorner<3, 3>();
+  const double size = A.cwiseAbs().maxCoeff();
+  const Eigen::Matrix3d back = compose(decompose(L)).topLeftCorner<3, 3>();
+  return size > 0 && (back - A).cwiseAbs().maxCoeff() <= 1e-6 * size;
+}
+
 
 std::string mime_of(const std::string& uri) {
   const std::string ext = detail::lower_extension(uri);
@@ -386,7 +401,48 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   }
   model.meshes.push_back(mesh);
 
-  // The skeleton: node 0 is the skinned mesh, nodes 1.. the joints.
+  // Where the source puts its skeleton, so that the file at rest shows the
+  // skin where the source shows it, and a clip's root keys stay the clip's
+  // own: the node that holds the source's root joints (an armature: Blender's
+  // exports scale it by 100 and turn it to Y-up) becomes a node above the
+  // root joints, and each root joint rests where the source's skin puts it
+  // (its rest skinning matrix times its bind: the bind itself for a file
+  // whose inverse bind matrices hold the armature). The clip file's, else
+  // a skinned glTF source's own; the inverse bind matrices are the joints'
+  // binds either way.
+  const SkinnedMesh* placing = clips;
+  std::optional<SkinnedMesh> own;
+  if (!placing)
+    if (const std::string ext = detail::lower_extension(mesh_path);
+        (ext == ".gltf" || ext == ".glb") && detail::read_gltf_scene(mesh_path).skin >= 0)
+      placing = &own.emplace(load_skinned_mesh(mesh_path));
+  Mat4 armature = Mat4::Identity();
+  std::map<std::string, Mat4> placed; // a root joint's rest skinning matrix in the source, by name
+  if (placing) {
+    armature = C * placing->armature() * C.inverse();
+    const std::vector<Mat4> rest = placing->skinning_matrices(-1, 0);
+    for (size_t j = 0; j < placing->joints.size() && j < rest.size(); ++j)
+      placed[placing->joints[j].name] = C * rest[j] * C.inverse();
+  }
+  const Mat4 armature_inverse = armature.inverse();
+  auto root_rest = [&](const std::string& name, const Mat4& bind_world) { // a root's rest, under the armature
+    const auto it = placed.find(name);
+    return Mat4(armature_inverse * (it != placed.end() ? it->second : Mat4::Identity()) * bind_world);
+  };
+  bool has_armature = !armature.isIdentity(1e-9) || !placed.empty();
+  if (has_armature) { // every root's rest must be a node's TRS, else the skeleton stays at its binds
+    has_armature = carried_by_trs(armature) && armature_inverse.allFinite();
+    for (size_t j = 0; j < joints.size() && has_armature; ++j)
+      if (!joints[j].parent)
+        has_armature = carried_by_trs(root_rest(joints[j].name, C * joints[j].bind));
+  }
+  if (!has_armature) {
+    armature.setIdentity();
+    placed.clear();
+  }
+
+  // The skeleton: node 0 is the skinned mesh, nodes 1.. the joints (then the
+  // helpers, then the armature's node).
   const int nj = static_cast<int>(joints.size());
   std::vector<Mat4> bind(nj), rest_local(nj), world(nj);
   for (int j = 0; j < nj; ++j) {
@@ -403,11 +459,14 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   skin.name = "curvenet";
   std::vector<int> roots;
   for (int j = 0; j < nj; ++j) {
-    const Trs x = decompose(rest_local[j]);
-    // The inverse bind matrices are the inverse of the nodes' own rest worlds,
-    // so the skin is exactly at rest in its rest pose.
+    Trs x = decompose(rest_local[j]);
+    // The inverse bind matrices are the inverse of the nodes' own rest worlds
+    // at the binds, so the skin is exactly at rest in its rest pose (or, with
+    // the source's placing, exactly as the source's skin at rest).
     const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
     world[j] = p >= 0 ? Mat4(world[p] * compose(x)) : compose(x);
+    if (p < 0 && has_armature)
+      x = decompose(root_rest(joints[j].name, rest_local[j]));
     tinygltf::Node n;
     n.name = joints[j].name;
     n.translation = {x.t.x(), x.t.y(), x.t.z()};
@@ -422,7 +481,6 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   }
   // The clips to carry, and each key's local and posed world transforms
   // (each joint's rest local times its pose entry, one key per frame).
-  std::set<std::string> wanted(options.clips.begin(), options.clips.end());
   std::vector<int> carried;
   if (clips) {
     for (const auto& name : options.clips)
@@ -433,8 +491,12 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       matched += joint_index.count(j.name) > 0;
     if (clips->num_clips() > 0 && matched == 0)
       throw InputError(clips->source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
+    // Each named clip as find_clip finds it ("Walk" for "AnimalArmature|Walk"), in the file's order.
+    std::set<int> named;
+    for (const auto& name : options.clips)
+      named.insert(clips->find_clip(name));
     for (int c = 0; c < clips->num_clips(); ++c)
-      if (wanted.empty() || wanted.count(clips->clip_names[c]))
+      if (named.empty() || named.count(c))
         carried.push_back(c);
   }
   auto key_times = [&](int c) {
@@ -498,17 +560,6 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     const int p = helper_parent[h];
     return Mat4(posed[p].inverse() * S * world[p]);
   };
-  // Carried: its linear part is a rotation and scales along the local axes
-  // to within a millionth (a clip's single-precision keys leave shears of
-  // about 1e-7; the keys are written in single precision anyway).
-  auto carried_by_trs = [](const Mat4& L) {
-    if (!L.allFinite())
-      return false;
-    const Eigen::Matrix3d A = L.topLeftCorner<3, 3>();
-    const double size = A.cwiseAbs().maxCoeff();
-    const Eigen::Matrix3d back = compose(decompose(L)).topLeftCorner<3, 3>();
-    return size > 0 && (back - A).cwiseAbs().maxCoeff() <= 1e-6 * size;
-  };
   std::vector<char> rooted(nh, 0);
   if (nh > 0 && clips) {
     std::vector<Mat4> local(nj), posed(nj);
@@ -542,7 +593,10 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       R.topLeftCorner<3, 3>() = std::cbrt(std::abs(w3.determinant())) * decompose(W).r.toRotationMatrix();
       R.block<3, 1>(0, 3) = W.block<3, 1>(0, 3);
       helper_rest[h] = R;
-      const Trs x = decompose(R);
+      int root = helper_parent[h]; // placed as its joint's root is
+      while (joints[root].parent)
+        root = joint_index.at(*joints[root].parent);
+      const Trs x = decompose(has_armature ? root_rest(joints[root].name, R) : R);
       n.translation = {x.t.x(), x.t.y(), x.t.z()};
       n.rotation = {x.r.x(), x.r.y(), x.r.z(), x.r.w()};
       n.scale = {x.s.x(), x.s.y(), x.s.z()};
@@ -572,8 +626,21 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   tinygltf::Scene scene;
   scene.name = "curvenet bake";
   scene.nodes.push_back(0);
-  scene.nodes.insert(scene.nodes.end(), roots.begin(), roots.end());
-  scene.nodes.insert(scene.nodes.end(), helper_roots.begin(), helper_roots.end());
+  if (!armature.isIdentity(1e-9)) {
+    tinygltf::Node a;
+    a.name = "Armature";
+    const Trs x = decompose(armature);
+    a.translation = {x.t.x(), x.t.y(), x.t.z()};
+    a.rotation = {x.r.x(), x.r.y(), x.r.z(), x.r.w()};
+    a.scale = {x.s.x(), x.s.y(), x.s.z()};
+    a.children = roots;
+    a.children.insert(a.children.end(), helper_roots.begin(), helper_roots.end());
+    scene.nodes.push_back(static_cast<int>(model.nodes.size()));
+    model.nodes.push_back(a);
+  } else {
+    scene.nodes.insert(scene.nodes.end(), roots.begin(), roots.end());
+    scene.nodes.insert(scene.nodes.end(), helper_roots.begin(), helper_roots.end());
+  }
   model.scenes.push_back(scene);
   model.defaultScene = 0;
 
@@ -595,7 +662,8 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
         for (int j = 0; j < nj + nh; ++j) {
           if (!animated[j])
             continue;
-          const Trs x = decompose(local[j]);
+          const bool top = j < nj ? !joints[j].parent : rooted[j - nj] != 0; // a child of the armature's node
+          const Trs x = decompose(top && has_armature ? Mat4(armature_inverse * local[j]) : local[j]);
           Eigen::Quaterniond q = x.r;
           if (!rot[j].empty()) {
             const size_t b = rot[j].size() - 4;

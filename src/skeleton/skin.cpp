@@ -197,6 +197,19 @@ std::vector<Mat4> SkinnedMesh::joint_world(int clip, double t) const {
   return out;
 }
 
+Mat4 SkinnedMesh::armature() const {
+  if (!scene)
+    return Mat4::Identity();
+  std::set<int> holders; // the parent nodes of the root joints
+  for (size_t j = 0; j < joints.size() && j < joint_node.size(); ++j)
+    if (!joints[j].parent)
+      holders.insert(scene->node_parent[static_cast<size_t>(joint_node[j])]);
+  if (holders.size() != 1 || *holders.begin() < 0)
+    return Mat4::Identity();
+  const Mat4 a = detail::node_world_matrices(*scene, -1, 0)[static_cast<size_t>(*holders.begin())];
+  return a.allFinite() ? a : Mat4::Identity();
+}
+
 std::vector<Mat4> SkinnedMesh::skinning_matrices(int clip, double t) const {
   auto m = joint_world(clip, t);
   for (size_t j = 0; j < m.size(); ++j)
