@@ -323,6 +323,27 @@ TEST(Bake, AnObjKeepsItsVertexOrderAndSplitsOnlyWhereItsCornersDiffer) {
   }
 }
 
+TEST(Bake, TrainingPosesOfAThousandsOfJointsSkeletonAreRefusedBeforeTheyFillTheMemory) {
+  // Ten poses per joint, each a matrix per joint: 2,000 joints came to 5 GB
+  // and std::bad_alloc. Refused up front, in one line, saying what to do.
+  std::vector<Joint> chain(2000);
+  for (size_t j = 0; j < chain.size(); ++j) {
+    chain[j].name = "j" + std::to_string(j);
+    if (j > 0)
+      chain[j].parent = chain[j - 1].name;
+    chain[j].bind = Mat4::Identity();
+    chain[j].bind(1, 3) = static_cast<double>(j);
+  }
+  try {
+    (void)training_poses(chain);
+    ADD_FAILURE() << "20,048 poses of 2,000 joints were made";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--weights harmonic"), std::string::npos) << e.what();
+  }
+  chain.resize(200); // 2,048 poses of 200 joints: 52 MB
+  EXPECT_EQ(training_poses(chain).size(), 2048u);
+}
+
 TEST(Bake, TrainingPosesBendAndTwistEachJointAboutItsRestPositionThenAllAtOnce) {
   const std::vector<Joint> joints = make_tube_net().joints; // root, mid, tip along +y
   TrainingPoses opt;

@@ -212,6 +212,32 @@ TEST(Jobs, ABakeCountsItsClipsFramesBeforeAnyWorkAndRefusesPastMaxFrames) {
   EXPECT_TRUE(fs::exists(job.glb));
 }
 
+TEST(Jobs, ABakeRefusesAClipFileWithoutClips) {
+  // A file with no clips was baked with none, exit 0.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const auto dir = test::temp_dir("bake_no_clips");
+  BakeJob job;
+  job.scene = {test::data("xr_tools_hand/hand_l.gltf"), test::data("xr_tools_hand/example/hand_l.cnrig.json"), "", ""};
+  job.clip_file = test::data("xr_tools_hand/hand_l.gltf"); // a skin, no animation
+  job.glb = (dir / "hand.glb").string();
+  for (const bool fit : {false, true}) {
+    BakeJob j = job;
+    if (fit)
+      std::swap(j.clip_file, j.fit);
+    try {
+      (void)run(j);
+      ADD_FAILURE() << "a file without clips was baked";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.element(), "/animations");
+      EXPECT_NE(std::string(e.what()).find(fit ? "no animation clips to fit over" : "no animation clips to carry"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_FALSE(fs::exists(j.glb));
+  }
+}
+
 TEST(Jobs, ABakeReportsEachClipsFidelityToTheRigWorstFirst) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

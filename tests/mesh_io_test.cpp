@@ -184,6 +184,8 @@ TEST(MeshIo, GltfIndicesBoundsAndHierarchyAreCheckedBeforeAnythingReadsThem) {
   expect_refused("bad/gltf_mesh_out_of_range.gltf", "node 0", "refers to mesh 5, and there are 1");
   expect_refused("bad/gltf_position_vec2.gltf", "mesh 0 primitive 0 POSITION", "wrong type");
   expect_refused("bad/gltf_indices_vec3.gltf", "mesh 0 primitive 0 indices", "wrong type");
+  // A texture coordinate is written out again (OBJ vt, a bake's TEXCOORD_0): never a non-finite one.
+  expect_refused("bad/gltf_nan_texcoord.gltf", "mesh 0 primitive 0 TEXCOORD_0 2", "is not a finite number");
 }
 
 TEST(MeshIo, GltfAnimationsAreCheckedOnLoad) {

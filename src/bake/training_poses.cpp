@@ -92,8 +92,17 @@ std::vector<std::vector<Mat4>> training_poses(const std::vector<Joint>& joints, 
     throw InputError("training poses", "twist", "the twist and the random angles must be finite");
   if (options.random_poses < 0)
     throw InputError("training poses", "random_poses", "must not be negative");
-  const std::vector<Frame> f = joint_frames(joints);
   const size_t nj = joints.size();
+  // Each pose holds a matrix per joint, and each joint makes ten poses:
+  // refused past 4 GB rather than run out of memory.
+  const double count = static_cast<double>(nj) * (4 * static_cast<double>(options.bends.size()) + 2) +
+                       static_cast<double>(options.random_poses);
+  if (const double bytes = count * static_cast<double>(nj) * sizeof(Mat4); bytes > 4e9)
+    throw InputError("skeleton", std::to_string(nj) + " joints",
+                     "its " + std::to_string(static_cast<long long>(count)) + " training poses would take " +
+                         std::to_string(static_cast<long long>(bytes / 1e9)) +
+                         " GB: bake the harmonic weights (--weights harmonic), or fit over clips alone (--fit)");
+  const std::vector<Frame> f = joint_frames(joints);
   std::vector<std::vector<Mat4>> poses;
   // One joint at a time: bent both ways about both axes across the bone, and twisted.
   for (size_t j = 0; j < nj; ++j) {

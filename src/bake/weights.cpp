@@ -148,6 +148,18 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
     if (poses[p].size() != nj)
       throw InputError("poses", "pose " + std::to_string(p),
                        "has " + std::to_string(poses[p].size()) + " matrices for " + std::to_string(nj) + " joints");
+  // Every pose's matrices and deformed vertices are held at once: refused
+  // past 4 GB rather than run out of memory (a skeleton of thousands of
+  // joints makes ten poses of each).
+  const double held = static_cast<double>(poses.size()) *
+                      (static_cast<double>(nj) * sizeof(Mat4) + static_cast<double>(n) * sizeof(Vec3));
+  if (held > 4e9) {
+    std::ostringstream why;
+    why << std::setprecision(3) << "fitting over " << poses.size() << " poses of " << nj << " joints and " << n
+        << " vertices would take " << held / 1e9
+        << " GB: fit over fewer clip frames, or bake the harmonic weights (--weights harmonic)";
+    throw InputError("weights", "fitted", why.str());
+  }
   SkinWeights w = empty_weights(binding, max_influences);
   // The rest pose and every sample pose through the binding itself.
   std::vector<Vec3> rest(n);

@@ -149,8 +149,11 @@ void read_vertex_attributes(const tinygltf::Model& model, const tinygltf::Primit
     AccessorReader uv(model, uvs->second, path, what + " TEXCOORD_0");
     if (uv.count() == count && uv.ncomp == 2) {
       scene.uv.resize(base, Eigen::Vector2d::Zero());
-      for (size_t i = 0; i < uv.count(); ++i)
+      for (size_t i = 0; i < uv.count(); ++i) {
         scene.uv.emplace_back(uv.get(i, 0), 1.0 - uv.get(i, 1)); // glTF's v runs down, OBJ's up
+        if (!scene.uv.back().allFinite()) // it would be written out (OBJ vt, the bake's TEXCOORD_0)
+          throw InputError(path, what + " TEXCOORD_0 " + std::to_string(i), "is not a finite number");
+      }
     }
   }
   if (!scene.uv.empty())
@@ -711,7 +714,9 @@ GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
       const Eigen::Matrix4d m = skinned ? Eigen::Matrix4d::Identity() : world[ni];
       const auto& mesh = model->meshes.at(node.mesh);
       for (size_t p = 0; p < mesh.primitives.size(); ++p)
-        append_primitive(*model, mesh.primitives[p], m, path, "mesh '" + mesh.name + "' primitive " + std::to_string(p),
+        append_primitive(*model, mesh.primitives[p], m, path,
+                         (mesh.name.empty() ? "mesh " + std::to_string(node.mesh) : "mesh '" + mesh.name + "'") +
+                             " primitive " + std::to_string(p),
                          skinned && node.skin == scene.skin, scene);
     }
     for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)

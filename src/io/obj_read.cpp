@@ -57,7 +57,8 @@ ObjData read_obj_bytes(const std::string& path, const std::string& bytes) {
     for (std::string_view tok = t.next(); !tok.empty() && k < most; tok = t.next(), ++k) {
       double x = 0;
       if (!parse_finite(tok, x))
-        fail(std::string(what) + " coordinate '" + std::string(tok) + "' is not a finite number");
+        fail(std::string(what) + (std::string(what).ends_with("coordinate") ? " '" : " coordinate '") + std::string(tok) +
+             "' is not a finite number");
       if (k < 3)
         xyz[k] = x;
     }

@@ -106,10 +106,20 @@ CurveLayer cut_layer(const BoundScene& s, const BindOptions& options) {
   }
 }
 
+/// Refuses a clip file with no clips: an FBX's animation is not read (its
+/// skeleton is), so it says so.
+void need_clips(const SkinnedMesh& clips, const std::string& file, const std::string& why = "") {
+  if (clips.num_clips() > 0)
+    return;
+  if (detail::lower_extension(file) == ".fbx")
+    throw InputError(file, "animation", "clips are read from glTF or GLB files only (an FBX gives its skeleton): "
+                                        "export the clips as glTF, e.g. from Blender");
+  throw InputError(file, "/animations", "the file has no animation clips" + why);
+}
+
 /// The clip file's clip `name` (a name or an index; the first when empty).
 int find_clip(const SkinnedMesh& clips, const std::string& file, const std::string& name) {
-  if (clips.num_clips() == 0)
-    throw InputError(file, "/animations", "the file has no animation clips");
+  need_clips(clips, file);
   const int clip = name.empty() ? 0 : clips.find_clip(name);
   if (clip < 0)
     throw InputError(file, "clip '" + name + "'", "no clip has this name or index");
@@ -538,6 +548,7 @@ BakeSummary run(const BakeJob& job) {
   std::optional<SkinnedMesh> clips, fit;
   if (!job.clip_file.empty()) {
     clips = load_skinned_mesh(job.clip_file);
+    need_clips(*clips, job.clip_file, " to carry");
     for (const auto& name : job.clip_names)
       if (clips->find_clip(name) < 0)
         throw InputError(job.clip_file, "clip '" + name + "'", "no clip has this name");
@@ -552,8 +563,7 @@ BakeSummary run(const BakeJob& job) {
   Scene scene = read_scene(job.scene);
   if (!job.fit.empty()) {
     fit = load_skinned_mesh(job.fit);
-    if (fit->num_clips() == 0)
-      throw InputError(job.fit, "/animations", "the file has no animation clips to fit over");
+    need_clips(*fit, job.fit, " to fit over");
     (void)clip_skinning_matrices(scene.rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
   }
   // The keys carried, measured and fitted over are taken against each
