@@ -432,6 +432,32 @@ TEST(Jobs, AnimatingWithAnotherSkeletonsClipsSaysHowManyJointsItMoves) {
   EXPECT_NE(note.find(" of the rig's " + std::to_string(skin.joints.size()) + " joints"), std::string::npos) << note;
 }
 
+TEST(Jobs, AClipWhoseArmatureScalesItsSkeletonSaysSoToARigThatIsItsSkeletonScaledAsAWhole) {
+  // The horse's armature scales its skeleton by 100 and its root keys carry
+  // that. A rig transferred to a Blender re-export of it (the armature
+  // applied to the mesh) has the skeleton scaled by 100 as a whole, and the
+  // horse's own keys then scaled the re-export's mesh a second time, with
+  // no word. The rig's own file, and a file without an armature, say nothing.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh horse = load_skinned_mesh(test::data("quaternius/Horse.glb"));
+  const SkinnedMesh hand = load_skinned_mesh(test::data("xr_tools_hand/hand_l.gltf"));
+  auto scaled = [](std::vector<Joint> joints) {
+    Mat4 g = Mat4::Identity();
+    g.topLeftCorner<3, 3>() *= 100;
+    for (Joint& j : joints)
+      j.bind = g * j.bind;
+    return joints;
+  };
+  auto says = [](const std::vector<std::string>& notes) {
+    return std::any_of(notes.begin(), notes.end(),
+                       [](const std::string& n) { return n.find("a second time") != std::string::npos; });
+  };
+  EXPECT_TRUE(says(clip_notes(scaled(horse.joints), horse)));
+  EXPECT_FALSE(says(clip_notes(horse.joints, horse)));
+  EXPECT_FALSE(says(clip_notes(scaled(hand.joints), hand)));
+}
+
 TEST(Jobs, AnimatingWithAClipFileWhoseSkeletonIsNotTheRigsSaysSo) {
   // A rig transferred to a mesh exported in other units (or with other
   // bone axes) keeps its source's skeleton; the target file's clips, taken

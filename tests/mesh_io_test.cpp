@@ -213,6 +213,30 @@ TEST(MeshIo, AFolderOrAnEmptyFileIsSaidToBeOne) {
   fs::remove(empty);
 }
 
+TEST(MeshIo, AGltfBufferThatIsAFolderOrAFifoIsRefusedNotReadOrWaitedOn) {
+  // A buffer URI naming a folder ended in std::bad_alloc; one naming a FIFO
+  // that no one writes blocked for ever (tinygltf opens a file to see that
+  // it is there). Both are refused in one line that names the glTF file.
+  expect_refused("bad/gltf_buffer_uri_folder.gltf", "", "is not a regular file");
+  const fs::path dir = fs::temp_directory_path() / "curvenet_mesh_io_fifo";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  ASSERT_EQ(::mkfifo((dir / "buffer.bin").c_str(), 0600), 0);
+  std::string text = test::file_bytes(corpus("bad/gltf_buffer_uri_folder.gltf"));
+  const std::string folder_uri = "\"uri\": \".\"";
+  text.replace(text.find(folder_uri), folder_uri.size(), "\"uri\": \"buffer.bin\"");
+  { std::ofstream(dir / "fifo.gltf") << text; }
+  try {
+    load_mesh((dir / "fifo.gltf").string());
+    ADD_FAILURE() << "a FIFO was read as a buffer";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'" + (dir / "buffer.bin").string() + "' is not a regular file"),
+              std::string::npos)
+        << e.what();
+  }
+  fs::remove_all(dir);
+}
+
 TEST(MeshIo, AsciiFbxArraysTheFileCannotHoldAreRefusedBeforeAssimpAllocatesThem) {
   EXPECT_EQ(load_mesh(corpus("good/fbx_ascii.fbx")).num_faces(), 4);
   expect_refused("bad/fbx_huge_array.fbx", "line 11", "an array declares 2147483648 values");

@@ -630,10 +630,32 @@ std::string compression_required(const std::vector<std::string>& required) {
                        "OUT` decodes it)");
 }
 
+/// tinygltf's file reader for external buffers, refusing what is not a
+/// regular file: a folder read as a buffer ended in std::bad_alloc, and a
+/// FIFO no one writes blocked for ever.
+bool read_regular_file(std::vector<unsigned char>* out, std::string* err, const std::string& file, void* user) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    if (err)
+      *err += "'" + file + "' is " + (std::filesystem::exists(file, ec) ? "not a regular file" : "missing") + "\n";
+    return false;
+  }
+  return tinygltf::ReadWholeFile(out, err, file, user);
+}
+
+/// Whether a file is there, without opening it (tinygltf's own opens it,
+/// and the open of a FIFO no one writes blocks).
+bool file_is_there(const std::string& file, void*) {
+  std::error_code ec;
+  return std::filesystem::exists(file, ec);
+}
+
 GltfScene parse_gltf_scene(const std::string& path, const std::string& bytes) {
   const std::string ext = detail::lower_extension(path);
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&skip_image, nullptr);
+  loader.SetFsCallbacks({&file_is_there, &tinygltf::ExpandFilePath, &read_regular_file, &tinygltf::WriteWholeFile,
+                         nullptr});
   auto model = std::make_shared<tinygltf::Model>();
   std::string err, warn;
   // The JSON's nesting bounded before tinygltf parses it.

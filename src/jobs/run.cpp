@@ -14,9 +14,13 @@
 
 #include <tbb/parallel_for.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <functional>
+#include <iomanip>
 #include <map>
 #include <memory>
 #include <optional>
@@ -83,6 +87,42 @@ std::string skeletons_differ(const std::vector<Joint>& rig, const std::vector<Jo
     }
   }
   return "";
+}
+
+/// Where a clip file puts its skeleton under an armature that scales it (its
+/// root keys carry that scale), and the rig's skeleton is the file's scaled
+/// as a whole (a transfer to a mesh exported with the armature applied, as
+/// Blender re-exports a glTF): the keys then scale the rig's mesh a second
+/// time. Says so, with both scales; empty otherwise.
+std::string armature_twice(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  const double armature = std::cbrt(std::abs(clips.armature().topLeftCorner<3, 3>().determinant()));
+  if (!(armature > 1.05 || armature < 1 / 1.05))
+    return "";
+  std::map<std::string, Vec3> in_clip;
+  for (const Joint& j : clips.joints)
+    in_clip[j.name] = j.bind.block<3, 1>(0, 3);
+  std::vector<Vec3> from, to;
+  for (const Joint& j : rig)
+    if (const auto it = in_clip.find(j.name); it != in_clip.end()) {
+      from.push_back(it->second);
+      to.push_back(j.bind.block<3, 1>(0, 3));
+    }
+  if (from.size() < 3)
+    return "";
+  Eigen::Matrix3Xd P(3, from.size()), Q(3, to.size());
+  for (size_t k = 0; k < from.size(); ++k) {
+    P.col(static_cast<Eigen::Index>(k)) = from[k];
+    Q.col(static_cast<Eigen::Index>(k)) = to[k];
+  }
+  const Mat4 g = Eigen::umeyama(P, Q, true);
+  const double scale = std::cbrt(std::abs(g.topLeftCorner<3, 3>().determinant()));
+  if (!std::isfinite(scale) || (scale < 1.05 && scale > 1 / 1.05))
+    return "";
+  std::ostringstream why;
+  why << std::setprecision(3) << "its armature scales its skeleton by " << armature
+      << ", and its root keys carry that scale; the rig's skeleton is this file's scaled by " << scale
+      << " as a whole, so the keys may scale the rig's mesh a second time";
+  return why.str();
 }
 
 JobSummary summary_of(const BoundScene& s) {
@@ -253,6 +293,10 @@ std::vector<std::string> clip_notes(const std::vector<Joint>& rig, const Skinned
   if (matched < static_cast<long>(rig.size()))
     notes.push_back(clips.source + ": its skeleton has " + std::to_string(matched) + " of the rig's " +
                     std::to_string(rig.size()) + " joints (by name); the others stay at their rest pose");
+  if (const std::string why = armature_twice(rig, clips); !why.empty())
+    notes.push_back(clips.source + ": " + why +
+                    ": a rig transferred to another file's mesh takes that file's skeleton with --skeleton FILE, "
+                    "and its clips with it");
   if (const std::string why = skeletons_differ(rig, clips.joints); !why.empty())
     notes.push_back(clips.source + ": its skeleton is not the rig's (" + why +
                     "): its keys, taken against its own rest pose, move the rig's joints by other amounts "
