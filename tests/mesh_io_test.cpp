@@ -5,6 +5,8 @@
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/mesh_output.hpp"
+#include "curvenet/pose.hpp"
+#include "curvenet/rig.hpp"
 #include "curvenet/skin.hpp"
 #include "helpers.hpp"
 #include "io/gltf_scene.hpp"
@@ -233,6 +235,41 @@ TEST(MeshIo, AGltfBufferThatIsAFolderOrAFifoIsRefusedNotReadOrWaitedOn) {
     EXPECT_NE(std::string(e.what()).find("'" + (dir / "buffer.bin").string() + "' is not a regular file"),
               std::string::npos)
         << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(MeshIo, ARigOrPoseFromAFifoIsReadWhenWrittenAndRefusedWhenNoOneWrites) {
+  // Opening a FIFO that no one writes blocks for ever: a rig, a pose or a
+  // clip named so hung. A FIFO that is written (a shell's <(...)) is read; one
+  // that no one writes within 5 s is refused, and a mesh, which is read more
+  // than once, is refused as not a regular file rather than as missing.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const fs::path dir = fs::temp_directory_path() / "curvenet_rig_fifo";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "rig.cnrig.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string rig_text = test::file_bytes(test::data("xr_tools_hand/example/hand_l.cnrig.json"));
+  std::thread writer([&] { std::ofstream(fifo) << rig_text; });
+  EXPECT_EQ(read_rig(fifo.string()).profiles.size(), parse_rig(rig_text, "tube").profiles.size());
+  writer.join();
+  for (const bool pose : {false, true})
+    try {
+      if (pose)
+        (void)read_pose(fifo.string());
+      else
+        (void)read_rig(fifo.string());
+      ADD_FAILURE() << "a FIFO no one writes was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("a FIFO that no one wrote to"), std::string::npos) << e.what();
+    }
+  try {
+    (void)load_mesh(fifo.string());
+    ADD_FAILURE() << "a FIFO was read as a mesh";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
   }
   fs::remove_all(dir);
 }

@@ -178,7 +178,10 @@ std::string image_bytes(const tinygltf::Model& src, const tinygltf::Image& img, 
     return base64_decoded(std::string_view(uri).substr(comma + 1));
   }
   const auto path = std::filesystem::path(source).parent_path() / uri;
-  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  std::ifstream in;
+  if (std::filesystem::is_regular_file(path, ec)) // not a folder, nor a FIFO no one writes
+    in.open(path, std::ios::binary);
   if (!in)
     throw InputError(source, "image '" + uri + "'", "cannot read the image file " + path.string());
   std::ostringstream s;

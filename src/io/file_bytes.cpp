@@ -9,7 +9,12 @@
 #include <mutex>
 #include <sstream>
 
+#include <cerrno>
+
+#include <fcntl.h>
+#include <poll.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 namespace curvenet::detail {
 
@@ -28,7 +33,49 @@ std::string key_of(const std::string& path) {
 }
 } // namespace
 
+namespace {
+/// A FIFO's bytes (a named pipe, or a shell's process substitution): opened
+/// without blocking, and refused when no one writes to it within 5 s
+/// (opening one that no one writes blocks for ever).
+std::string fifo_bytes(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0)
+    throw InputError(path, "", "cannot open the file for reading");
+  pollfd p{fd, POLLIN, 0};
+  const int ready = ::poll(&p, 1, 5000);
+  if (ready <= 0) {
+    ::close(fd);
+    throw InputError(path, "", "a FIFO that no one wrote to within 5 s");
+  }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  std::string text;
+  char chunk[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fd, chunk, sizeof chunk);
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n < 0) {
+      ::close(fd);
+      throw InputError(path, "", "read error");
+    }
+    if (n == 0)
+      break;
+    text.append(chunk, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return text;
+}
+} // namespace
+
 std::string file_bytes(const std::string& path) {
+  if (struct stat st {}; ::stat(path.c_str(), &st) == 0 && S_ISFIFO(st.st_mode)) {
+    {
+      Reads& r = reads();
+      std::lock_guard lock(r.mutex);
+      ++r.count[key_of(path)];
+    }
+    return fifo_bytes(path);
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw InputError(path, "", "cannot open the file for reading");

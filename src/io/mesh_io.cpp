@@ -89,7 +89,10 @@ RawMesh read_raw_mesh(const std::string& path) {
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path, "", "is a folder, not a mesh file");
   if (!std::filesystem::is_regular_file(path, ec))
-    throw InputError(path, "", "no such file");
+    throw InputError(path, "",
+                     std::filesystem::exists(path, ec)
+                         ? "not a regular file (a pipe or a device): a mesh is read from a file, more than once"
+                         : "no such file");
   if (::access(path.c_str(), R_OK) != 0) // checked without opening: a cached parse needs no read
     throw InputError(path, "", "cannot open the file for reading");
   const std::string ext = detail::lower_extension(path);

@@ -3,6 +3,7 @@
 
 #include "core/matrix_checks.hpp"
 #include "curvenet/errors.hpp"
+#include "io/file_bytes.hpp"
 #include "curvenet/io.hpp"
 #include "io/json_text.hpp"
 
@@ -347,12 +348,7 @@ Rig parse_rig(const std::string& text, const std::string& source) {
 Rig read_rig(const std::string& path) {
   if (std::filesystem::is_directory(path))
     throw InputError(path, "", "is a folder, not a rig file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path, "", "cannot open the rig file");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_rig(s.str(), path);
+  return parse_rig(detail::file_bytes(path), path); // a FIFO no one writes is refused, not waited on
 }
 
 namespace {

@@ -1,6 +1,7 @@
 #include "curvenet/pose.hpp"
 
 #include "curvenet/errors.hpp"
+#include "io/file_bytes.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -115,12 +116,7 @@ Pose read_pose(const std::string& path) {
 PoseFile read_pose_file(const std::string& path) {
   if (std::filesystem::is_directory(path))
     throw InputError(path, "", "is a folder, not a pose file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path, "", "cannot open the pose file");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_pose_file(s.str(), path);
+  return parse_pose_file(detail::file_bytes(path), path); // a FIFO no one writes is refused, not waited on
 }
 
 std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose& pose, const std::string& source) {
