@@ -77,6 +77,24 @@ TEST(MeshIo, ObjWithRelativeIndicesCommentsAndColoursReads) {
   EXPECT_EQ(m.num_faces(), 4);
 }
 
+TEST(MeshIo, AnObjLineEndingInABackslashGoesOnOnTheNext) {
+  // The OBJ format's line continuation was refused ("'\' is not an index").
+  // Joined lines read as one; an error on a later line keeps its number.
+  const std::string plain = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n";
+  const std::string continued = "v 0 0 0\nv 1 \\\n0 0\nv 0 1 0\nv 0 0 1\nf 1 2 \\\r\n 3\nf 1 \\\n3 \\\n4\n";
+  const detail::ObjData a = detail::read_obj_bytes("plain.obj", plain);
+  const detail::ObjData b = detail::read_obj_bytes("continued.obj", continued);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.face_offsets, b.face_offsets);
+  EXPECT_EQ(a.corner_vertex, b.corner_vertex);
+  try {
+    (void)detail::read_obj_bytes("late.obj", continued + "v 1 x 0\n");
+    ADD_FAILURE() << "a bad coordinate was read";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "line 11") << e.what();
+  }
+}
+
 TEST(MeshIo, ObjReadsEveryElementWithItsIndicesInFileOrder) {
   // Windows line ends, tabs, comments after data, groups, materials, a
   // vertex with colours, a texture coordinate with u alone, every corner

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <optional>
 #include <string_view>
+#include <utility>
 
 namespace curvenet::detail {
 namespace {
@@ -69,14 +70,52 @@ ObjData read_obj_bytes(const std::string& path, const std::string& bytes) {
   const char* const end = p + bytes.size();
   if (bytes.rfind("\xEF\xBB\xBF", 0) == 0)
     p += 3; // a UTF-8 byte order mark, which some Windows tools write first
-  // (No line continuations, as tinyobjloader had none.)
+  // A line that ends in a backslash goes on on the next (the OBJ format's
+  // line continuation): such lines, rare, are joined in a buffer; every
+  // other line is read where it lies. An error names the first line.
+  std::string joined;
+  auto next_eol = [&](const char* from) {
+    const char* e = static_cast<const char*>(std::memchr(from, '\n', static_cast<size_t>(end - from)));
+    return e ? e : end;
+  };
+  auto continues = [](const char* b, const char* e) { // the line [b, e) ends in a backslash
+    if (e > b && e[-1] == '\r')
+      --e;
+    return e > b && e[-1] == '\\';
+  };
+  long long continued_lines = 0; // of the line before, read with it
   while (p < end) {
-    ++line_no;
-    const char* eol = static_cast<const char*>(std::memchr(p, '\n', static_cast<size_t>(end - p)));
-    if (!eol)
-      eol = end;
-    const char* hash = static_cast<const char*>(std::memchr(p, '#', static_cast<size_t>(eol - p)));
-    Tokens t{p, hash ? hash : eol};
+    line_no += 1 + std::exchange(continued_lines, 0);
+    const char* eol = next_eol(p);
+    const char* b = p;
+    long long more_lines = 0;
+    if (continues(p, eol)) {
+      joined.clear();
+      const char* from = p;
+      const char* to = eol;
+      for (;;) {
+        const bool on = continues(from, to) && to < end;
+        const char* stop = to;
+        if (on) {
+          if (stop > from && stop[-1] == '\r')
+            --stop;
+          --stop; // the backslash
+        }
+        joined.append(from, stop);
+        if (!on)
+          break;
+        joined += ' ';
+        from = to + 1;
+        to = next_eol(from);
+        ++more_lines;
+      }
+      eol = to;
+      b = joined.data();
+    }
+    continued_lines = more_lines;
+    const char* line_end = more_lines ? joined.data() + joined.size() : eol;
+    const char* hash = static_cast<const char*>(std::memchr(b, '#', static_cast<size_t>(line_end - b)));
+    Tokens t{b, hash ? hash : line_end};
     p = eol + (eol < end ? 1 : 0);
     const std::string_view key = t.next();
     if (key == "v") {
