@@ -41,6 +41,25 @@ TEST(PlaneSection, CutsATubeIntoOneClosedPolygon) {
   EXPECT_NEAR(along[0].length(), 2 * 4 + 4 * 1.0, 1e-9);
 }
 
+TEST(PlaneSection, CutsTheSameLoopAtAnyScale) {
+  // The plane was set by the origin and unit steps from it: at 1e17 a unit
+  // step rounds back onto the origin, the three points were one, and the
+  // plane cut nothing (the starter found no ring at a scale of 1e19).
+  for (const double scale : {1e-30, 1.0, 1e17, 1e19, 1e30}) {
+    RawMesh raw = make_capped_tube(TubeSpec{});
+    const Vec3 away(3, 0, 5); // off the axes, so that the plane's points need all their digits
+    for (Vec3& p : raw.positions)
+      p = (p + away) * scale;
+    const SurfaceMesh m = make_surface_mesh(raw, "tube");
+    const detail::SectionMesh sm(m);
+    const Vec3 at = Vec3(away.x(), 2.05, away.z()) * scale;
+    const auto sections = detail::plane_sections(sm, at, {0, 1, 0});
+    ASSERT_EQ(sections.size(), 1u) << scale;
+    EXPECT_NEAR(sections[0].length() / scale, 16 * 2 * std::sin(std::numbers::pi / 16), 1e-9) << scale;
+    EXPECT_NE(detail::winding_number(sections[0].points, at, at, {0, 1, 0}), 0) << scale;
+  }
+}
+
 TEST(PlaneSection, APathThroughThreePointsFollowsTheSectionTheyLieOnThroughTheMiddleOne) {
   const SurfaceMesh m = tube();
   const detail::SectionMesh sm(m);

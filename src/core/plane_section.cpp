@@ -50,8 +50,14 @@ std::array<Vec3, 2> plane_basis(const Vec3& n) {
 
 std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, const Vec3& normal) {
   const auto [u, v] = plane_basis(normal);
-  const Vec3 o1 = origin + u, o2 = origin + v;
+  // Two more points of the plane, as far from the origin as the origin is
+  // from zero: a unit step from a joint at 1e17 rounds back onto it, and
+  // the plane through three equal points cut nothing (a starter at a scale
+  // of 1e19 found no section anywhere).
   const auto& pos = m.mesh().positions;
+  const double reach = std::max(origin.cwiseAbs().maxCoeff(), pos.empty() ? 0.0 : pos.front().cwiseAbs().maxCoeff());
+  const double step = reach > 1 ? reach : 1.0;
+  const Vec3 o1 = origin + step * u, o2 = origin + step * v;
   std::vector<signed char> side(pos.size());
   for (size_t i = 0; i < pos.size(); ++i)
     side[i] = orient3d(origin, o1, o2, pos[i]) >= 0 ? 1 : -1; // on the plane counts as above

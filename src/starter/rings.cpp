@@ -6,6 +6,8 @@
 #include "starter/stages.hpp"
 
 #include <algorithm>
+#include <iomanip>
+#include <sstream>
 #include <cmath>
 #include <limits>
 
@@ -686,8 +688,10 @@ std::vector<int> keep_clear_rings(const StarterContext& c, const RingOptions& ro
     }
     if (conflict >= 0) {
       r.replaced_by = conflict;
-      const std::string m = "ring '" + r.id + "' dropped: it comes within " +
-                            std::to_string(ro.gap(r, rings[conflict])) + " of ring '" + rings[conflict].id + "'" +
+      std::ostringstream gap; // three digits at any scale (std::to_string gave 0.000000 at 1e-30)
+      gap << std::setprecision(3) << ro.gap(r, rings[conflict]);
+      const std::string m = "ring '" + r.id + "' dropped: it comes within " + gap.str() + " of ring '" +
+                            rings[conflict].id + "'" +
                             (r.place.t_max > t0 ? ", moved as far along its bone as it goes" : "");
       c.say(m);
       if (r.frac == 1)

@@ -294,8 +294,13 @@ def test_animating_with_a_clip_file_of_another_skeleton_warns_as_the_cli_notes(t
     for i in range(len(rig.joints)):
         rig.joints[i].bind[:3, 3] *= 0.01  # a writable view
     notes = curvenet.clip_notes(rig, clips)
-    assert len(notes) == 1 and "Trex.glb: its skeleton is not the rig's (joint '" in notes[0], notes
-    assert "rests 100 times as far from its parent" in notes[0]
+    # The file's armature scales its skeleton, whose root keys carry that
+    # scale, and the rig's is the file's scaled as a whole: said first; then
+    # the bones a hundredth as long.
+    assert len(notes) == 2, notes
+    assert "Trex.glb: its armature scales its skeleton by" in notes[0] and "a second time" in notes[0], notes
+    assert "Trex.glb: its skeleton is not the rig's (joint '" in notes[1], notes
+    assert "rests 100 times as far from its parent" in notes[1]
     b = curvenet.bind(mesh, rig)
     with pytest.warns(UserWarning) as caught:
         curvenet.animate(b, clips, clip, str(tmp_path / "other.pc2"), frames="0:1")
