@@ -222,6 +222,54 @@ TEST(SurfaceMesh, ASliverWithNoAreaIsLeftOutAndTheSlitItLeavesIsClosed) {
   }
 }
 
+TEST(SurfaceMesh, ARunOfSliversIsLeftOutAndTheSlitItLeavesIsClosed) {
+  // A planar decimation triangulates an n-gon with points along one edge
+  // into a run of slivers: triangle (a, b, c) split at two points m1, m2 of
+  // its edge a-b into (a, m1, c), (m1, m2, c), (m2, b, c), and the slit
+  // between a-m1-m2-b and the edge a-b closed by the slivers (a, b, m1) and
+  // (m1, b, m2). No kept triangle has the second sliver's long edge m1-b,
+  // so that run was left open, and the vertices refused as non-manifold (a
+  // planar-decimated Apatosaurus). The triangle across a-b is split at both.
+  const SurfaceMesh tube = test::tube(12, 8, 3, true);
+  const std::vector<ComponentInfo> before = mesh_components(tube);
+  for (const bool single : {false, true}) {
+    SCOPED_TRACE(single ? "points in single precision" : "points exactly on the edge");
+    RawMesh raw;
+    raw.positions = tube.positions;
+    int runs = 0;
+    for (int f = 0; f < tube.num_faces(); ++f) {
+      const auto t = tube.face(f);
+      if (f % 17 != 5) {
+        raw.add_face(std::array<int, 3>{t[0], t[1], t[2]});
+        continue;
+      }
+      const int a = t[0], b = t[1], c = t[2], m1 = static_cast<int>(raw.positions.size()), m2 = m1 + 1;
+      for (const double u : {1.0 / 3, 2.0 / 3}) {
+        Vec3 q = (1 - u) * tube.positions[a] + u * tube.positions[b];
+        if (single)
+          q = q.cast<float>().cast<double>();
+        raw.positions.push_back(q);
+      }
+      raw.add_face(std::array<int, 3>{a, m1, c});
+      raw.add_face(std::array<int, 3>{m1, m2, c});
+      raw.add_face(std::array<int, 3>{m2, b, c});
+      raw.add_face(std::array<int, 3>{a, b, m1});
+      raw.add_face(std::array<int, 3>{m1, b, m2});
+      ++runs;
+    }
+    ASSERT_GT(runs, 5);
+    const SurfaceMesh m = make_surface_mesh(raw, "runs of slivers");
+    const std::vector<ComponentInfo> after = mesh_components(m);
+    ASSERT_EQ(after.size(), 1u);
+    EXPECT_TRUE(after[0].closed) << "no slit left open";
+    EXPECT_EQ(after[0].euler, before[0].euler);
+    EXPECT_EQ(m.num_vertices(), static_cast<int>(raw.positions.size())) << "every vertex on the surface";
+    EXPECT_EQ(m.num_faces(), tube.num_faces() + 4 * runs) << "the slivers out, the three parts and the split in";
+    EXPECT_NEAR(m.enclosed_volume(m.positions), tube.enclosed_volume(tube.positions),
+                1e-9 * std::abs(tube.enclosed_volume(tube.positions)));
+  }
+}
+
 TEST(SurfaceMesh, CornersOfADegenerateFaceAFewUnitsInTheLastPlaceApartAreWeldedAndLeaveNoSlit) {
   // An exporter's round trip: a vertex b whose fan is split in two copies,
   // b and b2, joined by two degenerate triangles (b, x, b2) whose "two

@@ -21,8 +21,10 @@
 #include <numbers>
 #include <numeric>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <tuple>
+#include <utility>
 
 namespace curvenet {
 
@@ -715,51 +717,90 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
   // A triangle with no area whose corners are three points of one line (b
   // between a and c) leaves a slit when it is left out. The triangle across
   // its long edge a-c is split at b into two, so that the faces across a-b
-  // and b-c meet them and the surface stays closed. (Not a polygon across:
-  // a corner added to it would be a straight angle, which no layout orders.)
-  // A triangle that has b already, or a sliver whose long edge no kept
-  // triangle has, is left as it is.
+  // and b-c meet them and the surface stays closed. Slivers come in runs (a
+  // planar decimation's n-gons triangulated into fans of them): the points
+  // of a run's slivers, one line, are put into every kept triangle's edge
+  // that is a sliver's edge, wherever they lie strictly inside it (within
+  // Tolerances::node_snap_rel of the diagonal from it). (Not a polygon
+  // across: a corner added to it would be a straight angle, which no layout
+  // orders.) A triangle that has such a point already, or a run whose edges
+  // no kept triangle has, is left as it is; and the splits are kept only
+  // where every edge then has two faces at most.
   int closed_slits = 0;
-  if (dropped > 0) {
-    std::map<std::pair<int, int>, std::vector<std::pair<double, int>>> insert; // kept edge x->y: (distance from x, b)
+  if (dropped > 0 && measure_thin) {
+    std::vector<std::array<int, 3>> slivers; // input vertices
     for (int f = 0; f < nraw; ++f) {
       const int b = raw.face_offsets[f];
       if (kind[f] != kNoArea || raw.face_offsets[f + 1] - b != 3)
         continue;
-      std::array<int, 3> w{};
-      std::array<Vec3, 3> p;
-      for (int i = 0; i < 3; ++i) {
-        w[i] = raw.face_vertices[b + i];
-        p[i] = raw.positions[raw.face_vertices[b + i]];
-      }
-      if (group[w[0]] == group[w[1]] || group[w[1]] == group[w[2]] || group[w[0]] == group[w[2]])
-        continue;
-      for (int m = 0; m < 3; ++m) {
-        const int next = (m + 1) % 3, last = (m + 2) % 3;
-        if ((p[next] - p[m]).dot(p[last] - p[m]) < 0) { // m lies between the other two
-          insert[{group[w[last]], group[w[next]]}].emplace_back((p[m] - p[last]).squaredNorm(), w[m]);
-          break;
-        }
-      }
+      const std::array<int, 3> w{raw.face_vertices[b], raw.face_vertices[b + 1], raw.face_vertices[b + 2]};
+      if (group[w[0]] != group[w[1]] && group[w[1]] != group[w[2]] && group[w[0]] != group[w[2]])
+        slivers.push_back(w);
     }
-    if (!insert.empty()) {
+    // Runs: slivers joined where they share a point (union-find over groups).
+    std::map<int, int> run_of; // group -> its run's root group
+    auto root = [&](int g) {
+      int r = g;
+      while (run_of.at(r) != r)
+        r = run_of.at(r);
+      for (int x = g; run_of.at(x) != r;)
+        x = std::exchange(run_of.at(x), r);
+      return r;
+    };
+    std::set<std::pair<int, int>> sliver_edges; // by group, smaller first
+    for (const auto& w : slivers)
+      for (int i = 0; i < 3; ++i) {
+        run_of.emplace(group[w[i]], group[w[i]]);
+        const int g = group[w[i]], h = group[w[(i + 1) % 3]];
+        sliver_edges.insert({std::min(g, h), std::max(g, h)});
+      }
+    for (const auto& w : slivers)
+      for (int i = 1; i < 3; ++i) {
+        const int r0 = root(group[w[0]]), ri = root(group[w[i]]);
+        if (r0 != ri)
+          run_of[std::max(r0, ri)] = std::min(r0, ri);
+      }
+    std::map<int, std::vector<int>> run_points; // root group -> one input vertex per group of the run
+    {
+      std::set<int> seen;
+      for (const auto& w : slivers)
+        for (const int v : w)
+          if (seen.insert(group[v]).second)
+            run_points[root(group[v])].push_back(v);
+    }
+    if (!slivers.empty()) {
       std::vector<int> new_offsets{0}, new_verts;
-      new_verts.reserve(verts.size() + 6 * insert.size());
+      new_verts.reserve(verts.size() + 6 * slivers.size());
       int split = 0;
+      std::vector<std::pair<double, int>> list;
       for (int f = 0; f + 1 < static_cast<int>(offsets.size()); ++f) {
         const int b = offsets[f], n = offsets[f + 1] - b;
         bool done = false;
         for (int k = 0; k < n && n == 3 && !done; ++k) {
           const int x = verts[b + k], y = verts[b + (k + 1) % 3], z = verts[b + (k + 2) % 3];
-          const auto it = insert.find({group[x], group[y]});
-          if (it == insert.end())
+          if (!sliver_edges.count({std::min(group[x], group[y]), std::max(group[x], group[y])}))
             continue;
-          auto list = it->second;
+          // The run's points strictly inside x-y, nearest x first.
+          const Vec3 &px = raw.positions[x], &py = raw.positions[y];
+          const Vec3 along = (py - px) * inv_diag;
+          list.clear();
+          bool has_one = false;
+          for (const int v : run_points.at(root(group[x]))) {
+            if (group[v] == group[x] || group[v] == group[y])
+              continue;
+            const Vec3 off = (raw.positions[v] - px) * inv_diag;
+            const double t = off.dot(along) / along.squaredNorm();
+            if (!(t > 0 && t < 1) || (off - t * along).norm() > detail::Tolerances::node_snap_rel)
+              continue;
+            if (group[v] == group[z])
+              has_one = true;
+            list.emplace_back(t, v);
+          }
+          if (list.empty() || has_one)
+            continue;
           std::sort(list.begin(), list.end());
-          if (std::any_of(list.begin(), list.end(), [&](const auto& e) { return group[e.second] == group[z]; }))
-            continue;
           int from = x;
-          for (const auto& [d, v] : list) {
+          for (const auto& [t, v] : list) {
             new_verts.insert(new_verts.end(), {from, v, z});
             new_offsets.push_back(static_cast<int>(new_verts.size()));
             from = v;
