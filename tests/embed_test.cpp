@@ -140,6 +140,38 @@ TEST(Embed, TwoProfilesBetweenTheSameTwoNodes) {
   expect_counts(e.report(), 2, 2, 2);
 }
 
+TEST(Embed, ARigFramedToASpeckOfTheMeshSaysItSpansOnlyThatMuch) {
+  // Through a frame that scales it by 1e-200 the rig's extent squared came
+  // to nothing, and the message was two profiles meeting; it is the span.
+  Rig rig = make_tube_net(TubeNetSpec{});
+  for (const double s : {1e-6, 1e-200}) {
+    rig.frame = Mat4::Identity();
+    rig.frame.topLeftCorner<3, 3>() *= s;
+    try {
+      (void)embed(test::tube(20, 12, 4, true), rig);
+      ADD_FAILURE() << "a rig " << s << " times the mesh's size was embedded";
+    } catch (const EmbedError& e) {
+      EXPECT_NE(std::string(e.what()).find("embed: the rig spans"), std::string::npos) << s << ": " << e.what();
+    }
+  }
+}
+
+TEST(Embed, APointPastWhatADoubleMeasuresInTheMeshsUnitsIsSaidToBeThatFarOff) {
+  // A profile point at 1e308 overflowed the closest-point query's unit box
+  // ("closest point: the point is not a finite number", naming nothing).
+  Rig rig = make_tube_net(TubeNetSpec{});
+  rig.profiles[0].curve.points[1] = Vec3(1e308, -1e308, 0);
+  try {
+    (void)embed(test::tube(20, 12, 4, true), rig);
+    ADD_FAILURE() << "a point at 1e308 was taken";
+  } catch (const EmbedError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("point 1 of profile '" + rig.profiles[0].id + "' lies more than 1e300 diagonals off"),
+              std::string::npos)
+        << what;
+  }
+}
+
 TEST(Embed, ProfileEndsAwayFromTheirNodesStillCloseAtTheNode) {
   TubeNetSpec spec;
   Rig rig = make_tube_net(spec);

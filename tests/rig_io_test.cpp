@@ -7,6 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <sstream>
+
+#include <iomanip>
+
 #include <limits>
 
 using namespace curvenet;
@@ -40,6 +44,20 @@ TEST(RigIo, ReadsTheWorkedExample) {
   EXPECT_EQ(rig.joints.size(), 26u);
   EXPECT_EQ(rig.weights.size(), 64u);
   EXPECT_EQ(rig.coverage, Coverage::Full);
+}
+
+TEST(RigIo, AFrameIsASimilarityAtAnyScale) {
+  // A uniform scale of 1e154 squared overflowed, and was refused as "not a
+  // similarity"; a shear is refused at any scale.
+  for (const double s : {1e-200, 1.0, 1e154, 1e300}) {
+    std::ostringstream frame;
+    frame << std::setprecision(17) << R"("frame":[)" << s << ",0,0,0, 0," << s << ",0,0, 0,0," << s << ",0, 0,0,0,1],";
+    EXPECT_EQ(element_of(minimal(frame.str())), "(accepted)") << s;
+    std::ostringstream shear;
+    shear << std::setprecision(17) << R"("frame":[)" << s << "," << s << ",0,0, 0," << s << ",0,0, 0,0," << s
+          << ",0, 0,0,0,1],";
+    EXPECT_EQ(element_of(minimal(shear.str())), "/frame") << s;
+  }
 }
 
 TEST(RigIo, RoundTripsEveryCurveForm) {

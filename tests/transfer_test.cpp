@@ -168,6 +168,26 @@ TEST(Transfer, ATargetMovedInItsSceneWorksThroughItsFrame) {
   } catch (const EmbedError& e) {
     EXPECT_NE(std::string(e.what()).find("node '"), std::string::npos) << e.what();
   }
+  // Frames that carry the source a thousand times from the target, or to a
+  // thousandth or a thousand times its size, are said to line nothing up
+  // (at 1e300 the closest-point queries overflowed, and said only that).
+  for (const double s : {1e-300, 1e-4, 1e4, 1e300})
+    for (const bool shift : {false, true}) {
+      if (shift && s < 1)
+        continue;
+      TransferOptions far;
+      far.source_frame = Mat4::Identity();
+      if (shift)
+        far.source_frame(0, 3) = 10 * s; // the tube is about 10 across
+      else
+        far.source_frame.topLeftCorner<3, 3>() *= s;
+      try {
+        (void)transfer(make_tube_net(), quads, quads, far);
+        ADD_FAILURE() << "frames at " << s << " were taken";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("they do not line the meshes up"), std::string::npos) << e.what();
+      }
+    }
 }
 
 namespace {

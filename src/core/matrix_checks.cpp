@@ -25,7 +25,9 @@ bool bounded_scale(const Eigen::Matrix4d& m) {
 bool similarity(const Eigen::Matrix4d& m) {
   if (!invertible(m))
     return false;
-  const Eigen::Matrix3d a = m.topLeftCorner<3, 3>();
+  // Measured on the matrix divided by its largest entry: a scale of 1e154
+  // squared overflowed, and a similarity was refused as not one.
+  const Eigen::Matrix3d a = m.topLeftCorner<3, 3>() / m.topLeftCorner<3, 3>().cwiseAbs().maxCoeff();
   const Eigen::Matrix3d g = a.transpose() * a;
   const double s2 = g.trace() / 3;
   return (g - s2 * Eigen::Matrix3d::Identity()).norm() <= Tolerances::similarity_rel * s2;

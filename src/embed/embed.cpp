@@ -100,6 +100,18 @@ int net_components(const Rig& rig) {
 
 } // namespace
 
+/// How far off, in words: a percentage of the diagonal, or, past what a
+/// double holds (a point at 1e308), that it is further than 1e300 diagonals.
+std::string how_far(double off, double diagonal) {
+  std::ostringstream s;
+  const double r = off / diagonal;
+  if (r < 1e300)
+    s << std::setprecision(3) << 100 * r << "% of the diagonal";
+  else
+    s << "more than 1e300 diagonals";
+  return s.str();
+}
+
 /// The nodes placed on the surface and every profile sampled and traced
 /// (the paths the cut follows), in `in` and `traced`.
 struct Traced {
@@ -124,8 +136,8 @@ void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& op
     const double off = (apply(rig.frame, rig.nodes[i].position) - in.node_points[i].pos).stableNorm();
     if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
       std::ostringstream msg;
-      msg << "embed: node '" << rig.nodes[i].id << "' lies " << std::setprecision(3) << 100 * off / tol.diagonal
-          << "% of the diagonal off the surface (is the rig made for this mesh, in its units and space?)";
+      msg << "embed: node '" << rig.nodes[i].id << "' lies " << how_far(off, tol.diagonal)
+          << " off the surface (is the rig made for this mesh, in its units and space?)";
       throw EmbedError(msg.str());
     }
   }
@@ -138,7 +150,7 @@ void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& op
     for (const auto& pr : rig.profiles)
       for (const auto& q : pr.curve.points)
         box.extend(apply(rig.frame, q));
-    const double extent = box.diagonal().norm();
+    const double extent = box.diagonal().stableNorm(); // (norm() squares 1e-166 to nothing)
     if (extent > 0 && !(extent >= Tolerances::min_rig_extent_rel * tol.diagonal)) { // (no extent at all: see trace)
       std::ostringstream msg;
       msg << "embed: the rig spans " << std::setprecision(3) << extent / tol.diagonal
@@ -173,8 +185,8 @@ void place_and_trace(const TraceMesh& tm, const Rig& rig, const EmbedOptions& op
       const double off = q.allFinite() ? (q - tm.nearest(q).point).stableNorm() : HUGE_VAL;
       if (!(off <= Tolerances::max_node_offset_rel * tol.diagonal)) {
         std::ostringstream msg;
-        msg << "embed: point " << k << " of profile '" << rig.profiles[p].id << "' lies " << std::setprecision(3)
-            << 100 * off / tol.diagonal << "% of the diagonal off the surface (more than "
+        msg << "embed: point " << k << " of profile '" << rig.profiles[p].id << "' lies " << how_far(off, tol.diagonal)
+            << " off the surface (more than "
             << 100 * Tolerances::max_node_offset_rel << "%: is the rig made for this mesh?)";
         far_off[p] = msg.str();
         return;

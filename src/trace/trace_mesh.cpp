@@ -280,11 +280,15 @@ TraceMesh::Nearest TraceMesh::nearest(const Vec3& q) const {
   // brought in along its direction (the nearest triangle barely changes,
   // and the caller measures the distance from q itself), so that the query
   // stays within single precision.
-  Vec3 u = bvh_->to_unit(q);
-  if (!u.allFinite())
+  if (!q.allFinite())
     throw EmbedError("closest point: the point is not a finite number");
-  if (u.norm() > 1e6)
-    u *= 1e6 / u.norm();
+  Vec3 u = bvh_->to_unit(q);
+  if (!u.allFinite()) { // past the range of a double in the mesh's units (a point at 1e308): its direction
+    const Vec3 d = q - bvh_->centre;
+    u = (d / d.cwiseAbs().maxCoeff()).normalized() * 1e6;
+  }
+  if (u.stableNorm() > 1e6)
+    u *= 1e6 / u.stableNorm();
   QueryData data{this, bvh_->centre + bvh_->scale * u};
   data.slack = bvh_->slack;
   data.scale = bvh_->scale;

@@ -682,6 +682,27 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     throw InputError("target frame", "", "the matrix is singular or not finite");
   const Mat4 source_to_target = opt.target_frame.inverse() * opt.source_frame;
   const Mat4 to_source = source_to_target.inverse();
+  {
+    // Frames that carry the source far from the target, or to another size
+    // by a thousand times or more, line nothing up: said of the frames (at
+    // 1e300 the closest-point queries overflowed, and said so).
+    Eigen::AlignedBox3d from, to;
+    for (const Vec3& p : source.positions)
+      from.extend(p);
+    for (const Vec3& p : target.positions)
+      to.extend(p);
+    Eigen::AlignedBox3d mapped;
+    for (int k = 0; k < 8; ++k)
+      mapped.extend(apply(source_to_target, from.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k))));
+    const double size = to.diagonal().stableNorm(), got = mapped.diagonal().stableNorm();
+    const double apart = (mapped.center() - to.center()).stableNorm();
+    if (!(got <= 1e3 * size && got >= 1e-3 * size && apart <= 1e3 * size)) {
+      std::ostringstream why;
+      why << std::setprecision(3) << "they carry the source to " << got / size << " times the target's size, "
+          << apart / size << " of its diagonals from it: they do not line the meshes up";
+      throw InputError("source and target frames", "", why.str());
+    }
+  }
   // A full net (or an automatic one on a closed source) cannot cover an
   // open target: said before the work, with what to do about it.
   if (rig.coverage != Coverage::Local)
@@ -720,9 +741,13 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       [&] {
         if (!source_cage)
           source_trace = std::make_unique<TraceMesh>(source, source_uncut.emplace(CutMesh::from_surface(source)));
-        source_embedding.emplace(source_cage ? embed(source, rig, source_embed)
-                                             : embed_on(source, *source_trace, rig, source_embed,
-                                                        std::exchange(source_uncut, std::nullopt)));
+        try {
+          source_embedding.emplace(source_cage ? embed(source, rig, source_embed)
+                                               : embed_on(source, *source_trace, rig, source_embed,
+                                                          std::exchange(source_uncut, std::nullopt)));
+        } catch (const EmbedError& e) { // said of the source, as its report's refusal is
+          throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " + e.what());
+        }
       },
       [&] {
         if (!target_cage)
