@@ -834,13 +834,25 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   // placing again could not keep the curves apart, what to do.
   if (!placed && unplaced.rfind("transfer:", 0) == 0)
     throw EmbedError(unplaced + apart);
+  // What to do: a coarser target may have too few faces for the rig's
+  // curves; a finer one (a remesh, a subdivision) is not that, and a net
+  // made on it fits either way.
+  const bool coarser = target_surface.num_faces() < source_surface.num_faces();
+  const std::string own_net = "a net made on the target (curvenet starter) fits it, with ids of its own";
   if (!placed && placings <= 1)
-    throw EmbedError(target.source + ": " + unplaced + apart);
+    throw EmbedError(target.source + ": " + unplaced + apart + "; " +
+                     (coarser ? "the target has " + std::to_string(target_surface.num_faces()) +
+                                    " faces against the source's " + std::to_string(source_surface.num_faces()) + ": "
+                              : std::string()) +
+                     own_net);
   if (!placed)
     throw EmbedError(target.source + ": " + unplaced + apart + "; placed " + std::to_string(placings) +
-                     " times, the curves it names still do not fit: the target may have too few faces there for the "
-                     "rig's curves (a thin part a few faces round); a net made on the target (curvenet starter) "
-                     "fits it, with ids of its own");
+                     " times, the curves it names still do not fit: " +
+                     (coarser ? "the target may have too few faces there for the rig's curves (a thin part a few "
+                                "faces round); "
+                              : "the target's shape there may differ from the source's (the surfaces' distance "
+                                "above); ") +
+                     own_net);
   const Embedding& src = *source_embedding;
   const Embedding& tgt = *placed;
   rep.target = tgt.report();
