@@ -87,6 +87,9 @@ TEST(MeshIo, AnObjLineEndingInABackslashGoesOnOnTheNext) {
   EXPECT_EQ(a.positions, b.positions);
   EXPECT_EQ(a.face_offsets, b.face_offsets);
   EXPECT_EQ(a.corner_vertex, b.corner_vertex);
+  // A comment that ends in a backslash (a Windows path) goes on nowhere.
+  const detail::ObjData c = detail::read_obj_bytes("comment.obj", "# from C:\\models\\\n" + plain);
+  EXPECT_EQ(c.positions, a.positions);
   try {
     (void)detail::read_obj_bytes("late.obj", continued + "v 1 x 0\n");
     ADD_FAILURE() << "a bad coordinate was read";

@@ -408,41 +408,69 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   // skin where the source shows it, and a clip's root keys stay the clip's
   // own: the node that holds the source's root joints (an armature: Blender's
   // exports scale it by 100 and turn it to Y-up) becomes a node above the
-  // root joints, and each root joint rests where the source's skin puts it
-  // (its rest skinning matrix times its bind: the bind itself for a file
-  // whose inverse bind matrices hold the armature). The clip file's, else
-  // a skinned glTF source's own; the inverse bind matrices are the joints'
-  // binds either way.
-  const SkinnedMesh* placing = clips;
-  std::optional<SkinnedMesh> own;
-  if (!placing)
+  // root joints, and the roots rest where the source's skin puts them (its
+  // rest skinning matrix times their binds: the binds themselves for a file
+  // whose inverse bind matrices hold the armature). The inverse bind
+  // matrices are the joints' binds either way, and every key's world is what
+  // it was: only the rest and the root keys' parent change. Done only where
+  // it is one placing for every root of the rig, each a root of the skinned
+  // glTF source with the same rest skinning (to a thousandth: an exporter
+  // leaves IK roots that far off) there and in the clip file (a
+  // clip whose root keys do not carry that placing would jump from the rest
+  // to the clip), and not with --up z, which turns the source itself.
+  Mat4 armature = Mat4::Identity(), placing = Mat4::Identity();
+  bool has_armature = false;
+  if (options.up == GltfBakeOptions::Up::Y)
     if (const std::string ext = detail::lower_extension(mesh_path);
-        (ext == ".gltf" || ext == ".glb") && detail::read_gltf_scene(mesh_path).skin >= 0)
-      placing = &own.emplace(load_skinned_mesh(mesh_path));
-  Mat4 armature = Mat4::Identity();
-  std::map<std::string, Mat4> placed; // a root joint's rest skinning matrix in the source, by name
-  if (placing) {
-    armature = C * placing->armature() * C.inverse();
-    const std::vector<Mat4> rest = placing->skinning_matrices(-1, 0);
-    for (size_t j = 0; j < placing->joints.size() && j < rest.size(); ++j)
-      placed[placing->joints[j].name] = C * rest[j] * C.inverse();
-  }
-  const Mat4 armature_inverse = armature.inverse();
-  auto root_rest = [&](const std::string& name, const Mat4& bind_world) { // a root's rest, under the armature
-    const auto it = placed.find(name);
-    return Mat4(armature_inverse * (it != placed.end() ? it->second : Mat4::Identity()) * bind_world);
-  };
-  bool has_armature = !armature.isIdentity(1e-9) || !placed.empty();
-  if (has_armature) { // every root's rest must be a node's TRS, else the skeleton stays at its binds
-    has_armature = carried_by_trs(armature) && armature_inverse.allFinite();
-    for (size_t j = 0; j < joints.size() && has_armature; ++j)
-      if (!joints[j].parent)
-        has_armature = carried_by_trs(root_rest(joints[j].name, C * joints[j].bind));
-  }
+        (ext == ".gltf" || ext == ".glb") && detail::read_gltf_scene(mesh_path).skin >= 0) {
+      std::optional<SkinnedMesh> own;
+      try {
+        own.emplace(load_skinned_mesh(mesh_path));
+      } catch (const InputError&) { // a skin the bake does not use (the rig has its own skeleton): no placing
+      }
+      // A root's rest skinning matrix in a file, where it is a root there.
+      auto root_placing = [](const SkinnedMesh& file, const std::string& name) -> std::optional<Mat4> {
+        const std::vector<Mat4> rest = file.skinning_matrices(-1, 0);
+        for (size_t j = 0; j < file.joints.size() && j < rest.size(); ++j)
+          if (file.joints[j].name == name)
+            return file.joints[j].parent ? std::nullopt : std::optional<Mat4>(rest[j]);
+        return std::nullopt;
+      };
+      std::optional<Mat4> one;
+      bool agree = own.has_value();
+      for (size_t j = 0; j < joints.size() && agree; ++j) {
+        if (joints[j].parent)
+          continue;
+        for (const SkinnedMesh* file : {own ? static_cast<const SkinnedMesh*>(&*own) : nullptr, clips}) {
+          if (!file)
+            continue;
+          const std::optional<Mat4> p = root_placing(*file, joints[j].name);
+          agree = p && p->allFinite() &&
+                  (!one || (*p - *one).cwiseAbs().maxCoeff() <= 1e-3 * one->cwiseAbs().maxCoeff());
+          if (!agree)
+            break;
+          one = one ? one : p;
+        }
+      }
+      if (agree && one) {
+        armature = own->armature();
+        placing = *one;
+        const Mat4 armature_inverse = armature.inverse();
+        has_armature = carried_by_trs(armature) && armature_inverse.allFinite() &&
+                       (!armature.isIdentity(1e-9) || !placing.isIdentity(1e-9));
+        for (size_t j = 0; j < joints.size() && has_armature; ++j)
+          if (!joints[j].parent)
+            has_armature = carried_by_trs(Mat4(armature_inverse * placing * joints[j].bind));
+      }
+    }
   if (!has_armature) {
     armature.setIdentity();
-    placed.clear();
+    placing.setIdentity();
   }
+  const Mat4 armature_inverse = armature.inverse();
+  auto root_rest = [&](const Mat4& bind_world) { // a root's rest, under the armature
+    return Mat4(armature_inverse * placing * bind_world);
+  };
 
   // The skeleton: node 0 is the skinned mesh, nodes 1.. the joints (then the
   // helpers, then the armature's node).
@@ -469,7 +497,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
     world[j] = p >= 0 ? Mat4(world[p] * compose(x)) : compose(x);
     if (p < 0 && has_armature)
-      x = decompose(root_rest(joints[j].name, rest_local[j]));
+      x = decompose(root_rest(rest_local[j]));
     tinygltf::Node n;
     n.name = joints[j].name;
     n.translation = {x.t.x(), x.t.y(), x.t.z()};
@@ -596,10 +624,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       R.topLeftCorner<3, 3>() = std::cbrt(std::abs(w3.determinant())) * decompose(W).r.toRotationMatrix();
       R.block<3, 1>(0, 3) = W.block<3, 1>(0, 3);
       helper_rest[h] = R;
-      int root = helper_parent[h]; // placed as its joint's root is
-      while (joints[root].parent)
-        root = joint_index.at(*joints[root].parent);
-      const Trs x = decompose(has_armature ? root_rest(joints[root].name, R) : R);
+      const Trs x = decompose(has_armature ? root_rest(R) : R); // placed as the roots are
       n.translation = {x.t.x(), x.t.y(), x.t.z()};
       n.rotation = {x.r.x(), x.r.y(), x.r.z(), x.r.w()};
       n.scale = {x.s.x(), x.s.y(), x.s.z()};

@@ -7,6 +7,7 @@
 #include "curvenet/bake.hpp"
 
 #include "curvenet/errors.hpp"
+#include "core/memory_budget.hpp"
 
 #include <Eigen/Geometry>
 
@@ -94,10 +95,11 @@ std::vector<std::vector<Mat4>> training_poses(const std::vector<Joint>& joints, 
     throw InputError("training poses", "random_poses", "must not be negative");
   const size_t nj = joints.size();
   // Each pose holds a matrix per joint, and each joint makes ten poses:
-  // refused past 4 GB rather than run out of memory.
+  // refused past the memory budget (half the machine's, at least 4 GB)
+  // rather than run out of memory.
   const double count = static_cast<double>(nj) * (4 * static_cast<double>(options.bends.size()) + 2) +
                        static_cast<double>(options.random_poses);
-  if (const double bytes = count * static_cast<double>(nj) * sizeof(Mat4); bytes > 4e9)
+  if (const double bytes = count * static_cast<double>(nj) * sizeof(Mat4); bytes > detail::memory_budget())
     throw InputError("skeleton", std::to_string(nj) + " joints",
                      "its " + std::to_string(static_cast<long long>(count)) + " training poses would take " +
                          std::to_string(static_cast<long long>(bytes / 1e9)) +

@@ -2,6 +2,7 @@
 // deformation over sample poses, linear blend skinning with them, and CSV.
 
 #include "core/convex_least_squares.hpp"
+#include "core/memory_budget.hpp"
 #include "core/dual_quaternion.hpp"
 #include "curvenet/bake.hpp"
 #include "curvenet/errors.hpp"
@@ -149,11 +150,12 @@ SkinWeights fit_weights(const Binding& binding, const std::vector<std::vector<Ma
       throw InputError("poses", "pose " + std::to_string(p),
                        "has " + std::to_string(poses[p].size()) + " matrices for " + std::to_string(nj) + " joints");
   // Every pose's matrices and deformed vertices are held at once: refused
-  // past 4 GB rather than run out of memory (a skeleton of thousands of
-  // joints makes ten poses of each).
+  // past the memory budget (half the machine's, at least 4 GB) rather than
+  // run out of memory (a skeleton of thousands of joints makes ten poses of
+  // each).
   const double held = static_cast<double>(poses.size()) *
                       (static_cast<double>(nj) * sizeof(Mat4) + static_cast<double>(n) * sizeof(Vec3));
-  if (held > 4e9) {
+  if (held > detail::memory_budget()) {
     std::ostringstream why;
     why << std::setprecision(3) << "fitting over " << poses.size() << " poses of " << nj << " joints and " << n
         << " vertices would take " << held / 1e9

@@ -56,7 +56,7 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
   // of 1e19 found no section anywhere).
   const auto& pos = m.mesh().positions;
   const double reach = std::max(origin.cwiseAbs().maxCoeff(), pos.empty() ? 0.0 : pos.front().cwiseAbs().maxCoeff());
-  const double step = reach > 1 ? reach : 1.0;
+  const double step = std::min(reach > 1 ? reach : 1.0, 1e300); // (past 1e300 the sum would overflow)
   const Vec3 o1 = origin + step * u, o2 = origin + step * v;
   std::vector<signed char> side(pos.size());
   for (size_t i = 0; i < pos.size(); ++i)

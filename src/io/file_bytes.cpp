@@ -8,11 +8,11 @@
 #include <map>
 #include <mutex>
 #include <sstream>
+#include <thread>
 
 #include <cerrno>
 
 #include <fcntl.h>
-#include <poll.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -35,34 +35,50 @@ std::string key_of(const std::string& path) {
 
 namespace {
 /// A FIFO's bytes (a named pipe, or a shell's process substitution): opened
-/// without blocking, and refused when no one writes to it within 5 s
-/// (opening one that no one writes blocks for ever).
+/// without blocking (opening one that no one writes blocks for ever), read
+/// to its end once a writer is there, however slow it is, and refused when
+/// no writer comes within 5 s. Without blocking, a read gives 0 while there
+/// is no writer, and EAGAIN while one is there with nothing written yet.
 std::string fifo_bytes(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0)
+  struct Fd {
+    int fd;
+    ~Fd() {
+      if (fd >= 0)
+        ::close(fd);
+    }
+  } f{::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC)};
+  if (f.fd < 0)
     throw InputError(path, "", "cannot open the file for reading");
-  pollfd p{fd, POLLIN, 0};
-  const int ready = ::poll(&p, 1, 5000);
-  if (ready <= 0) {
-    ::close(fd);
-    throw InputError(path, "", "a FIFO that no one wrote to within 5 s");
-  }
-  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   std::string text;
   char chunk[1 << 16];
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  for (;;) { // until a writer is there
+    const ssize_t n = ::read(f.fd, chunk, sizeof chunk);
+    if (n > 0) {
+      text.append(chunk, static_cast<size_t>(n));
+      break;
+    }
+    if (n < 0 && errno == EAGAIN)
+      break;
+    if (n < 0 && errno != EINTR)
+      throw InputError(path, "", "read error");
+    if (n == 0) {
+      if (std::chrono::steady_clock::now() > give_up)
+        throw InputError(path, "", "a FIFO that no one wrote to within 5 s");
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  ::fcntl(f.fd, F_SETFL, ::fcntl(f.fd, F_GETFL) & ~O_NONBLOCK); // then to its end, as slow as it comes
   for (;;) {
-    const ssize_t n = ::read(fd, chunk, sizeof chunk);
+    const ssize_t n = ::read(f.fd, chunk, sizeof chunk);
     if (n < 0 && errno == EINTR)
       continue;
-    if (n < 0) {
-      ::close(fd);
+    if (n < 0)
       throw InputError(path, "", "read error");
-    }
     if (n == 0)
       break;
     text.append(chunk, static_cast<size_t>(n));
   }
-  ::close(fd);
   return text;
 }
 } // namespace

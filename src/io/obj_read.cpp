@@ -78,10 +78,10 @@ ObjData read_obj_bytes(const std::string& path, const std::string& bytes) {
     const char* e = static_cast<const char*>(std::memchr(from, '\n', static_cast<size_t>(end - from)));
     return e ? e : end;
   };
-  auto continues = [](const char* b, const char* e) { // the line [b, e) ends in a backslash
+  auto continues = [](const char* b, const char* e) { // the line [b, e) ends in a backslash, not in a comment
     if (e > b && e[-1] == '\r')
       --e;
-    return e > b && e[-1] == '\\';
+    return e > b && e[-1] == '\\' && !std::memchr(b, '#', static_cast<size_t>(e - b));
   };
   long long continued_lines = 0; // of the line before, read with it
   while (p < end) {

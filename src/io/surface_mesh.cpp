@@ -610,7 +610,7 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
     box.extend(raw.positions[v]);
   // (Measured in units of the diagonal: a mesh at 1e-200 or 1e200 would
   // underflow or overflow a cross product of its own coordinates.)
-  const double inv_diag = 1 / box.diagonal().norm();
+  const double inv_diag = 1 / box.diagonal().stableNorm();
   const bool measure_thin = std::isfinite(inv_diag) && inv_diag > 0;
   enum : char { kKept = 0, kSamePoint = 1, kNoArea = 2 };
   std::vector<char> kind(static_cast<size_t>(nraw), kKept);
@@ -785,7 +785,10 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
           const Vec3 along = (py - px) * inv_diag;
           list.clear();
           bool has_one = false;
-          for (const int v : run_points.at(root(group[x]))) {
+          const std::vector<int>& run = run_points.at(root(group[x]));
+          if (run.size() > 4096) // each edge of a run scans its points: a run this long is left open
+            continue;
+          for (const int v : run) {
             if (group[v] == group[x] || group[v] == group[y])
               continue;
             const Vec3 off = (raw.positions[v] - px) * inv_diag;

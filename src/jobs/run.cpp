@@ -95,7 +95,16 @@ std::string skeletons_differ(const std::vector<Joint>& rig, const std::vector<Jo
 /// Blender re-exports a glTF): the keys then scale the rig's mesh a second
 /// time. Says so, with both scales; empty otherwise.
 std::string armature_twice(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
-  const double armature = std::cbrt(std::abs(clips.armature().topLeftCorner<3, 3>().determinant()));
+  // The keys carry the scale where the file's skin at rest is scaled: the
+  // armature is outside its inverse bind matrices (a re-export that puts it
+  // in them rests at its vertices' size, and its keys scale nothing).
+  double armature = 1;
+  const std::vector<Mat4> rest = clips.skinning_matrices(-1, 0);
+  for (size_t j = 0; j < clips.joints.size() && j < rest.size(); ++j)
+    if (!clips.joints[j].parent) {
+      armature = std::cbrt(std::abs(rest[j].topLeftCorner<3, 3>().determinant()));
+      break;
+    }
   if (!(armature > 1.05 || armature < 1 / 1.05))
     return "";
   std::map<std::string, Vec3> in_clip;
@@ -155,6 +164,14 @@ void need_clips(const SkinnedMesh& clips, const std::string& file, const std::st
     throw InputError(file, "animation", "clips are read from glTF or GLB files only (an FBX gives its skeleton): "
                                         "export the clips as glTF, e.g. from Blender");
   throw InputError(file, "/animations", "the file has no animation clips" + why);
+}
+
+/// Whether a bake carries clip `c`: every clip when no names are given, else
+/// the clips the names find as find_clip finds them ("Walk" for
+/// "AnimalArmature|Walk", or an index), as skinned_glb writes them.
+bool carries(const SkinnedMesh& clips, const std::vector<std::string>& names, int c) {
+  return names.empty() ||
+         std::any_of(names.begin(), names.end(), [&](const std::string& n) { return clips.find_clip(n) == c; });
 }
 
 /// The clip file's clip `name` (a name or an index; the first when empty).
@@ -523,8 +540,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
   const double diag = std::max(box.diagonal().norm(), 1e-300);
   std::vector<BakeClipFidelity> out;
   for (int c = 0; c < clips.num_clips(); ++c) {
-    if (!names.empty() &&
-        std::find(names.begin(), names.end(), clips.clip_names[static_cast<size_t>(c)]) == names.end())
+    if (!carries(clips, names, c))
       continue;
     BakeClipFidelity f;
     f.clip = clips.clip_names[static_cast<size_t>(c)];
@@ -626,9 +642,7 @@ BakeSummary run(const BakeJob& job) {
       continue;
     long long frames = 0;
     for (int c = 0; c < file->num_clips(); ++c) {
-      const std::string& name = file->clip_names[static_cast<size_t>(c)];
-      if (clips && file == &*clips && !job.clip_names.empty() &&
-          std::find(job.clip_names.begin(), job.clip_names.end(), name) == job.clip_names.end())
+      if (clips && file == &*clips && !carries(*clips, job.clip_names, c))
         continue;
       const auto [first, last] = clip_frames(*file, c, job.fps);
       frames += static_cast<long long>(last) - first + 1;
@@ -636,7 +650,7 @@ BakeSummary run(const BakeJob& job) {
         std::ostringstream why;
         why << "the clips come to " << frames << " frames or more at " << job.fps
             << " fps (--fps), more than --max-frames (" << job.max_frames << ")";
-        throw InputError(file->source, "clip '" + name + "'", why.str());
+        throw InputError(file->source, "clip '" + file->clip_names[static_cast<size_t>(c)] + "'", why.str());
       }
     }
   }
@@ -710,7 +724,9 @@ BakeSummary run(const BakeJob& job) {
   out.helper_joints.assign(w.joints.begin() + w.rig_joints(), w.joints.end());
   out.influences = w.influences;
   out.training_poses = skeleton_poses;
-  out.clips = clips ? (job.clip_names.empty() ? clips->num_clips() : static_cast<int>(job.clip_names.size())) : 0;
+  out.clips = 0;
+  for (int c = 0; clips && c < clips->num_clips(); ++c)
+    out.clips += carries(*clips, job.clip_names, c) ? 1 : 0;
   if (clips) {
     const double envelope = job.layer.envelope;
     out.fidelity =
