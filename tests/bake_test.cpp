@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <span>
 #include <tuple>
 #include <tiny_gltf.h>
 
@@ -52,6 +53,22 @@ double max_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 
 std::string temp(const std::string& name) {
   return (std::filesystem::path(::testing::TempDir()) / name).string();
+}
+
+/// The scale keys (x, y, z per key, in place) of the node named `node` in
+/// the first clip of a glTF model, one span per channel that keys it.
+std::vector<std::span<float>> scale_keys(tinygltf::Model& model, const std::string& node) {
+  std::vector<std::span<float>> out;
+  const tinygltf::Animation& clip = model.animations.at(0);
+  for (const auto& ch : clip.channels) {
+    if (ch.target_path != "scale" || model.nodes.at(static_cast<size_t>(ch.target_node)).name != node)
+      continue;
+    const auto& acc = model.accessors.at(static_cast<size_t>(clip.samplers.at(static_cast<size_t>(ch.sampler)).output));
+    const auto& view = model.bufferViews.at(static_cast<size_t>(acc.bufferView));
+    auto* f = reinterpret_cast<float*>(model.buffers.at(0).data.data() + view.byteOffset + acc.byteOffset);
+    out.emplace_back(f, 3 * acc.count);
+  }
+  return out;
 }
 
 } // namespace
@@ -281,18 +298,11 @@ TEST(Bake, AGlbRestsWhereItsSourceShowsTheSkinAndItsRootKeysHoldNoArmatureScale)
       tinygltf::TinyGLTF io;
       std::string err, warn;
       ASSERT_TRUE(io.LoadBinaryFromFile(&model, &err, &warn, path)) << err;
-      int scale_keys = 0;
-      for (const auto& ch : model.animations[0].channels) {
-        if (ch.target_path != "scale" || model.nodes[static_cast<size_t>(ch.target_node)].name != source.joints[root].name)
-          continue;
-        const auto& acc =
-            model.accessors[static_cast<size_t>(model.animations[0].samplers[static_cast<size_t>(ch.sampler)].output)];
-        const auto& view = model.bufferViews[static_cast<size_t>(acc.bufferView)];
-        const auto* f = reinterpret_cast<const float*>(model.buffers[0].data.data() + view.byteOffset + acc.byteOffset);
-        for (size_t k = 0; k < 3 * acc.count; ++k, ++scale_keys)
-          EXPECT_NEAR(f[k], 1.0, 1e-3) << mesh_file << ": the armature's scale stays in its node";
-      }
-      EXPECT_GT(scale_keys, 0);
+      const auto keys = scale_keys(model, source.joints[root].name);
+      ASSERT_EQ(keys.size(), 1u);
+      EXPECT_FALSE(keys[0].empty());
+      for (const float x : keys[0])
+        EXPECT_NEAR(x, 1.0, 1e-3) << mesh_file << ": the armature's scale stays in its node";
     }
     // Not placed, as before, where it would not be one placing the clips
     // keep: with --up z (which turns the source itself), and where a root of
@@ -842,19 +852,10 @@ TEST(Bake, AHelperWhoseJointAClipScalesUnevenlyOrFlattensIsARootNodeThatStillPla
     tinygltf::TinyGLTF io;
     std::string err, warn;
     ASSERT_TRUE(io.LoadBinaryFromFile(&model, &err, &warn, plain)) << err;
-    int edited = 0;
-    for (const auto& ch : model.animations[0].channels) {
-      if (ch.target_path != "scale" || model.nodes[static_cast<size_t>(ch.target_node)].name != parent)
-        continue;
-      const auto& acc = model.accessors[static_cast<size_t>(model.animations[0].samplers[static_cast<size_t>(ch.sampler)].output)];
-      const auto& view = model.bufferViews[static_cast<size_t>(acc.bufferView)];
-      auto* f = reinterpret_cast<float*>(model.buffers[0].data.data() + view.byteOffset + acc.byteOffset);
-      for (size_t k = 0; k < acc.count; ++k)
-        for (int d = 0; d < 3; ++d)
-          f[3 * k + static_cast<size_t>(d)] = static_cast<float>(scale[d]);
-      ++edited;
-    }
-    ASSERT_EQ(edited, 1) << "the walk keys " << parent;
+    const auto keys = scale_keys(model, parent);
+    ASSERT_EQ(keys.size(), 1u) << "the walk keys " << parent;
+    for (size_t k = 0; k < keys[0].size(); ++k)
+      keys[0][k] = static_cast<float>(scale[static_cast<int>(k % 3)]);
     const std::string clip_file = temp("trex_walk_scaled.glb");
     ASSERT_TRUE(io.WriteGltfSceneToFile(&model, clip_file, true, true, false, true));
     const SkinnedMesh clips = load_skinned_mesh(clip_file);
