@@ -87,6 +87,9 @@ TEST(MeshIo, AnObjLineEndingInABackslashGoesOnOnTheNext) {
   EXPECT_EQ(a.positions, b.positions);
   EXPECT_EQ(a.face_offsets, b.face_offsets);
   EXPECT_EQ(a.corner_vertex, b.corner_vertex);
+  // A last line that ends in a backslash goes on to nothing (the joined
+  // line was read past its end: AddressSanitizer found it).
+  EXPECT_EQ(detail::read_obj_bytes("last.obj", plain + "v 1 1 1 \\").positions.size(), 5u);
   // A comment that ends in a backslash (a Windows path) goes on nowhere.
   const detail::ObjData c = detail::read_obj_bytes("comment.obj", "# from C:\\models\\\n" + plain);
   EXPECT_EQ(c.positions, a.positions);

@@ -94,9 +94,9 @@ ObjData read_obj_bytes(const std::string& path, const std::string& bytes) {
       const char* from = p;
       const char* to = eol;
       for (;;) {
-        const bool on = continues(from, to) && to < end;
+        const bool cont = continues(from, to), on = cont && to < end;
         const char* stop = to;
-        if (on) {
+        if (cont) { // the backslash goes, at the end of the file too
           if (stop > from && stop[-1] == '\r')
             --stop;
           --stop; // the backslash
@@ -113,7 +113,8 @@ ObjData read_obj_bytes(const std::string& path, const std::string& bytes) {
       b = joined.data();
     }
     continued_lines = more_lines;
-    const char* line_end = more_lines ? joined.data() + joined.size() : eol;
+    const bool in_joined = b != p; // (a last line ending in a backslash is joined with nothing)
+    const char* line_end = in_joined ? joined.data() + joined.size() : eol;
     const char* hash = static_cast<const char*>(std::memchr(b, '#', static_cast<size_t>(line_end - b)));
     Tokens t{b, hash ? hash : line_end};
     p = eol + (eol < end ? 1 : 0);
