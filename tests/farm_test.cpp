@@ -113,6 +113,24 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
   fs::remove_all(dir / "job2");
   EXPECT_THROW(prepare_farm(farm_of(bad, dir / "job2", 20)), InputError);
   EXPECT_FALSE(fs::exists(dir / "job2"));
+  // A clip file without clips is refused as animate refuses it (the farm had
+  // a check of its own, with other words).
+  AnimateJob still = walk(dir, 95);
+  still.clip_file = test::data("xr_tools_hand/hand_l.gltf"); // a skin, no animation
+  try {
+    (void)prepare_farm(farm_of(still, dir / "job3", 20));
+    ADD_FAILURE() << "a clip file without clips was planned";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "/animations");
+    std::string animate_says;
+    try {
+      (void)run(still);
+    } catch (const InputError& a) {
+      animate_says = a.what();
+    }
+    EXPECT_EQ(e.what(), animate_says);
+  }
+  EXPECT_FALSE(fs::exists(dir / "job3"));
 }
 
 TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {

@@ -307,11 +307,7 @@ FarmPlan prepare_farm(const FarmJob& job) {
   // the skeleton.
   const Scene scene = read_scene(a.scene);
   const SkinnedMesh clips = load_skinned_mesh(a.clip_file);
-  if (clips.num_clips() == 0)
-    throw InputError(a.clip_file, "/animations", "the file has no animation clips");
-  const int clip = a.clip.empty() ? 0 : clips.find_clip(a.clip);
-  if (clip < 0)
-    throw InputError(a.clip_file, "clip '" + a.clip + "'", "no clip has this name or index");
+  const int clip = detail::find_clip(clips, a.clip_file, a.clip);
   const FrameRange range = frame_range(clips, clip, a.fps, a.frames, a.max_frames);
   (void)clip_skinning_matrices(scene.rig.joints, clips, clip, range.time(range.first));
   const std::string executable = find_executable(job.executable);

@@ -155,17 +155,6 @@ CurveLayer cut_layer(const BoundScene& s, const BindOptions& options) {
   }
 }
 
-/// Refuses a clip file with no clips: an FBX's animation is not read (its
-/// skeleton is), so it says so.
-void need_clips(const SkinnedMesh& clips, const std::string& file, const std::string& why = "") {
-  if (clips.num_clips() > 0)
-    return;
-  if (detail::lower_extension(file) == ".fbx")
-    throw InputError(file, "animation", "clips are read from glTF or GLB files only (an FBX gives its skeleton): "
-                                        "export the clips as glTF, e.g. from Blender");
-  throw InputError(file, "/animations", "the file has no animation clips" + why);
-}
-
 /// Whether a bake carries clip `c`: every clip when no names are given, else
 /// the clips the names find as find_clip finds them ("Walk" for
 /// "AnimalArmature|Walk", or an index), as skinned_glb writes them.
@@ -174,14 +163,6 @@ bool carries(const SkinnedMesh& clips, const std::vector<std::string>& names, in
          std::any_of(names.begin(), names.end(), [&](const std::string& n) { return clips.find_clip(n) == c; });
 }
 
-/// The clip file's clip `name` (a name or an index; the first when empty).
-int find_clip(const SkinnedMesh& clips, const std::string& file, const std::string& name) {
-  need_clips(clips, file);
-  const int clip = name.empty() ? 0 : clips.find_clip(name);
-  if (clip < 0)
-    throw InputError(file, "clip '" + name + "'", "no clip has this name or index");
-  return clip;
-}
 
 /// A mask file's `text`: one number from 0 to 1 per vertex of the mesh
 /// file, one a line (blank lines and `#` comments skipped).
@@ -299,6 +280,31 @@ JobSummary summary_of(const Scene& s, const CurveLayer& layer) {
 }
 
 } // namespace
+
+namespace detail {
+
+/// Refuses a clip file with no clips: an FBX's animation is not read (its
+/// skeleton is), so it says so.
+void need_clips(const SkinnedMesh& clips, const std::string& file, const std::string& why) {
+  if (clips.num_clips() > 0)
+    return;
+  if (detail::lower_extension(file) == ".fbx")
+    throw InputError(file, "animation", "clips are read from glTF or GLB files only (an FBX gives its skeleton): "
+                                        "export the clips as glTF, e.g. from Blender");
+  throw InputError(file, "/animations", "the file has no animation clips" + why);
+}
+
+/// The clip file's clip `name` (a name or an index; the first when empty).
+int find_clip(const SkinnedMesh& clips, const std::string& file, const std::string& name) {
+  need_clips(clips, file);
+  const int clip = name.empty() ? 0 : clips.find_clip(name);
+  if (clip < 0)
+    throw InputError(file, "clip '" + name + "'", "no clip has this name or index");
+  return clip;
+}
+
+} // namespace detail
+
 
 std::vector<std::string> clip_notes(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
   std::vector<std::string> notes;
@@ -451,7 +457,7 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   if (job.pc2.empty() && job.obj_sequence.empty() && job.frames_part.empty() && job.cut_mesh_sequence.empty())
     throw InputError(job.clip_file, "", "no output named for the frames");
   const SkinnedMesh clips = load_skinned_mesh(job.clip_file);
-  const int clip = find_clip(clips, job.clip_file, job.clip);
+  const int clip = detail::find_clip(clips, job.clip_file, job.clip);
   const FrameRange range = frame_range(clips, clip, job.fps, job.frames, job.max_frames);
   // All or nothing: the frames go to temporary files, moved into place at
   // the end (a folder this run made goes with them on a failure).
@@ -608,7 +614,7 @@ BakeSummary run(const BakeJob& job) {
   std::optional<SkinnedMesh> clips, fit;
   if (!job.clip_file.empty()) {
     clips = load_skinned_mesh(job.clip_file);
-    need_clips(*clips, job.clip_file, " to carry");
+    detail::need_clips(*clips, job.clip_file, " to carry");
     for (const auto& name : job.clip_names)
       if (clips->find_clip(name) < 0)
         throw InputError(job.clip_file, "clip '" + name + "'", "no clip has this name");
@@ -623,7 +629,7 @@ BakeSummary run(const BakeJob& job) {
   Scene scene = read_scene(job.scene);
   if (!job.fit.empty()) {
     fit = load_skinned_mesh(job.fit);
-    need_clips(*fit, job.fit, " to fit over");
+    detail::need_clips(*fit, job.fit, " to fit over");
     (void)clip_skinning_matrices(scene.rig.joints, *fit, 0, fit->clip_range(0).first); // a clip for this skeleton
   }
   // The keys carried, measured and fitted over are taken against each
