@@ -2,6 +2,7 @@
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
+#include "curvenet/jobs.hpp"
 #include "curvenet/pose.hpp"
 #include "curvenet/skin.hpp"
 #include "helpers.hpp"
@@ -268,6 +269,52 @@ TEST(Skin, ClipMatricesMatchJointsByNameAndFramesCoverTheClip) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), clips.source);
   }
+}
+
+TEST(Skin, ARigPlacedByTheClipFilesArmatureTakesItsRootKeysOnce) {
+  // The horse's armature scales its skeleton by 100 and turns it to Y up,
+  // and its root keys carry that. A rig whose skeleton is the horse's as the
+  // armature places it (a rig transferred to a Blender re-export, which
+  // applies the armature to the mesh) was moved by the armature twice: the
+  // horse's walk made its mesh a hundred times too large, on its back. It
+  // now poses where the horse's own rig poses it.
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh horse = load_skinned_mesh(test::data("quaternius/Horse.glb"));
+  const Mat4 a = horse.armature();
+  ASSERT_GT((a - Mat4::Identity()).cwiseAbs().maxCoeff(), 1.0);
+  auto placed = horse.joints;
+  for (Joint& j : placed)
+    j.bind = a * j.bind;
+  EXPECT_TRUE(placed_by_armature(placed, horse));
+  EXPECT_FALSE(placed_by_armature(horse.joints, horse));
+  // A Blender re-export's skeleton is the horse's placed, to its float
+  // export, with other bone axes.
+  const auto again = load_skinned_mesh(std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Horse_decimated.glb");
+  EXPECT_TRUE(placed_by_armature(again.joints, horse));
+  const int walk = horse.find_clip("Walk");
+  ASSERT_GE(walk, 0);
+  const auto [t0, t1] = horse.clip_range(walk);
+  for (const double t : {t0, 0.5 * (t0 + t1)}) {
+    const auto own = clip_skinning_matrices(horse.joints, horse, walk, t);
+    const auto moved = clip_skinning_matrices(placed, horse, walk, t);
+    // A point p of the horse's mesh is a * p on the placed mesh: posed, it
+    // lands where the horse's own rig puts p.
+    double worst = 0, size = 0;
+    for (size_t j = 0; j < own.size(); ++j) {
+      worst = std::max(worst, (moved[j] * a - own[j]).cwiseAbs().maxCoeff());
+      size = std::max(size, own[j].cwiseAbs().maxCoeff());
+    }
+    EXPECT_LE(worst, 1e-6 * size) << "t " << t; // the clip's keys are floats
+    // The re-export's root moves as the horse's does, whatever its axes.
+    const auto its = clip_skinning_matrices(again.joints, horse, walk, t);
+    ASSERT_EQ(again.joints[0].name, horse.joints[0].name);
+    ASSERT_FALSE(horse.joints[0].parent);
+    EXPECT_LE((its[0] * a - own[0]).cwiseAbs().maxCoeff(), 1e-3 * size) << "t " << t;
+  }
+  // Which the note about an armature applied twice no longer says.
+  for (const std::string& note : clip_notes(placed, horse))
+    EXPECT_EQ(note.find("a second time"), std::string::npos) << note;
 }
 
 // --- dual-quaternion skinning, the baseline a rigger compares with ----------

@@ -57,8 +57,20 @@ std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose
 /// way, even on another mesh.
 Pose pose_from_clip(const SkinnedMesh& file, int clip, double t);
 
+/// Whether `rig`'s skeleton is the file's as its armature places it (within
+/// a hundredth of the skeleton's size), and not the file's binds: a mesh
+/// exported with the armature applied (as Blender re-exports a glTF whose
+/// armature scales it), or a rig transferred to one. The clips' root keys
+/// carry the armature; such a rig takes them against the placed rest.
+bool placed_by_armature(const std::vector<Joint>& rig, const SkinnedMesh& clips);
+
+/// pose_from_clip's entries for the joints `rig` shares with the file, by
+/// name; where placed_by_armature, the roots' entries are taken against
+/// the armature's rest, so that the armature moves the rig once, not twice.
+Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int clip, double t);
+
 /// Skinning matrices for `joints` at time t of a clip, matched to the clip's
-/// joints by name (pose_from_clip); joints the clip lacks stay at rest.
+/// joints by name (clip_pose_for); joints the clip lacks stay at rest.
 /// \throw InputError when no joint of the clip matches one of `joints`.
 std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
                                          double t);

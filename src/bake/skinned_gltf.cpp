@@ -547,7 +547,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   };
   auto pose_at = [&](int c, double time, std::vector<Mat4>& local, std::vector<Mat4>& posed,
                      std::vector<bool>& animated) {
-    const Pose pose = pose_from_clip(*clips, c, time);
+    const Pose pose = clip_pose_for(joints, *clips, c, time);
     for (int j = 0; j < nj; ++j) {
       const auto it = pose.find(joints[j].name);
       local[j] = rest_local[j];

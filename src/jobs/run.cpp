@@ -95,6 +95,8 @@ std::string skeletons_differ(const std::vector<Joint>& rig, const std::vector<Jo
 /// Blender re-exports a glTF): the keys then scale the rig's mesh a second
 /// time. Says so, with both scales; empty otherwise.
 std::string armature_twice(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  if (placed_by_armature(rig, clips)) // its keys are taken against the armature's rest: applied once
+    return "";
   // The keys carry the scale where the file's skin at rest is scaled: the
   // armature is outside its inverse bind matrices (a re-export that puts it
   // in them rests at its vertices' size, and its keys scale nothing).

@@ -7,11 +7,15 @@
 
 #include "io/json_text.hpp"
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 namespace curvenet {
@@ -141,6 +145,29 @@ std::vector<Mat4> skinning_matrices(const std::vector<Joint>& joints, const Pose
   return out;
 }
 
+namespace {
+
+/// A joint's entry from its local transform: translation, rotation, scale
+/// (no shear in a joint's motion).
+JointPose entry_of(const Mat4& local) {
+  JointPose e;
+  e.translation = local.block<3, 1>(0, 3);
+  Eigen::Matrix3d m = local.block<3, 3>(0, 0);
+  for (int c = 0; c < 3; ++c) {
+    e.scale[c] = m.col(c).norm();
+    if (e.scale[c] > 0)
+      m.col(c) /= e.scale[c];
+  }
+  if (m.determinant() < 0) {
+    e.scale[0] = -e.scale[0];
+    m.col(0) = -m.col(0);
+  }
+  e.rotation = Eigen::Quaterniond(m).normalized();
+  return e;
+}
+
+} // namespace
+
 Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
   const auto world = file.joint_world(clip, t);
   std::map<std::string, int> index;
@@ -149,39 +176,68 @@ Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
   Pose pose;
   for (size_t j = 0; j < file.joints.size(); ++j) {
     const Joint& jt = file.joints[j];
-    Mat4 local;
     if (jt.parent) {
       const int p = index.at(*jt.parent);
-      local = (file.joints[p].bind.inverse() * jt.bind).inverse() * (world[p].inverse() * world[j]);
+      pose[jt.name] = entry_of((file.joints[p].bind.inverse() * jt.bind).inverse() * (world[p].inverse() * world[j]));
     } else {
-      local = jt.bind.inverse() * world[j];
+      pose[jt.name] = entry_of(jt.bind.inverse() * world[j]);
     }
-    // Back to translation, rotation, scale (no shear in a joint's motion).
-    JointPose e;
-    e.translation = local.block<3, 1>(0, 3);
-    Eigen::Matrix3d m = local.block<3, 3>(0, 0);
-    for (int c = 0; c < 3; ++c) {
-      e.scale[c] = m.col(c).norm();
-      if (e.scale[c] > 0)
-        m.col(c) /= e.scale[c];
-    }
-    if (m.determinant() < 0) {
-      e.scale[0] = -e.scale[0];
-      m.col(0) = -m.col(0);
-    }
-    e.rotation = Eigen::Quaterniond(m).normalized();
-    pose[jt.name] = e;
   }
+  return pose;
+}
+
+bool placed_by_armature(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  const Mat4 a = clips.armature();
+  if (a.isIdentity(0))
+    return false;
+  std::map<std::string, Eigen::Vector3d> in_file;
+  for (const Joint& j : clips.joints)
+    in_file[j.name] = j.bind.block<3, 1>(0, 3);
+  // The joints' places (a re-export may turn the bones' axes), within a
+  // hundredth of the rig's skeleton's extent, where the armature moves the
+  // file's joints by more.
+  Eigen::AlignedBox3d box;
+  double placed = 0, unplaced = 0;
+  int matched = 0;
+  for (const Joint& j : rig) {
+    const Eigen::Vector3d q = j.bind.block<3, 1>(0, 3);
+    box.extend(q);
+    if (const auto it = in_file.find(j.name); it != in_file.end()) {
+      placed = std::max(placed, (a.topLeftCorner<3, 3>() * it->second + a.block<3, 1>(0, 3) - q).norm());
+      unplaced = std::max(unplaced, (it->second - q).norm());
+      ++matched;
+    }
+  }
+  const double tol = 1e-2 * box.diagonal().norm();
+  return matched >= 2 && placed <= tol && !(unplaced <= tol);
+}
+
+Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int clip, double t) {
+  Pose all = pose_from_clip(clips, clip, t), pose;
+  for (const auto& j : rig)
+    if (auto it = all.find(j.name); it != all.end())
+      pose.insert(*it);
+  if (!placed_by_armature(rig, clips))
+    return pose;
+  // A root of the file moves in the world by W(t) (A B)^-1, from where the
+  // armature A rests it; its entry moves the rig's joint (bind R) by that.
+  const Mat4 a = clips.armature();
+  const auto world = clips.joint_world(clip, t);
+  std::map<std::string, const Joint*> in_rig;
+  for (const Joint& j : rig)
+    in_rig[j.name] = &j;
+  for (size_t j = 0; j < clips.joints.size() && j < world.size(); ++j)
+    if (const auto it = in_rig.find(clips.joints[j].name); !clips.joints[j].parent && it != in_rig.end()) {
+      const Mat4& r = it->second->bind;
+      pose[it->first] = entry_of(r.inverse() * world[j] * Mat4(a * clips.joints[j].bind).inverse() * r);
+    }
   return pose;
 }
 
 std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
                                          double t) {
   // The clip's entries for the joints it shares with `joints`, by name.
-  Pose all = pose_from_clip(clips, clip, t), pose;
-  for (const auto& j : joints)
-    if (auto it = all.find(j.name); it != all.end())
-      pose.insert(*it);
+  const Pose pose = clip_pose_for(joints, clips, clip, t);
   if (pose.empty() && !clips.joints.empty())
     throw InputError(clips.source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
   return skinning_matrices(joints, pose, clips.source);
