@@ -3,6 +3,7 @@
 
 #include "core/plane_section.hpp"
 #include "core/polyline_distance.hpp"
+#include "curvenet/io.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "generate/tube.hpp"
 
@@ -93,6 +94,29 @@ TEST(PlaneSection, APathThroughThreePointsFollowsTheSectionTheyLieOnThroughTheMi
   // Collinear points make no plane; a point off the surface lies on no section.
   EXPECT_FALSE(detail::section_path_through(sm, a, (a + b) / 2, b, 1e-9).has_value());
   EXPECT_FALSE(detail::section_path_through(sm, a, ring[n / 4] * 0.5 + Vec3(0, 1.0, 0), b, 1e-9).has_value());
+}
+
+TEST(PlaneSection, EverySectionOfAClosedMeshOfTwistedNgonsIsOneClosedLoop) {
+  // The T-rex with random edges dissolved into 5- to 8-sided polygons, many
+  // of them twisted and concave. Each polygon is cut as a fan of triangles;
+  // its diagonals were keyed by their corners, so one polygon's diagonal
+  // could be another's edge: an edge of three triangles, whose walk went
+  // round a loop for ever (the starter and the transfer ran out of memory
+  // at 4 GB). A closed surface's sections are closed loops.
+  const SurfaceMesh m = load_mesh(std::string(CURVENET_SOURCE_DIR) + "/tests/data/ngons/Trex_ngons.obj");
+  ASSERT_GT(m.num_faces(), 300);
+  const detail::SectionMesh sm(m);
+  int sections = 0;
+  for (size_t v = 0; v < m.positions.size(); v += 5)
+    for (const Vec3& n : {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0.6, 0.8)}) {
+      const Vec3 at = m.positions[v] + Vec3(1e-3, 2e-3, 3e-3); // off the vertices
+      for (const auto& s : detail::plane_sections(sm, at, n)) {
+        ++sections;
+        EXPECT_TRUE(s.closed) << "vertex " << v << ", normal " << n.transpose();
+        EXPECT_LE(s.points.size(), 2 * sm.num_edges());
+      }
+    }
+  EXPECT_GT(sections, 100);
 }
 
 TEST(PlaneSection, PolylineDistancesSkipOnlyPairsThatCannotBeNearer) {

@@ -22,12 +22,24 @@ SectionMesh::SectionMesh(const SurfaceMesh& mesh) : mesh_(mesh) {
     }
     return it->second;
   };
+  // A polygon's fan diagonals are its own, shared by two of its triangles
+  // alone: keyed by their corners, the diagonal of one twisted n-gon could
+  // be another's edge or diagonal, an edge of three triangles.
+  auto diagonal = [&](int a, int b, int t) {
+    edge_.push_back({std::min(a, b), std::max(a, b)});
+    edge_tri_.push_back({t, t + 1});
+    return static_cast<int>(edge_.size()) - 1;
+  };
   for (int f = 0; f < mesh.num_faces(); ++f) {
     const auto c = mesh.face(f);
+    int before = -1; // the diagonal the last triangle shares with this one
     for (size_t k = 1; k + 1 < c.size(); ++k) {
       const int t = static_cast<int>(tri_.size());
       tri_.push_back({c[0], c[k], c[k + 1]});
-      tri_edge_.push_back({edge_id(c[0], c[k], t), edge_id(c[k], c[k + 1], t), edge_id(c[k + 1], c[0], t)});
+      const int first = k == 1 ? edge_id(c[0], c[k], t) : before;
+      const int last = k + 2 == c.size() ? edge_id(c[k + 1], c[0], t) : diagonal(c[k + 1], c[0], t);
+      tri_edge_.push_back({first, edge_id(c[k], c[k + 1], t), last});
+      before = last;
     }
   }
 }
@@ -77,12 +89,19 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
     return -1;
   };
   std::vector<char> used(m.num_edges(), 0);
+  std::vector<int> walked(m.num_edges(), -1); // the walk that last crossed each edge
+  int walks = 0;
   std::vector<Section> out;
   // From crossed edge `start` through triangle `tri`: the crossed edges in
-  // order, and whether the walk came back to `start`.
+  // order, and whether the walk came back to `start`. A walk that comes
+  // back to another of its edges stops there, open: where an edge has more
+  // than two triangles (the triangulations of two twisted n-gons can share
+  // a diagonal) the walk could go round that loop for ever.
   auto trace = [&](int start, int tri, bool& closed) {
     std::vector<int> edges{start};
     closed = false;
+    const int walk = walks++;
+    walked[start] = walk;
     int e = start, t = tri;
     while (t >= 0) {
       const int next = other_edge(t, e);
@@ -92,6 +111,9 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
         closed = true;
         break;
       }
+      if (walked[next] == walk)
+        break;
+      walked[next] = walk;
       edges.push_back(next);
       const auto& tt = m.edge_tris(next);
       t = tt[0] == t ? tt[1] : tt[0];
