@@ -408,17 +408,19 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
   // skin where the source shows it, and a clip's root keys stay the clip's
   // own: the node that holds the source's root joints (an armature: Blender's
   // exports scale it by 100 and turn it to Y-up) becomes a node above the
-  // root joints, and the roots rest where the source's skin puts them (its
-  // rest skinning matrix times their binds: the binds themselves for a file
-  // whose inverse bind matrices hold the armature). The inverse bind
-  // matrices are the joints' binds either way, and every key's world is what
-  // it was: only the rest and the root keys' parent change. Done only where
-  // it is one placing for every root of the rig, each a root of the skinned
-  // glTF source with the same rest skinning (to a thousandth: an exporter
-  // leaves IK roots that far off) there and in the clip file (a
-  // clip whose root keys do not carry that placing would jump from the rest
-  // to the clip), and not with --up z, which turns the source itself.
-  Mat4 armature = Mat4::Identity(), placing = Mat4::Identity();
+  // root joints, and each root rests where the source's skin puts it (its
+  // rest skinning matrix times its bind: the bind itself for a file whose
+  // inverse bind matrices hold the armature). The inverse bind matrices are
+  // the joints' binds either way, and every key's world is what it was:
+  // only the rest and the root keys' parent change. Done only where every
+  // root of the rig that moves the mesh is a root of the skinned glTF
+  // source with the same rest skinning (to a thousandth) there and in the
+  // clip file (a clip whose root keys do not carry that placing would jump
+  // from the rest to the clip), and not with --up z, which turns the source
+  // itself. The roots may rest apart as the source rests them (the wolf's
+  // IK roots, which hold its feet, a third of a degree off its body's).
+  Mat4 armature = Mat4::Identity();
+  std::vector<Mat4> placing(joints.size(), Mat4::Identity()); // each root's
   bool has_armature = false;
   if (options.up == GltfBakeOptions::Up::Y)
     if (const std::string ext = detail::lower_extension(mesh_path);
@@ -436,11 +438,34 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
             return file.joints[j].parent ? std::nullopt : std::optional<Mat4>(rest[j]);
         return std::nullopt;
       };
-      std::optional<Mat4> one;
+      // The roots whose bones move the mesh (a weighted joint under them). A
+      // weightless root neither sets the placing nor blocks it: it rests by
+      // the first moving root's. Where no root moves the mesh, every root
+      // counts.
+      std::vector<char> moves(joints.size(), 0);
+      auto mark = [&](int j) {
+        for (int p = j; p >= 0 && !moves[static_cast<size_t>(p)];
+             p = joints[static_cast<size_t>(p)].parent ? joint_index.at(*joints[static_cast<size_t>(p)].parent) : -1)
+          moves[static_cast<size_t>(p)] = 1;
+      };
+      for (size_t i = 0; i < weights.joint.size(); ++i)
+        if (const int j = weights.joint[i]; j >= 0 && weights.weight[i] > 0) {
+          if (j < weights.rig_joints()) {
+            mark(j);
+          } else if (const size_t h = static_cast<size_t>(j - weights.rig_joints()); h < weights.helpers.size()) {
+            mark(weights.helpers[h][0]);
+            mark(weights.helpers[h][1]);
+          }
+        }
+      const bool any_moves = std::any_of(joints.begin(), joints.end(), [&](const Joint& jt) {
+        return !jt.parent && moves[static_cast<size_t>(joint_index.at(jt.name))];
+      });
+      std::optional<Mat4> first; // the first moving root's placing
       bool agree = own.has_value();
       for (size_t j = 0; j < joints.size() && agree; ++j) {
-        if (joints[j].parent)
+        if (joints[j].parent || (any_moves && !moves[j]))
           continue;
+        std::optional<Mat4> one;
         for (const SkinnedMesh* file : {own ? static_cast<const SkinnedMesh*>(&*own) : nullptr, clips}) {
           if (!file)
             continue;
@@ -451,25 +476,31 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
             break;
           one = one ? one : p;
         }
+        placing[j] = *one;
+        first = first ? first : one;
       }
-      if (agree && one) {
+      if (agree && first) {
         armature = own->armature();
-        placing = *one;
         const Mat4 armature_inverse = armature.inverse();
-        has_armature = carried_by_trs(armature) && armature_inverse.allFinite() &&
-                       (!armature.isIdentity(1e-9) || !placing.isIdentity(1e-9));
+        has_armature = carried_by_trs(armature) && armature_inverse.allFinite();
+        bool moved = !armature.isIdentity(1e-9);
         for (size_t j = 0; j < joints.size() && has_armature; ++j)
-          if (!joints[j].parent)
-            has_armature = carried_by_trs(Mat4(armature_inverse * placing * joints[j].bind));
+          if (!joints[j].parent) {
+            if (any_moves && !moves[j])
+              placing[j] = *first;
+            moved = moved || !placing[j].isIdentity(1e-9);
+            has_armature = carried_by_trs(Mat4(armature_inverse * placing[j] * joints[j].bind));
+          }
+        has_armature = has_armature && moved;
       }
     }
   if (!has_armature) {
     armature.setIdentity();
-    placing.setIdentity();
+    std::fill(placing.begin(), placing.end(), Mat4::Identity());
   }
   const Mat4 armature_inverse = armature.inverse();
-  auto root_rest = [&](const Mat4& bind_world) { // a root's rest, under the armature
-    return Mat4(armature_inverse * placing * bind_world);
+  auto root_rest = [&](int j, const Mat4& bind_world) { // root j's rest, under the armature
+    return Mat4(armature_inverse * placing[static_cast<size_t>(j)] * bind_world);
   };
 
   // The skeleton: node 0 is the skinned mesh, nodes 1.. the joints (then the
@@ -497,7 +528,7 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
     const int p = joints[j].parent ? joint_index.at(*joints[j].parent) : -1;
     world[j] = p >= 0 ? Mat4(world[p] * compose(x)) : compose(x);
     if (p < 0 && has_armature)
-      x = decompose(root_rest(rest_local[j]));
+      x = decompose(root_rest(j, rest_local[j]));
     tinygltf::Node n;
     n.name = joints[j].name;
     n.translation = {x.t.x(), x.t.y(), x.t.z()};
@@ -624,7 +655,10 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
       R.topLeftCorner<3, 3>() = std::cbrt(std::abs(w3.determinant())) * decompose(W).r.toRotationMatrix();
       R.block<3, 1>(0, 3) = W.block<3, 1>(0, 3);
       helper_rest[h] = R;
-      const Trs x = decompose(has_armature ? root_rest(R) : R); // placed as the roots are
+      int top = helper_parent[h]; // placed as the root above its joint is
+      while (joints[static_cast<size_t>(top)].parent)
+        top = joint_index.at(*joints[static_cast<size_t>(top)].parent);
+      const Trs x = decompose(has_armature ? root_rest(top, R) : R);
       n.translation = {x.t.x(), x.t.y(), x.t.z()};
       n.rotation = {x.r.x(), x.r.y(), x.r.z(), x.r.w()};
       n.scale = {x.s.x(), x.s.y(), x.s.z()};
