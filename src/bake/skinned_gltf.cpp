@@ -682,7 +682,12 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
         ibm.push_back(static_cast<float>(inv(r, c))); // column-major
   }
   skin.inverseBindMatrices = bin.accessor(ibm, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, nj + nh, 0);
-  if (roots.size() == 1)
+  // The skeleton root, where one joint is the root of all and no armature
+  // node holds it: Blender's importer takes the joints' rest from that node
+  // down, without the armature above it, so a bake of a Blender re-export
+  // (whose inverse bind matrices hold the armature) rested turned by the
+  // armature's quarter turn. The source leaves it out too.
+  if (roots.size() == 1 && armature.isIdentity(1e-9))
     skin.skeleton = roots[0];
   model.skins.push_back(skin);
   tinygltf::Scene scene;
