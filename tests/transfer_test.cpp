@@ -91,6 +91,49 @@ TEST(Transfer, TubeNetFromQuadsToTriangles) {
   EXPECT_EQ(r.rig.joints.size(), src.joints.size());
 }
 
+TEST(Transfer, APartOfTheTargetThatNoCurveTouchesIsNotedAndLeftOutOfTheComparison) {
+  // An eye modelled apart, on the target and not on the source, is a region
+  // without a boundary: the transfer was refused ("the region counts
+  // differ"), with nothing on stderr, and the eye counted as disagreeing.
+  const SurfaceMesh quads = test::tube(16, 16, 4, false), tris = test::tube(30, 24, 7, true);
+  TubeSpec eye_spec;
+  eye_spec.around = 8;
+  eye_spec.along = 2;
+  eye_spec.cap_rings = 2;
+  TubeSpec limb;
+  limb.around = 30;
+  limb.along = 24;
+  limb.cap_rings = 7;
+  limb.triangulate = true;
+  RawMesh raw = make_capped_tube(limb);
+  const RawMesh eye = make_capped_tube(eye_spec);
+  const int base = static_cast<int>(raw.positions.size());
+  for (const Vec3& p : eye.positions)
+    raw.positions.push_back(0.05 * p + Vec3(3, 0, 0)); // small, beside the limb
+  for (size_t f = 0; f + 1 < eye.face_offsets.size(); ++f) {
+    std::vector<int> corners;
+    for (int k = eye.face_offsets[f]; k < eye.face_offsets[f + 1]; ++k)
+      corners.push_back(base + eye.face_vertices[static_cast<size_t>(k)]);
+    raw.add_face(corners);
+  }
+  const SurfaceMesh with_eye = make_surface_mesh(raw, "tube with an eye");
+  const TransferResult plain = transfer(make_tube_net(), quads, tris), r = transfer(make_tube_net(), quads, with_eye);
+  ASSERT_TRUE(plain.report.ok);
+  EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems.front());
+  EXPECT_EQ(r.report.target.regions, plain.report.target.regions + 1);
+  ASSERT_EQ(r.report.notes.size(), 1u);
+  EXPECT_NE(r.report.notes[0].find("the target has 1 part that no curve touches"), std::string::npos)
+      << r.report.notes[0];
+  EXPECT_EQ(r.report.regions.size(), plain.report.regions.size()) << "the eye is not a region of the comparison";
+  EXPECT_GT(r.report.agreement, 0.99);
+  EXPECT_EQ(r.rig.nodes.size(), plain.rig.nodes.size());
+  EXPECT_TRUE(plain.report.notes.empty());
+  // The other way round, the source's eye is noted too.
+  const TransferResult back = transfer(make_tube_net(), with_eye, tris);
+  EXPECT_TRUE(back.report.ok);
+  EXPECT_EQ(back.report.notes.size(), 1u);
+}
+
 TEST(Transfer, CurvesOnACoarseTargetFollowItsSurfaceAndKeepTheirAnglesAtARidge) {
   // Issue 21's decimated fox, rebuilt: a fine limb and a coarse pentagonal
   // prism of it, a node just beside one of the prism's ridges, two curves

@@ -285,7 +285,11 @@ int run_transfer(const TransferArgs& a) {
   if (rep.ok)
     files.add(a.out, rig_to_json(r.rig));
   files.commit();
+  for (const auto& n : rep.notes)
+    std::cerr << "note: " << n << "\n";
   print_transfer(std::cout, a.from, source.num_faces(), a.to, target.num_faces(), rep, a.out);
+  if (!rep.ok && !rep.problems.empty()) // the refusal in one line, beside the report
+    std::cerr << "curvenet: error: " << a.to << ": " << rep.problems.front() << "\n";
   return rep.ok ? 0 : 1;
 }
 

@@ -95,6 +95,9 @@ struct TransferReport {
   std::optional<SkeletonFit> skeleton_fit;
   bool ok = false; ///< the target embedding is ok with the same logical counts
   std::vector<std::string> problems;
+  /// What the user should know that is not a problem: parts of one mesh
+  /// that no curve touches, left out of the comparison.
+  std::vector<std::string> notes;
 };
 
 struct TransferResult {
