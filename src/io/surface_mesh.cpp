@@ -536,10 +536,18 @@ std::string open_parts_words(const SurfaceMesh& mesh) {
   const auto open = std::count_if(parts.begin(), parts.end(), [](const ComponentInfo& p) { return !p.closed; });
   if (open == 0)
     return {};
+  // Where loading kept coincident vertices apart (welding them would give an
+  // edge of three or more faces, as Blender's Remesh leaves a few), that is
+  // where the boundary is: said, as the file itself has no hole there.
+  std::string kept;
+  for (const std::string& n : mesh.notes)
+    if (n.rfind("kept ", 0) == 0)
+      kept = " where loading " + n.substr(0, n.find(',')) +
+             ", as welding them would give edges of more than two faces; dissolve or split those edges in the modeller";
   if (parts.size() == 1)
-    return "it has a boundary";
+    return "it has a boundary" + kept;
   return std::to_string(open) + " of its " + std::to_string(parts.size()) + " parts " + (open == 1 ? "has" : "have") +
-         " a boundary";
+         " a boundary" + kept;
 }
 
 namespace {
