@@ -1091,6 +1091,51 @@ TEST(StarterStages, ARepairGivesUpWhatTheFailureNamesAndStopsWhenNothingIsLeft) 
   EXPECT_THROW(detail::repair_net(t.c, t.rings, found.rings, found.ringless, net, "not ok", st), EmbedError);
 }
 
+TEST(StarterStages, AGiveUpOnAMeshInOpenPiecesSaysSo) {
+  // A mesh decimated without welding falls apart into open pieces, and the
+  // starter gave up with "found 0 regions, expected 1" and nothing more.
+  RawMesh raw;
+  const SurfaceMesh limb = tube();
+  raw.positions = limb.positions;
+  for (int f = 0; f < limb.num_faces(); ++f) {
+    const auto c = limb.face(f);
+    raw.add_face(std::vector<int>(c.begin(), c.end()));
+  }
+  const RawMesh g = test::grid(2, 2);
+  for (int copy = 0; copy < 2; ++copy) { // two open pieces beside the limb
+    const int base = static_cast<int>(raw.positions.size());
+    for (const Vec3& p : g.positions)
+      raw.positions.push_back(p + Vec3(10 + 5 * copy, 0, 0));
+    for (int f = 0; f + 1 < static_cast<int>(g.face_offsets.size()); ++f) {
+      std::vector<int> corners;
+      for (int k = g.face_offsets[f]; k < g.face_offsets[f + 1]; ++k)
+        corners.push_back(base + g.face_vertices[k]);
+      raw.add_face(corners);
+    }
+  }
+  const SurfaceMesh pieces = make_surface_mesh(raw, "pieces");
+  const std::vector<Joint> joints = make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7});
+  for (const SurfaceMesh* m : {&limb, &pieces}) {
+    detail::StarterContext c{*m, joints, [](const std::string&) {}};
+    detail::RingOptions rings;
+    detail::NetOptions net_options;
+    detail::RingsResult found = detail::candidate_rings(c, rings);
+    detail::NetRepairs st;
+    st.kept = detail::keep_clear_rings(c, rings, found.rings, found.ringless);
+    st.parent_ring = detail::chain_rings(c, rings, found.rings, st.kept);
+    const detail::NetResult net = detail::build_net(
+        c, net_options, found.rings, st.active(), [&](int i) { return st.effective_parent(i); }, st.join_attempt);
+    st.attempts = 1000;
+    try {
+      detail::repair_net(c, rings, found.rings, found.ringless, net, "found 0 regions, expected 1", st);
+      ADD_FAILURE() << "no give-up";
+    } catch (const EmbedError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.find("the mesh is in 3 parts, 2 of them open") != std::string::npos, m == &pieces) << what;
+    }
+  }
+}
+
 TEST(StarterStages, TwoProfilesAlongAChainThatComeTooCloseTakeAnotherPathBeforeARingMoves) {
   // On a thin part two longitudinals between neighbouring nodes can meet
   // (their plane sections cross on the surface). The repair first gives one

@@ -61,7 +61,7 @@ TEST(SurfaceMesh, SaysWhichOfItsPartsAreOpen) {
     book.add_face(std::array<int, 3>{base, base + 1, base + 2});
   }
   const std::string words = open_parts_words(make_surface_mesh(book, "book"));
-  EXPECT_NE(words.find("where loading kept "), std::string::npos) << words;
+  EXPECT_NE(words.find("; loading kept "), std::string::npos) << words;
   EXPECT_NE(words.find("edges of more than two faces"), std::string::npos) << words;
 }
 

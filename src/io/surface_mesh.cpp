@@ -542,8 +542,9 @@ std::string open_parts_words(const SurfaceMesh& mesh) {
   std::string kept;
   for (const std::string& n : mesh.notes)
     if (n.rfind("kept ", 0) == 0)
-      kept = " where loading " + n.substr(0, n.find(',')) +
-             ", as welding them would give edges of more than two faces; dissolve or split those edges in the modeller";
+      kept = "; loading " + n.substr(0, n.find(',')) +
+             ", as welding them would give edges of more than two faces, which leaves a boundary there: dissolve or "
+             "split those edges in the modeller";
   if (parts.size() == 1)
     return "it has a boundary" + kept;
   return std::to_string(open) + " of its " + std::to_string(parts.size()) + " parts " + (open == 1 ? "has" : "have") +

@@ -5,6 +5,7 @@
 #include "curvenet/errors.hpp"
 #include "starter/stages.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace curvenet::detail {
@@ -26,6 +27,20 @@ int NetRepairs::effective_parent(int i) const {
 }
 
 namespace {
+
+/// Where the mesh is in several open parts, said after a refusal: a net's
+/// curves cannot cross from one part to another (a mesh decimated or
+/// exported without welding falls apart at its seams).
+std::string in_pieces(const SurfaceMesh& mesh) {
+  const auto parts = mesh_components(mesh);
+  const auto open = std::count_if(parts.begin(), parts.end(), [](const ComponentInfo& p) { return !p.closed; });
+  if (open < 2)
+    return "";
+  return "; the mesh is in " + std::to_string(parts.size()) + " parts, " + std::to_string(open) +
+         " of them open, and no curve crosses from one part to another: weld it (Blender's Merge by Distance) if "
+         "its parts were one surface";
+}
+
 
 /// A join given up once more; with both of a chain's joins given up, the
 /// chain joins the nearest other ring up its chain or hanging from one (the
@@ -126,7 +141,7 @@ void move_or_drop(const StarterContext& c, const RingOptions& ro, std::vector<Ri
   if (r.frac == 1)
     ringless[r.joint] = m;
   if (st.dropped.size() == st.kept.size())
-    throw EmbedError("starter: could not make a net that embeds: " + failure);
+    throw EmbedError("starter: could not make a net that embeds: " + failure + in_pieces(c.mesh));
   readmit_displaced(c, ro, rings, ringless, culprit, "is dropped", st);
 }
 
@@ -154,7 +169,7 @@ void repair_net(const StarterContext& c, const RingOptions& ro, std::vector<Ring
         }
   }
   if (++st.attempts > 6 * static_cast<int>(rings.size()) + 9)
-    throw EmbedError("starter: could not make a net that embeds: " + failure);
+    throw EmbedError("starter: could not make a net that embeds: " + failure + in_pieces(c.mesh));
   // What the failure names: a join first, then the child ring of a
   // longitudinal, then the ring of an arc; a trunk's ring last of all.
   int culprit = -1, best_rank = 4;
