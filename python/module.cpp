@@ -841,12 +841,14 @@ PYBIND11_MODULE(_curvenet, m) {
         o.middle_nodes = middle_nodes;
         std::optional<SkinnedMesh> file_skin; // a skinned file's, read here
         const SkinnedMesh* skin = nullptr;
+        std::string placed_note;
         if (py::isinstance<py::str>(skeleton)) { // a file, read once: its joints, and which its skin weights
           const std::string path = skeleton.cast<std::string>();
           py::gil_scoped_release release;
-          SkeletonFile f = read_skeleton_file(path);
+          SkeletonFile f = read_skeleton_file(path, mesh); // placed for the mesh, as the CLI's --skeleton
           joints = std::move(f.joints);
           o.deforming = std::move(f.deforming);
+          placed_note = std::move(f.note);
           if (weight_rule == "auto" || weight_rule == "skin")
             if (is_skinned_file(path)) {
               file_skin = load_skinned_mesh(path);
@@ -882,7 +884,10 @@ PYBIND11_MODULE(_curvenet, m) {
         o.first_angle_deg = first_angle;
         o.weights = weight_options(weight_rule == "auto" || weight_rule == "skin" ? "blend-zone" : weight_rule, blend);
         py::gil_scoped_release release;
-        return make_starter(mesh, joints, o);
+        StarterResult r = make_starter(mesh, joints, o);
+        if (!placed_note.empty())
+          r.messages.insert(r.messages.begin(), placed_note);
+        return r;
       },
       py::arg("mesh"), py::arg("skeleton"), py::kw_only(), py::arg("nodes_per_ring") = 4, py::arg("rings_per_bone") = 1,
       py::arg("coverage") = "auto", py::arg("first_angle") = 0.0, py::arg("weight_rule") = "auto",

@@ -337,7 +337,10 @@ int run_starter(const StarterArgs& a) {
     throw InputError(
         a.mesh, "",
         "has no skin to take a skeleton from: give one with --skeleton (a rig file, or a skinned glTF or FBX)");
-  const SkeletonFile skeleton = read_skeleton_file(a.skeleton.empty() ? a.mesh : a.skeleton);
+  const SkeletonFile skeleton =
+      a.skeleton.empty() ? read_skeleton_file(a.mesh) : read_skeleton_file(a.skeleton, mesh);
+  if (!skeleton.note.empty())
+    std::cout << "note: " << skeleton.note << "\n";
   const std::vector<Joint>& joints = skeleton.joints;
   StarterOptions opt;
   opt.deforming = skeleton.deforming; // a skin says which joints deform

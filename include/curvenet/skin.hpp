@@ -14,6 +14,8 @@
 
 namespace curvenet {
 
+struct SurfaceMesh; // surface_mesh.hpp
+
 namespace detail {
 struct GltfScene;
 }
@@ -89,9 +91,17 @@ std::vector<Joint> load_skeleton(const std::string& path);
 struct SkeletonFile {
   std::vector<Joint> joints;
   std::set<std::string> deforming; ///< empty for a rig file
+  std::string note;                ///< how the joints were placed for a mesh, when they were
 };
 /// \throw InputError as load_skeleton() does.
 SkeletonFile read_skeleton_file(const std::string& path);
+/// The skeleton of `path` for `mesh`: where `path` is a skinned glTF whose
+/// armature places its skeleton (Blender's exports scale it by 100 and turn
+/// it to Y up), and the joints as bound lie outside the mesh (under half in
+/// its box grown by a tenth) while the placed ones lie inside (nine in ten),
+/// the placed joints, with a note: an OBJ exported from Blender is in the
+/// scene's space, not the skin's.
+SkeletonFile read_skeleton_file(const std::string& path, const SurfaceMesh& mesh);
 /// Whether a path names a file with skins (glTF, GLB or FBX), by its extension.
 bool is_skinned_file(const std::string& path);
 

@@ -32,7 +32,16 @@ Scene read_scene(const SceneFiles& files) {
   s.files = files;
   s.mesh = load_mesh(files.mesh);
   s.notes = load_notes(s.mesh, files.mesh);
-  s.rig = read_scene_rig(files);
+  // A skeleton file is placed for the mesh (read_skeleton_file): a
+  // Blender OBJ and the glTF its skeleton comes from are in other spaces.
+  if (files.skeleton.empty()) {
+    s.rig = read_scene_rig(files);
+  } else {
+    SkeletonFile skeleton = read_skeleton_file(files.skeleton, s.mesh);
+    if (!skeleton.note.empty())
+      s.notes.push_back(skeleton.note);
+    s.rig = with_skeleton(read_rig(files.rig), std::move(skeleton.joints), files.skeleton);
+  }
   return s;
 }
 

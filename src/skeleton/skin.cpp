@@ -1,4 +1,5 @@
 #include "curvenet/skin.hpp"
+#include "curvenet/surface_mesh.hpp"
 
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
@@ -11,7 +12,9 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <iomanip>
 #include <set>
+#include <sstream>
 
 #include "core/dual_quaternion.hpp"
 #include "core/matrix_checks.hpp"
@@ -280,6 +283,64 @@ SkeletonFile read_skeleton_file(const std::string& path) {
 
 std::vector<Joint> load_skeleton(const std::string& path) {
   return read_skeleton_file(path).joints;
+}
+
+namespace {
+
+/// How well joints moved by `m` fit a mesh's box: the share of them in the
+/// box (grown by a tenth of its diagonal), and the diagonal of their own box
+/// over the mesh's.
+std::pair<double, double> fit_in(const std::vector<Joint>& joints, const Mat4& m, const Eigen::AlignedBox3d& mesh_box) {
+  Eigen::AlignedBox3d grown = mesh_box, own;
+  const Vec3 grow = Vec3::Constant(0.1 * mesh_box.diagonal().norm());
+  grown.extend(Vec3(mesh_box.min() - grow));
+  grown.extend(Vec3(mesh_box.max() + grow));
+  int in = 0;
+  for (const Joint& j : joints) {
+    const Vec3 p = (m * j.bind).block<3, 1>(0, 3);
+    in += grown.contains(p);
+    own.extend(p);
+  }
+  if (joints.empty())
+    return {0.0, 0.0};
+  return {static_cast<double>(in) / static_cast<double>(joints.size()),
+          own.diagonal().norm() / mesh_box.diagonal().norm()};
+}
+
+} // namespace
+
+SkeletonFile read_skeleton_file(const std::string& path, const SurfaceMesh& mesh) {
+  SkeletonFile file = read_skeleton_file(path);
+  if (!is_skinned_file(path) || mesh.positions.empty())
+    return file;
+  const Mat4 a = load_skinned_mesh(path).armature();
+  if (a.isIdentity(0) || !a.allFinite())
+    return file;
+  Eigen::AlignedBox3d box;
+  for (const Vec3& p : mesh.positions)
+    box.extend(p);
+  if (!(box.diagonal().norm() > 0))
+    return file;
+  // A skeleton fits a mesh where nine in ten of its joints lie in its box
+  // and it spans a third of it or more; the bound joints are kept unless
+  // they do not fit (half of them outside, or a tenth of the mesh's size:
+  // the Quaternius animals' skins are a hundredth of the scene's).
+  const auto [bound_in, bound_size] = fit_in(file.joints, Mat4::Identity(), box);
+  const auto [placed_in, placed_size] = fit_in(file.joints, a, box);
+  const bool bound_fits = bound_in >= 0.5 && bound_size >= 0.1;
+  if (bound_fits || !(placed_in >= 0.9 && placed_size >= 1.0 / 3 && placed_size <= 3))
+    return file;
+  const double bound = bound_in, placed = placed_in;
+  for (Joint& j : file.joints)
+    j.bind = a * j.bind;
+  std::ostringstream note;
+  note << std::filesystem::path(path).filename().string() << ": its joints as bound do not fit "
+       << std::filesystem::path(mesh.source).filename().string() << " (" << std::lround(100 * bound)
+       << "% of them in its box, spanning " << std::setprecision(2) << 100 * bound_size
+       << "% of it), and as its armature places them they do (" << std::lround(100 * placed)
+       << "% in it): taken as placed (a mesh exported in the scene's space, as Blender writes an OBJ)";
+  file.note = note.str();
+  return file;
 }
 
 Rig with_skeleton(Rig rig, std::vector<Joint> joints, const std::string& source) {
