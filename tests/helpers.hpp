@@ -38,6 +38,20 @@ inline Rig skinned_starter(const std::string& file) {
   return make_starter(load_mesh(file), skin.joints, so).rig;
 }
 
+/// `part`'s faces added to `to` as a part of their own, its points scaled
+/// by `scale` and moved by `offset`.
+inline void add_part(RawMesh& to, const RawMesh& part, const Vec3& offset, double scale = 1.0) {
+  const int base = static_cast<int>(to.positions.size());
+  for (const Vec3& p : part.positions)
+    to.positions.push_back(scale * p + offset);
+  for (size_t f = 0; f + 1 < part.face_offsets.size(); ++f) {
+    std::vector<int> corners;
+    for (int k = part.face_offsets[f]; k < part.face_offsets[f + 1]; ++k)
+      corners.push_back(base + part.face_vertices[static_cast<size_t>(k)]);
+    to.add_face(corners);
+  }
+}
+
 /// An n x m grid of unit quads in the plane z = 0, from (0,0) to (n,m).
 inline RawMesh grid(int n, int m, bool triangles = false) {
   RawMesh r;

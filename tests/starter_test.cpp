@@ -1102,17 +1102,8 @@ TEST(StarterStages, AGiveUpOnAMeshInOpenPiecesSaysSo) {
     raw.add_face(std::vector<int>(c.begin(), c.end()));
   }
   const RawMesh g = test::grid(2, 2);
-  for (int copy = 0; copy < 2; ++copy) { // two open pieces beside the limb
-    const int base = static_cast<int>(raw.positions.size());
-    for (const Vec3& p : g.positions)
-      raw.positions.push_back(p + Vec3(10 + 5 * copy, 0, 0));
-    for (int f = 0; f + 1 < static_cast<int>(g.face_offsets.size()); ++f) {
-      std::vector<int> corners;
-      for (int k = g.face_offsets[f]; k < g.face_offsets[f + 1]; ++k)
-        corners.push_back(base + g.face_vertices[k]);
-      raw.add_face(corners);
-    }
-  }
+  for (int copy = 0; copy < 2; ++copy) // two open pieces beside the limb
+    test::add_part(raw, g, Vec3(10 + 5 * copy, 0, 0));
   const SurfaceMesh pieces = make_surface_mesh(raw, "pieces");
   const std::vector<Joint> joints = make_tube_skeleton({0.3, 1.2, 2.1, 3.0, 3.7});
   for (const SurfaceMesh* m : {&limb, &pieces}) {

@@ -36,15 +36,7 @@ TEST(SurfaceMesh, SaysWhichOfItsPartsAreOpen) {
     both.add_face(std::array<int, 3>{tube.face(f)[0], tube.face(f)[1], tube.face(f)[2]});
   const RawMesh g = test::grid(2, 2);
   for (int copy = 0; copy < 2; ++copy) {
-    const int base = static_cast<int>(both.positions.size());
-    for (const Vec3& p : g.positions)
-      both.positions.push_back(p + Vec3(10 + 5 * copy, 0, 0));
-    for (int f = 0; f + 1 < static_cast<int>(g.face_offsets.size()); ++f) {
-      std::vector<int> corners;
-      for (int k = g.face_offsets[f]; k < g.face_offsets[f + 1]; ++k)
-        corners.push_back(base + g.face_vertices[k]);
-      both.add_face(corners);
-    }
+    test::add_part(both, g, Vec3(10 + 5 * copy, 0, 0));
     EXPECT_EQ(open_parts_words(make_surface_mesh(both, "parts")),
               copy == 0 ? "1 of its 2 parts has a boundary" : "2 of its 3 parts have a boundary");
   }

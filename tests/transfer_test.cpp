@@ -106,16 +106,7 @@ TEST(Transfer, APartOfTheTargetThatNoCurveTouchesIsNotedAndLeftOutOfTheCompariso
   limb.cap_rings = 7;
   limb.triangulate = true;
   RawMesh raw = make_capped_tube(limb);
-  const RawMesh eye = make_capped_tube(eye_spec);
-  const int base = static_cast<int>(raw.positions.size());
-  for (const Vec3& p : eye.positions)
-    raw.positions.push_back(0.05 * p + Vec3(3, 0, 0)); // small, beside the limb
-  for (size_t f = 0; f + 1 < eye.face_offsets.size(); ++f) {
-    std::vector<int> corners;
-    for (int k = eye.face_offsets[f]; k < eye.face_offsets[f + 1]; ++k)
-      corners.push_back(base + eye.face_vertices[static_cast<size_t>(k)]);
-    raw.add_face(corners);
-  }
+  test::add_part(raw, make_capped_tube(eye_spec), Vec3(3, 0, 0), 0.05); // small, beside the limb
   const SurfaceMesh with_eye = make_surface_mesh(raw, "tube with an eye");
   const TransferResult plain = transfer(make_tube_net(), quads, tris), r = transfer(make_tube_net(), quads, with_eye);
   ASSERT_TRUE(plain.report.ok);
