@@ -273,49 +273,87 @@ TEST(Skin, ClipMatricesMatchJointsByNameAndFramesCoverTheClip) {
 }
 
 TEST(Skin, ARigPlacedByTheClipFilesArmatureTakesItsRootKeysOnce) {
-  // The horse's armature scales its skeleton by 100 and turns it to Y up,
-  // and its root keys carry that. A rig whose skeleton is the horse's as the
-  // armature places it (a rig transferred to a Blender re-export, which
+  // A Blender export's armature scales its skeleton by 100 and turns it to
+  // Y up, and its root keys carry that (the T-rex's root bind also has a
+  // scale of 3 that its rest lacks). A rig whose skeleton is the file's as
+  // its rest places it (a rig transferred to a Blender re-export, which
   // applies the armature to the mesh) was moved by the armature twice: the
-  // horse's walk made its mesh a hundred times too large, on its back. It
-  // now poses where the horse's own rig poses it.
+  // walk made its mesh a hundred times too large, on its back. It now poses
+  // where the file's own rig poses it, on all four animals.
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
-  const SkinnedMesh horse = load_skinned_mesh(test::data("quaternius/Horse.glb"));
-  const Mat4 a = horse.armature();
-  ASSERT_GT((a - Mat4::Identity()).cwiseAbs().maxCoeff(), 1.0);
-  auto placed = horse.joints;
-  for (Joint& j : placed)
-    j.bind = a * j.bind;
-  EXPECT_TRUE(placed_by_armature(placed, horse));
-  EXPECT_FALSE(placed_by_armature(horse.joints, horse));
+  for (const char* name : {"Horse", "Wolf", "Trex", "Apatosaurus"}) {
+    const SkinnedMesh file = load_skinned_mesh(test::data(std::string("quaternius/") + name + ".glb"));
+    const std::vector<Mat4> placing = file.rest_placing();
+    ASSERT_EQ(placing.size(), file.joints.size());
+    ASSERT_GT((placing[0] - Mat4::Identity()).cwiseAbs().maxCoeff(), 1.0) << name;
+    auto placed = file.joints;
+    for (size_t j = 0; j < placed.size(); ++j)
+      placed[j].bind = placing[j] * placed[j].bind;
+    EXPECT_TRUE(placed_by_armature(placed, file)) << name;
+    EXPECT_FALSE(placed_by_armature(file.joints, file)) << name;
+    const std::string n = name;
+    const int walk = file.find_clip(n == "Trex" ? "TRex_Walk" : n == "Apatosaurus" ? "Apatosaurus_Walk" : "Walk");
+    ASSERT_GE(walk, 0) << name;
+    const auto [t0, t1] = file.clip_range(walk);
+    for (const double t : {t0, 0.5 * (t0 + t1)}) {
+      const auto own = clip_skinning_matrices(file.joints, file, walk, t);
+      const auto moved = clip_skinning_matrices(placed, file, walk, t);
+      // A point p of the file's mesh bound to joint j is placing_j * p on
+      // the placed mesh: posed, it lands where the file's own rig puts p.
+      double worst = 0, size = 0;
+      for (size_t j = 0; j < own.size(); ++j) {
+        worst = std::max(worst, (moved[j] * placing[j] - own[j]).cwiseAbs().maxCoeff());
+        size = std::max(size, own[j].cwiseAbs().maxCoeff());
+      }
+      EXPECT_LE(worst, 1e-6 * size) << name << " at " << t; // the clip's keys are floats
+    }
+    // Which the note about an armature applied twice no longer says.
+    for (const std::string& note : clip_notes(placed, file))
+      EXPECT_EQ(note.find("a second time"), std::string::npos) << name << ": " << note;
+    // A re-export that also moves the placed skeleton and its mesh as a
+    // whole (Blender lowers the Apatosaurus by twice its root's height) is
+    // placed by that move: its mesh plays where the file's does.
+    const Mat4 a = file.armature();
+    Mat4 shift = Mat4::Identity();
+    shift.block<3, 1>(0, 3) = 2 * Mat4(a * file.joints[0].bind).block<3, 1>(0, 3) + Eigen::Vector3d(0.3, -0.2, 0.1);
+    const Mat4 g = shift * a;
+    auto moved_rig = file.joints;
+    for (Joint& j : moved_rig)
+      j.bind = g * j.bind;
+    EXPECT_TRUE(placed_by_armature(moved_rig, file)) << name;
+    for (const double t : {t0, 0.5 * (t0 + t1)}) {
+      const auto own = clip_skinning_matrices(file.joints, file, walk, t);
+      const auto moved = clip_skinning_matrices(moved_rig, file, walk, t);
+      double worst = 0, size = 0;
+      for (size_t j = 0; j < own.size(); ++j) {
+        worst = std::max(worst, (moved[j] * g - own[j]).cwiseAbs().maxCoeff());
+        size = std::max(size, own[j].cwiseAbs().maxCoeff());
+      }
+      EXPECT_LE(worst, 1e-6 * size) << name << " moved, at " << t;
+    }
+    // A skeleton only moved, not at the scene's scale and turn, is the
+    // user's own placing: its keys are taken as they are.
+    auto only_moved = file.joints;
+    for (Joint& j : only_moved)
+      j.bind = shift * j.bind;
+    EXPECT_FALSE(placed_by_armature(only_moved, file)) << name;
+  }
   // A Blender re-export's skeleton is the horse's placed, to its float
-  // export, with other bone axes.
+  // export, with other bone axes: its root moves as the horse's does (to
+  // the pose format's translation, rotation and scale per axis, which a
+  // root scaled unevenly and turned to other axes bends a little).
+  const SkinnedMesh horse = load_skinned_mesh(test::data("quaternius/Horse.glb"));
   const auto again = load_skinned_mesh(std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Horse_decimated.glb");
   EXPECT_TRUE(placed_by_armature(again.joints, horse));
-  const int walk = horse.find_clip("Walk");
-  ASSERT_GE(walk, 0);
-  const auto [t0, t1] = horse.clip_range(walk);
-  for (const double t : {t0, 0.5 * (t0 + t1)}) {
-    const auto own = clip_skinning_matrices(horse.joints, horse, walk, t);
-    const auto moved = clip_skinning_matrices(placed, horse, walk, t);
-    // A point p of the horse's mesh is a * p on the placed mesh: posed, it
-    // lands where the horse's own rig puts p.
-    double worst = 0, size = 0;
-    for (size_t j = 0; j < own.size(); ++j) {
-      worst = std::max(worst, (moved[j] * a - own[j]).cwiseAbs().maxCoeff());
-      size = std::max(size, own[j].cwiseAbs().maxCoeff());
-    }
-    EXPECT_LE(worst, 1e-6 * size) << "t " << t; // the clip's keys are floats
-    // The re-export's root moves as the horse's does, whatever its axes.
-    const auto its = clip_skinning_matrices(again.joints, horse, walk, t);
-    ASSERT_EQ(again.joints[0].name, horse.joints[0].name);
-    ASSERT_FALSE(horse.joints[0].parent);
-    EXPECT_LE((its[0] * a - own[0]).cwiseAbs().maxCoeff(), 1e-3 * size) << "t " << t;
+  ASSERT_EQ(again.joints[0].name, horse.joints[0].name);
+  ASSERT_FALSE(horse.joints[0].parent);
+  const Mat4 p0 = horse.rest_placing()[0];
+  for (const double t : {0.0, 0.4}) {
+    const auto own = clip_skinning_matrices(horse.joints, horse, horse.find_clip("Walk"), t);
+    const auto its = clip_skinning_matrices(again.joints, horse, horse.find_clip("Walk"), t);
+    EXPECT_LE((its[0] * p0 - own[0]).cwiseAbs().maxCoeff(), 1e-3 * own[0].cwiseAbs().maxCoeff()) << t;
   }
-  // Which the note about an armature applied twice no longer says.
-  for (const std::string& note : clip_notes(placed, horse))
-    EXPECT_EQ(note.find("a second time"), std::string::npos) << note;
 }
 
 TEST(Skin, ASkeletonFileIsPlacedByItsArmatureForAMeshInTheScenesSpace) {
@@ -347,7 +385,7 @@ TEST(Skin, ASkeletonFileIsPlacedByItsArmatureForAMeshInTheScenesSpace) {
   double worst = 0;
   for (const Joint& j : placed.joints)
     worst = std::max(worst, (Vec3(j.bind.block<3, 1>(0, 3)) - there.at(j.name)).norm());
-  EXPECT_LT(worst, 1e-4 * scene_mesh.bbox_diagonal());
+  EXPECT_LT(worst, 1e-3 * scene_mesh.bbox_diagonal());
   // A rig file, or a skin without an armature, is as it was.
   const std::string hand = test::data("xr_tools_hand/hand_l.gltf");
   EXPECT_TRUE(read_skeleton_file(hand, scene_mesh).note.empty());

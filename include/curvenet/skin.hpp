@@ -54,6 +54,14 @@ public:
   /// identity where the roots are scene roots, have parents at different
   /// places, or the file has no node hierarchy (FBX).
   [[nodiscard]] Mat4 armature() const;
+  /// Where the file's rest shows each joint's bind: the rest skinning matrix
+  /// of the root above it (its rest world times its inverse bind), one per
+  /// joint. The identity where the file rests at its binds; the armature's
+  /// scale of 100 and turn to Y up in a Blender export (times a root's own
+  /// scale that its bind has and its rest lacks: the T-rex's 3). A matrix
+  /// that is not a similarity (a shear, a mirror) or not finite is the
+  /// identity: such a file places nothing.
+  [[nodiscard]] std::vector<Mat4> rest_placing() const;
 
   std::shared_ptr<const detail::GltfScene> scene;
   std::vector<int> joint_node; ///< glTF node of each joint

@@ -476,6 +476,8 @@ std::string skinned_glb(const std::string& mesh_path, const std::vector<Joint>& 
             break;
           one = one ? one : p;
         }
+        if (!agree || !one)
+          break;
         placing[j] = *one;
         first = first ? first : one;
       }

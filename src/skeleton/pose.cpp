@@ -16,6 +16,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 
 namespace curvenet {
@@ -186,30 +187,96 @@ Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
   return pose;
 }
 
-bool placed_by_armature(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
-  const Mat4 a = clips.armature();
-  if (a.isIdentity(0))
-    return false;
-  std::map<std::string, Eigen::Vector3d> in_file;
-  for (const Joint& j : clips.joints)
-    in_file[j.name] = j.bind.block<3, 1>(0, 3);
+namespace {
+
+/// The placing, per joint of the file, under which the file's joints lie
+/// where the rig's do, or none (placed_by_armature).
+std::optional<std::vector<Mat4>> armature_placing(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  // The ways the file's scene may show its joints: under its armature at
+  // their binds, or at their roots' rest (a root whose rest is not its
+  // bind: the T-rex's has a scale of 3 the bind has and the rest lacks).
+  // Blender's importer takes the one or the other as its rest, and its
+  // re-exports keep it.
+  const std::vector<Mat4> placing = clips.rest_placing();
+  const Mat4 armature = clips.armature();
+  std::vector<std::vector<Mat4>> ways;
+  if (!armature.isIdentity(0) && armature.allFinite())
+    ways.emplace_back(clips.joints.size(), armature);
+  if (!std::all_of(placing.begin(), placing.end(), [](const Mat4& m) { return m.isIdentity(0); }))
+    ways.push_back(placing);
+  if (ways.empty())
+    return std::nullopt;
+  std::map<std::string, size_t> in_file;
+  for (size_t j = 0; j < clips.joints.size(); ++j)
+    in_file[clips.joints[j].name] = j;
   // The joints' places (a re-export may turn the bones' axes), within a
-  // hundredth of the rig's skeleton's extent, where the armature moves the
+  // hundredth of the rig's skeleton's extent, where the placing moves the
   // file's joints by more.
   Eigen::AlignedBox3d box;
-  double placed = 0, unplaced = 0;
-  int matched = 0;
-  for (const Joint& j : rig) {
-    const Eigen::Vector3d q = j.bind.block<3, 1>(0, 3);
-    box.extend(q);
+  for (const Joint& j : rig)
+    box.extend(Eigen::Vector3d(j.bind.block<3, 1>(0, 3)));
+  const double tol = 1e-2 * box.diagonal().norm();
+  auto apart = [&](const std::vector<Mat4>* way) {
+    double worst = 0;
+    int matched = 0;
+    for (const Joint& j : rig)
+      if (const auto it = in_file.find(j.name); it != in_file.end()) {
+        const Mat4& b = clips.joints[it->second].bind;
+        const Eigen::Vector3d at = way ? Eigen::Vector3d(Mat4((*way)[it->second] * b).block<3, 1>(0, 3))
+                                       : Eigen::Vector3d(b.block<3, 1>(0, 3));
+        worst = std::max(worst, (at - j.bind.block<3, 1>(0, 3)).norm());
+        ++matched;
+      }
+    return matched >= 2 ? worst : std::numeric_limits<double>::infinity();
+  };
+  if (apart(nullptr) <= tol)
+    return std::nullopt;
+  // A re-export may also move the whole skeleton and its mesh (Blender puts
+  // the Apatosaurus's twice its root's place lower): the similarity that
+  // takes the file's binds to the rig's joints places it, where its scale
+  // and turn are a way's, whatever its translation.
+  std::vector<Eigen::Vector3d> from, to;
+  for (const Joint& j : rig)
     if (const auto it = in_file.find(j.name); it != in_file.end()) {
-      placed = std::max(placed, (a.topLeftCorner<3, 3>() * it->second + a.block<3, 1>(0, 3) - q).norm());
-      unplaced = std::max(unplaced, (it->second - q).norm());
-      ++matched;
+      from.push_back(clips.joints[it->second].bind.block<3, 1>(0, 3));
+      to.push_back(j.bind.block<3, 1>(0, 3));
+    }
+  if (from.size() >= 3) {
+    Eigen::Matrix3Xd P(3, from.size()), Q(3, to.size());
+    for (size_t k = 0; k < from.size(); ++k) {
+      P.col(static_cast<Eigen::Index>(k)) = from[k];
+      Q.col(static_cast<Eigen::Index>(k)) = to[k];
+    }
+    const Mat4 g = Eigen::umeyama(P, Q, true);
+    const Eigen::Matrix3d turn = g.topLeftCorner<3, 3>();
+    const bool a_ways = g.allFinite() && std::any_of(ways.begin(), ways.end(), [&](const std::vector<Mat4>& way) {
+      return std::all_of(way.begin(), way.end(), [&](const Mat4& m) {
+        const Eigen::Matrix3d w = m.topLeftCorner<3, 3>();
+        return (w - turn).norm() <= 1e-2 * w.norm();
+      });
+    });
+    if (a_ways) {
+      const std::vector<Mat4> moved(clips.joints.size(), g);
+      if (apart(&moved) <= tol)
+        ways.push_back(moved);
     }
   }
-  const double tol = 1e-2 * box.diagonal().norm();
-  return matched >= 2 && placed <= tol && !(unplaced <= tol);
+  // The nearer way, where both fit (they differ a little where a root's
+  // rest is not quite its bind, as on the horse and the wolf).
+  const std::vector<Mat4>* best = nullptr;
+  double nearest = tol;
+  for (const auto& way : ways)
+    if (const double d = apart(&way); d <= nearest) {
+      nearest = d;
+      best = &way;
+    }
+  return best ? std::optional<std::vector<Mat4>>(*best) : std::nullopt;
+}
+
+} // namespace
+
+bool placed_by_armature(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  return armature_placing(rig, clips).has_value();
 }
 
 Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int clip, double t) {
@@ -217,11 +284,13 @@ Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int 
   for (const auto& j : rig)
     if (auto it = all.find(j.name); it != all.end())
       pose.insert(*it);
-  if (!placed_by_armature(rig, clips))
+  const auto placing = armature_placing(rig, clips);
+  if (!placing)
     return pose;
-  // A root of the file moves in the world by W(t) (A B)^-1, from where the
-  // armature A rests it; its entry moves the rig's joint (bind R) by that.
-  const Mat4 a = clips.armature();
+  // The rig's mesh is the file's placed: a point p of the file's is P p on
+  // it. A root of the file skins p by W(t) B^-1, so P p by
+  // W(t) B^-1 P^-1, and the rig's root (bind R, whatever its bone's axes)
+  // takes the entry that gives it that skinning matrix.
   const auto world = clips.joint_world(clip, t);
   std::map<std::string, const Joint*> in_rig;
   for (const Joint& j : rig)
@@ -229,7 +298,8 @@ Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int 
   for (size_t j = 0; j < clips.joints.size() && j < world.size(); ++j)
     if (const auto it = in_rig.find(clips.joints[j].name); !clips.joints[j].parent && it != in_rig.end()) {
       const Mat4& r = it->second->bind;
-      pose[it->first] = entry_of(r.inverse() * world[j] * Mat4(a * clips.joints[j].bind).inverse() * r);
+      const Mat4 placed_bind = (*placing)[j] * clips.joints[j].bind;
+      pose[it->first] = entry_of(r.inverse() * world[j] * placed_bind.inverse() * r);
     }
   return pose;
 }

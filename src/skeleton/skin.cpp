@@ -213,6 +213,38 @@ Mat4 SkinnedMesh::armature() const {
   return a.allFinite() ? a : Mat4::Identity();
 }
 
+std::vector<Mat4> SkinnedMesh::rest_placing() const {
+  std::vector<Mat4> out(joints.size(), Mat4::Identity());
+  if (!scene)
+    return out;
+  const std::vector<Mat4> rest = skinning_matrices(-1, 0);
+  std::map<std::string, size_t> index;
+  for (size_t j = 0; j < joints.size(); ++j)
+    index[joints[j].name] = j;
+  auto similarity = [](const Mat4& m) {
+    if (!m.allFinite() || m.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+      return false;
+    const Eigen::Matrix3d a = m.topLeftCorner<3, 3>();
+    const double det = a.determinant();
+    if (!(det > 0))
+      return false;
+    const double s = std::cbrt(det);
+    return ((a.transpose() * a) / (s * s) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-4;
+  };
+  for (size_t j = 0; j < joints.size() && j < rest.size(); ++j) {
+    size_t root = j;
+    for (int hops = 0; joints[root].parent && hops < static_cast<int>(joints.size()); ++hops) {
+      const auto it = index.find(*joints[root].parent);
+      if (it == index.end())
+        break;
+      root = it->second;
+    }
+    if (root < rest.size() && similarity(rest[root]))
+      out[j] = rest[root];
+  }
+  return out;
+}
+
 std::vector<Mat4> SkinnedMesh::skinning_matrices(int clip, double t) const {
   auto m = joint_world(clip, t);
   for (size_t j = 0; j < m.size(); ++j)
@@ -287,58 +319,66 @@ std::vector<Joint> load_skeleton(const std::string& path) {
 
 namespace {
 
-/// How well joints moved by `m` fit a mesh's box: the share of them in the
-/// box (grown by a tenth of its diagonal), and the diagonal of their own box
-/// over the mesh's.
-std::pair<double, double> fit_in(const std::vector<Joint>& joints, const Mat4& m, const Eigen::AlignedBox3d& mesh_box) {
-  Eigen::AlignedBox3d grown = mesh_box, own;
-  const Vec3 grow = Vec3::Constant(0.1 * mesh_box.diagonal().norm());
-  grown.extend(Vec3(mesh_box.min() - grow));
-  grown.extend(Vec3(mesh_box.max() + grow));
-  int in = 0;
+/// The share of a skeleton's joints and bones' middles that lie inside the
+/// mesh (winding number a half or more).
+double share_inside(const std::vector<Joint>& joints, const SurfaceMesh& mesh) {
+  std::map<std::string, Vec3> at;
+  for (const Joint& j : joints)
+    at[j.name] = j.bind.block<3, 1>(0, 3);
+  int in = 0, points = 0;
   for (const Joint& j : joints) {
-    const Vec3 p = (m * j.bind).block<3, 1>(0, 3);
-    in += grown.contains(p);
-    own.extend(p);
+    const Vec3 p = at[j.name];
+    in += mesh.winding_number(p) >= 0.5;
+    ++points;
+    if (j.parent)
+      if (const auto it = at.find(*j.parent); it != at.end()) {
+        in += mesh.winding_number((p + it->second) / 2) >= 0.5;
+        ++points;
+      }
   }
-  if (joints.empty())
-    return {0.0, 0.0};
-  return {static_cast<double>(in) / static_cast<double>(joints.size()),
-          own.diagonal().norm() / mesh_box.diagonal().norm()};
+  return points > 0 ? static_cast<double>(in) / points : 0.0;
 }
 
 } // namespace
 
 SkeletonFile read_skeleton_file(const std::string& path, const SurfaceMesh& mesh) {
-  SkeletonFile file = read_skeleton_file(path);
-  if (!is_skinned_file(path) || mesh.positions.empty())
+  const std::string ext = detail::lower_extension(path);
+  if ((ext != ".gltf" && ext != ".glb") || mesh.positions.empty()) // an FBX has no node hierarchy read: bound
+    return read_skeleton_file(path);
+  SkinnedMesh skin = load_skinned_mesh(path);
+  SkeletonFile file{skin.joints, weighted_joints(skin), ""};
+  // The ways the file's scene may show its joints (placed_by_armature):
+  // under its armature at their binds, or at their roots' rest. The one
+  // that lies inside the mesh, by the share of its joints and bones'
+  // middles the mesh winds round, is taken where it lies inside (half or
+  // more) and the bound skeleton clearly less (by a quarter).
+  const std::vector<Mat4> rest = skin.rest_placing();
+  const Mat4 armature = skin.armature();
+  std::vector<std::vector<Mat4>> ways;
+  if (!armature.isIdentity(0) && armature.allFinite())
+    ways.emplace_back(file.joints.size(), armature);
+  if (!std::all_of(rest.begin(), rest.end(), [](const Mat4& m) { return m.isIdentity(0); }))
+    ways.push_back(rest);
+  const double bound = share_inside(file.joints, mesh);
+  double best = 0;
+  std::vector<Joint> chosen;
+  for (const auto& way : ways) {
+    std::vector<Joint> placed = file.joints;
+    for (size_t j = 0; j < placed.size(); ++j)
+      placed[j].bind = way[j] * placed[j].bind;
+    if (const double in = share_inside(placed, mesh); in > best) {
+      best = in;
+      chosen = std::move(placed);
+    }
+  }
+  if (!(best >= 0.5 && best >= bound + 0.25))
     return file;
-  const Mat4 a = load_skinned_mesh(path).armature();
-  if (a.isIdentity(0) || !a.allFinite())
-    return file;
-  Eigen::AlignedBox3d box;
-  for (const Vec3& p : mesh.positions)
-    box.extend(p);
-  if (!(box.diagonal().norm() > 0))
-    return file;
-  // A skeleton fits a mesh where nine in ten of its joints lie in its box
-  // and it spans a third of it or more; the bound joints are kept unless
-  // they do not fit (half of them outside, or a tenth of the mesh's size:
-  // the Quaternius animals' skins are a hundredth of the scene's).
-  const auto [bound_in, bound_size] = fit_in(file.joints, Mat4::Identity(), box);
-  const auto [placed_in, placed_size] = fit_in(file.joints, a, box);
-  const bool bound_fits = bound_in >= 0.5 && bound_size >= 0.1;
-  if (bound_fits || !(placed_in >= 0.9 && placed_size >= 1.0 / 3 && placed_size <= 3))
-    return file;
-  const double bound = bound_in, placed = placed_in;
-  for (Joint& j : file.joints)
-    j.bind = a * j.bind;
+  file.joints = std::move(chosen);
   std::ostringstream note;
-  note << std::filesystem::path(path).filename().string() << ": its joints as bound do not fit "
-       << std::filesystem::path(mesh.source).filename().string() << " (" << std::lround(100 * bound)
-       << "% of them in its box, spanning " << std::setprecision(2) << 100 * bound_size
-       << "% of it), and as its armature places them they do (" << std::lround(100 * placed)
-       << "% in it): taken as placed (a mesh exported in the scene's space, as Blender writes an OBJ)";
+  note << std::filesystem::path(path).filename().string() << ": its joints lie inside "
+       << std::filesystem::path(mesh.source).filename().string() << " as the file's scene places them ("
+       << std::lround(100 * best) << "% of its joints and bones' middles, against " << std::lround(100 * bound)
+       << "% as bound): taken as placed (a mesh exported in the scene's space, as Blender writes an OBJ)";
   file.note = note.str();
   return file;
 }
