@@ -131,6 +131,25 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
     EXPECT_EQ(e.what(), animate_says);
   }
   EXPECT_FALSE(fs::exists(dir / "job3"));
+  // A skinned FBX as the clip file: its skeleton is read, its animation is
+  // not, and the farm says so in animate's words (it had said the file has
+  // no clips).
+  still.clip_file = std::string(CURVENET_SOURCE_DIR) + "/tests/data/good/fbx_skinned.fbx";
+  try {
+    (void)prepare_farm(farm_of(still, dir / "job4", 20));
+    ADD_FAILURE() << "an FBX clip file was planned";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.element(), "animation");
+    EXPECT_NE(std::string(e.what()).find("glTF or GLB files only"), std::string::npos) << e.what();
+    std::string animate_says;
+    try {
+      (void)run(still);
+    } catch (const InputError& a) {
+      animate_says = a.what();
+    }
+    EXPECT_EQ(e.what(), animate_says);
+  }
+  EXPECT_FALSE(fs::exists(dir / "job4"));
 }
 
 TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
