@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 
@@ -412,6 +413,46 @@ TEST(OutputFiles, ASymbolicLinkKeepsItsPlaceAndTheFileItNamesIsReplaced) {
   EXPECT_EQ(slurp(dir / "real" / "r.json"), "new");
   // A folder is not a file to write.
   EXPECT_THROW(write_file_atomic((dir / "real").string(), "x"), Error);
+  fs::remove_all(dir);
+}
+
+TEST(OutputFiles, ASequenceOfMoreFilesThanTheProcessMayOpenIsWrittenAndItsStaleTemporariesGo) {
+  // An OBJ sequence of thousands of frames is one set of outputs: each file
+  // is closed once written (1,020 frames had failed under the usual limit
+  // of 1,024 open files), and a killed run's temporaries beside any of them
+  // go, the folder read once.
+  const fs::path dir = fs::temp_directory_path() / "curvenet_output_files_many";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path stale = dir / "f_0150.obj.tmp-curvenet-2147483646", live = dir / "f_0151.obj.tmp-curvenet-1";
+  std::ofstream(stale) << "half a frame";
+  std::ofstream(live) << "another run's";
+  rlimit before{};
+  ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &before), 0);
+  rlimit low = before;
+  low.rlim_cur = std::min<rlim_t>(before.rlim_cur, 64);
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &low), 0);
+  bool written = false;
+  std::string why;
+  try {
+    OutputFiles files;
+    for (int k = 0; k < 300; ++k)
+      files.add((dir / ("f_" + std::string(k < 10 ? "000" : k < 100 ? "00" : "0") + std::to_string(k) + ".obj")).string(),
+                "v " + std::to_string(k) + " 0 0\n");
+    files.commit();
+    written = true;
+  } catch (const Error& e) {
+    why = e.what();
+  }
+  ::setrlimit(RLIMIT_NOFILE, &before);
+  ASSERT_TRUE(written) << why;
+  EXPECT_EQ(slurp(dir / "f_0299.obj"), "v 299 0 0\n");
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(live)); // pid 1 is alive
+  int left = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    left += e.path().filename().string().find(".tmp-curvenet-") != std::string::npos;
+  EXPECT_EQ(left, 1);
   fs::remove_all(dir);
 }
 

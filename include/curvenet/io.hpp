@@ -58,7 +58,8 @@ public:
   OutputFiles(const OutputFiles&) = delete;
   OutputFiles& operator=(const OutputFiles&) = delete;
   ~OutputFiles();
-  /// \throw Error naming the path when it cannot be written.
+  /// Written and closed at once (a sequence of thousands of frames holds
+  /// no file open). \throw Error naming the path when it cannot be written.
   void add(const std::string& path, const std::string& contents);
   /// A stream to write `path` progressively (a point cache frame by frame).
   /// Write errors are found by commit().
@@ -68,12 +69,15 @@ public:
 
 private:
   struct File;
+  struct Seen;
   std::vector<std::unique_ptr<File>> files_;
+  std::unique_ptr<Seen> seen_; ///< destinations and the folders' stale temporaries, looked up once
   std::vector<std::string> made_dirs_; ///< folders this set created, outermost first
   bool committed_ = false;
 };
 
-/// Writes a polygon mesh as OBJ with 17 significant digits.
+/// Writes a polygon mesh as OBJ, each number as the shortest text that
+/// reads back to it exactly.
 std::string mesh_to_obj(const std::vector<Vec3>& positions, const std::vector<int>& face_offsets,
                         const std::vector<int>& face_vertices);
 

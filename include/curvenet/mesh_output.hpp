@@ -31,7 +31,7 @@ struct InputTopology {
 InputTopology read_input_topology(const std::string& path);
 
 /// OBJ text of the input topology at `positions` (one per input vertex),
-/// coordinates with 17 significant digits so they read back exactly.
+/// each coordinate as the shortest text that reads back to it exactly.
 std::string posed_obj(const InputTopology& topology, std::span<const Eigen::Vector3d> positions);
 
 /// A PC2 point cache (Blender's Mesh Cache modifier): float32 positions of

@@ -26,6 +26,8 @@
 #include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <unordered_map>
+#include <unordered_set>
 #include <unistd.h>
 
 namespace curvenet {
@@ -120,17 +122,25 @@ std::string mesh_to_obj(const std::vector<Vec3>& positions, const std::vector<in
   for (size_t v = 0; v < positions.size(); ++v)
     if (!positions[v].allFinite())
       throw Error("vertex " + std::to_string(v) + " of the mesh to write is not finite; nothing was written");
-  std::ostringstream out;
-  out << std::setprecision(17);
-  for (const auto& p : positions)
-    out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
-  for (size_t f = 0; f + 1 < face_offsets.size(); ++f) {
-    out << 'f';
-    for (int k = face_offsets[f]; k < face_offsets[f + 1]; ++k)
-      out << ' ' << face_vertices[k] + 1;
-    out << '\n';
+  std::string out;
+  out.reserve(64 * positions.size() + 8 * face_vertices.size());
+  for (const auto& p : positions) {
+    out += 'v';
+    for (int c = 0; c < 3; ++c) {
+      out += ' ';
+      detail::append_number(out, p[c]);
+    }
+    out += '\n';
   }
-  return out.str();
+  for (size_t f = 0; f + 1 < face_offsets.size(); ++f) {
+    out += 'f';
+    for (int k = face_offsets[f]; k < face_offsets[f + 1]; ++k) {
+      out += ' ';
+      detail::append_number(out, face_vertices[k] + 1);
+    }
+    out += '\n';
+  }
+  return out;
 }
 
 namespace {
@@ -141,25 +151,28 @@ std::string temp_name(const std::string& path) {
   return path + kTempTag + std::to_string(::getpid());
 }
 
-/// Removes DEST.tmp-curvenet-PID files whose process is gone: what a killed
-/// run left behind.
-void remove_stale_temporaries(const std::filesystem::path& dest) {
+/// The DEST.tmp-curvenet-PID files of a folder whose process is gone (what
+/// a killed run left behind), by DEST's file name: the folder is read once,
+/// however many files are written into it.
+std::unordered_map<std::string, std::vector<std::filesystem::path>> stale_temporaries(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;
+  std::unordered_map<std::string, std::vector<fs::path>> out;
   std::error_code ec;
-  const fs::path dir = dest.has_parent_path() ? dest.parent_path() : fs::path(".");
-  const std::string prefix = dest.filename().string() + kTempTag;
+  const std::string tag = kTempTag;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    if (name.rfind(prefix, 0) != 0)
+    const size_t at = name.rfind(tag);
+    if (at == std::string::npos || at == 0)
       continue;
-    const std::string pid_text = name.substr(prefix.size());
-    if (pid_text.empty() ||
+    const std::string pid_text = name.substr(at + tag.size());
+    if (pid_text.empty() || pid_text.size() > 10 ||
         !std::all_of(pid_text.begin(), pid_text.end(), [](unsigned char c) { return std::isdigit(c); }))
       continue;
     const long pid = std::strtol(pid_text.c_str(), nullptr, 10);
     if (pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH))
-      fs::remove(it->path(), ec);
+      out[name.substr(0, at)].push_back(it->path());
   }
+  return out;
 }
 
 } // namespace
@@ -167,6 +180,12 @@ void remove_stale_temporaries(const std::filesystem::path& dest) {
 struct OutputFiles::File {
   std::string dest, temp; ///< temp is empty for a destination written in place
   std::ofstream out;
+  bool closed = false; ///< written whole by add() and closed
+};
+
+struct OutputFiles::Seen {
+  std::unordered_set<std::string> keys; ///< the destinations given, resolved
+  std::unordered_map<std::string, std::unordered_map<std::string, std::vector<std::filesystem::path>>> stale; ///< by folder
 };
 
 namespace {
@@ -188,7 +207,7 @@ bool written_in_place(const std::filesystem::path& path) {
 
 } // namespace
 
-OutputFiles::OutputFiles() = default;
+OutputFiles::OutputFiles() : seen_(std::make_unique<Seen>()) {}
 
 OutputFiles::~OutputFiles() {
   if (committed_)
@@ -235,10 +254,18 @@ std::ostream& OutputFiles::stream(const std::string& path) {
     }
     // Two outputs given one path: the second would replace the first.
     const fs::path key = fs::weakly_canonical(fs::absolute(target, ec), ec);
-    for (const auto& other : files_)
-      if (!other->temp.empty() && fs::weakly_canonical(fs::absolute(other->dest, ec), ec) == key)
-        throw Error(path + ": two outputs were given this one path; give each its own");
-    remove_stale_temporaries(target);
+    if (!seen_->keys.insert(key.string()).second)
+      throw Error(path + ": two outputs were given this one path; give each its own");
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    const std::string dir_key = key.parent_path().string();
+    auto in_dir = seen_->stale.find(dir_key);
+    if (in_dir == seen_->stale.end())
+      in_dir = seen_->stale.emplace(dir_key, stale_temporaries(dir)).first;
+    if (const auto old = in_dir->second.find(target.filename().string()); old != in_dir->second.end()) {
+      for (const fs::path& t : old->second)
+        fs::remove(t, ec);
+      in_dir->second.erase(old);
+    }
     f->dest = target.string();
     f->temp = temp_name(f->dest);
     f->out.open(f->temp, std::ios::binary | std::ios::trunc);
@@ -250,18 +277,22 @@ std::ostream& OutputFiles::stream(const std::string& path) {
 }
 
 void OutputFiles::add(const std::string& path, const std::string& contents) {
-  std::ostream& out = stream(path);
-  out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
-  out.flush();
-  if (!out)
+  stream(path);
+  File& f = *files_.back();
+  f.out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
+  f.out.close();
+  f.closed = true;
+  if (f.out.fail())
     throw Error(path + ": write failed (is the disk full?)");
 }
 
 void OutputFiles::commit() {
   // Every file finished before any destination is touched.
   for (auto& f : files_) {
-    f->out.flush();
-    f->out.close();
+    if (!f->closed) {
+      f->out.flush();
+      f->out.close();
+    }
     if (f->out.fail())
       throw Error(f->dest + ": write failed (is the disk full?)");
   }

@@ -1,5 +1,7 @@
 #include "curvenet/mesh_output.hpp"
 
+#include "core/numbers.hpp"
+
 #include "curvenet/errors.hpp"
 #include "curvenet/io.hpp"
 #include "io/file_bytes.hpp"
@@ -87,31 +89,46 @@ std::string posed_obj(const InputTopology& t, std::span<const Eigen::Vector3d> p
     for (int k = b; k < e; ++k)
       normals[t.corner_normal[k]] += n;
   }
-  std::ostringstream out;
-  out << std::setprecision(17);
-  out << "# curvenet: posed on the input's topology\n";
+  std::string out = "# curvenet: posed on the input's topology\n";
+  out.reserve(64 * (positions.size() + normals.size()) + 24 * f.face_vertices.size());
+  auto triple = [&](const char* tag, const Eigen::Vector3d& p) {
+    out += tag;
+    for (int c = 0; c < 3; ++c) {
+      out += ' ';
+      detail::append_number(out, p[c]);
+    }
+    out += '\n';
+  };
   for (const auto& p : positions)
-    out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
-  for (const auto& uv : t.uv)
-    out << "vt " << uv.x() << ' ' << uv.y() << '\n';
+    triple("v", p);
+  for (const auto& uv : t.uv) {
+    out += "vt ";
+    detail::append_number(out, uv.x());
+    out += ' ';
+    detail::append_number(out, uv.y());
+    out += '\n';
+  }
   for (auto n : normals) {
     if (n.norm() > 0)
       n.normalize();
     if (!n.allFinite())
       throw Error("a normal of the posed mesh is not finite; nothing was written");
-    out << "vn " << n.x() << ' ' << n.y() << ' ' << n.z() << '\n';
+    triple("vn", n);
   }
   for (size_t face = 0; face + 1 < f.face_offsets.size(); ++face) {
-    out << 'f';
+    out += 'f';
     for (int k = f.face_offsets[face]; k < f.face_offsets[face + 1]; ++k) {
-      out << ' ' << f.face_vertices[k] + 1 << '/';
+      out += ' ';
+      detail::append_number(out, f.face_vertices[k] + 1);
+      out += '/';
       if (t.corner_uv[k] >= 0)
-        out << t.corner_uv[k] + 1;
-      out << '/' << t.corner_normal[k] + 1;
+        detail::append_number(out, t.corner_uv[k] + 1);
+      out += '/';
+      detail::append_number(out, t.corner_normal[k] + 1);
     }
-    out << '\n';
+    out += '\n';
   }
-  return out.str();
+  return out;
 }
 
 std::string pc2_header(int points, int frames, float start_frame) {

@@ -305,12 +305,12 @@ SkeletonFile read_skeleton_file(const std::string& path) {
   if (is_skinned_file(path)) {
     SkinnedMesh skin = load_skinned_mesh(path);
     std::set<std::string> deforming = weighted_joints(skin);
-    return {std::move(skin.joints), std::move(deforming)};
+    return {std::move(skin.joints), std::move(deforming), ""};
   }
   Rig rig = read_rig(path);
   if (!rig.has_skeleton)
     throw InputError(path, "/skeleton", "the rig file has no skeleton");
-  return {std::move(rig.joints), {}};
+  return {std::move(rig.joints), {}, ""};
 }
 
 std::vector<Joint> load_skeleton(const std::string& path) {
