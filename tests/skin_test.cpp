@@ -339,6 +339,20 @@ TEST(Skin, ARigPlacedByTheClipFilesArmatureTakesItsRootKeysOnce) {
       j.bind = shift * j.bind;
     EXPECT_FALSE(placed_by_armature(only_moved, file)) << name;
   }
+  // A file that rests at its binds, to its floats (the hand's rest placing
+  // is the identity within 4e-8), places nothing: a rig its user moved or
+  // turned keeps its keys, and stays where it was put.
+  const SkinnedMesh hand = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  EXPECT_TRUE(hand.scene_placings().empty());
+  Mat4 moved_by_user = Mat4::Identity();
+  moved_by_user.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  moved_by_user.block<3, 1>(0, 3) = Eigen::Vector3d(0.05, -0.02, 0.1);
+  for (const Mat4& m : {moved_by_user, Mat4(Eigen::Affine3d(Eigen::Translation3d(0.05, -0.02, 0.1)).matrix())}) {
+    auto rig = hand.joints;
+    for (Joint& j : rig)
+      j.bind = m * j.bind;
+    EXPECT_FALSE(placed_by_armature(rig, hand));
+  }
   // A Blender re-export's skeleton is the horse's placed, to its float
   // export, with other bone axes: its root moves as the horse's does (to
   // the pose format's translation, rotation and scale per axis, which a

@@ -62,6 +62,12 @@ public:
   /// that is not a similarity (a shear, a mirror) or not finite is the
   /// identity: such a file places nothing.
   [[nodiscard]] std::vector<Mat4> rest_placing() const;
+  /// The ways the file's scene may show its joints, one matrix per joint
+  /// each: the armature for every joint, and rest_placing(). A way that
+  /// places nothing (within a millionth of the identity, and of the
+  /// skeleton's extent: a file that rests at its binds, to its floats) is
+  /// left out, so a file that places nothing gives none.
+  [[nodiscard]] std::vector<std::vector<Mat4>> scene_placings() const;
 
   std::shared_ptr<const detail::GltfScene> scene;
   std::vector<int> joint_node; ///< glTF node of each joint

@@ -151,12 +151,24 @@ std::string temp_name(const std::string& path) {
   return path + kTempTag + std::to_string(::getpid());
 }
 
+/// Whether the process that named a temporary is gone (or is this one).
+bool gone(long pid) {
+  return pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH);
+}
+
+/// A temporary of a folder and the process it names.
+struct Temporary {
+  std::filesystem::path path;
+  long pid;
+};
+
 /// The DEST.tmp-curvenet-PID files of a folder whose process is gone (what
 /// a killed run left behind), by DEST's file name: the folder is read once,
-/// however many files are written into it.
-std::unordered_map<std::string, std::vector<std::filesystem::path>> stale_temporaries(const std::filesystem::path& dir) {
+/// however many files are written into it (each is checked again when its
+/// destination is written: a process id may be taken again meanwhile).
+std::unordered_map<std::string, std::vector<Temporary>> stale_temporaries(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;
-  std::unordered_map<std::string, std::vector<fs::path>> out;
+  std::unordered_map<std::string, std::vector<Temporary>> out;
   std::error_code ec;
   const std::string tag = kTempTag;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
@@ -169,8 +181,8 @@ std::unordered_map<std::string, std::vector<std::filesystem::path>> stale_tempor
         !std::all_of(pid_text.begin(), pid_text.end(), [](unsigned char c) { return std::isdigit(c); }))
       continue;
     const long pid = std::strtol(pid_text.c_str(), nullptr, 10);
-    if (pid == ::getpid() || (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH))
-      out[name.substr(0, at)].push_back(it->path());
+    if (gone(pid))
+      out[name.substr(0, at)].push_back({it->path(), pid});
   }
   return out;
 }
@@ -185,7 +197,7 @@ struct OutputFiles::File {
 
 struct OutputFiles::Seen {
   std::unordered_set<std::string> keys; ///< the destinations given, resolved
-  std::unordered_map<std::string, std::unordered_map<std::string, std::vector<std::filesystem::path>>> stale; ///< by folder
+  std::unordered_map<std::string, std::unordered_map<std::string, std::vector<Temporary>>> stale; ///< by folder
 };
 
 namespace {
@@ -262,8 +274,9 @@ std::ostream& OutputFiles::stream(const std::string& path) {
     if (in_dir == seen_->stale.end())
       in_dir = seen_->stale.emplace(dir_key, stale_temporaries(dir)).first;
     if (const auto old = in_dir->second.find(target.filename().string()); old != in_dir->second.end()) {
-      for (const fs::path& t : old->second)
-        fs::remove(t, ec);
+      for (const Temporary& t : old->second)
+        if (gone(t.pid))
+          fs::remove(t.path, ec);
       in_dir->second.erase(old);
     }
     f->dest = target.string();

@@ -197,13 +197,7 @@ std::optional<std::vector<Mat4>> armature_placing(const std::vector<Joint>& rig,
   // bind: the T-rex's has a scale of 3 the bind has and the rest lacks).
   // Blender's importer takes the one or the other as its rest, and its
   // re-exports keep it.
-  const std::vector<Mat4> placing = clips.rest_placing();
-  const Mat4 armature = clips.armature();
-  std::vector<std::vector<Mat4>> ways;
-  if (!armature.isIdentity(0) && armature.allFinite())
-    ways.emplace_back(clips.joints.size(), armature);
-  if (!std::all_of(placing.begin(), placing.end(), [](const Mat4& m) { return m.isIdentity(0); }))
-    ways.push_back(placing);
+  std::vector<std::vector<Mat4>> ways = clips.scene_placings();
   if (ways.empty())
     return std::nullopt;
   std::map<std::string, size_t> in_file;
@@ -234,7 +228,9 @@ std::optional<std::vector<Mat4>> armature_placing(const std::vector<Joint>& rig,
   // A re-export may also move the whole skeleton and its mesh (Blender puts
   // the Apatosaurus's twice its root's place lower): the similarity that
   // takes the file's binds to the rig's joints places it, where its scale
-  // and turn are a way's, whatever its translation.
+  // and turn are a way's, whatever its translation, and are a scale or a
+  // turn (a way that only moves the skeleton says nothing of a rig moved
+  // by its user).
   std::vector<Eigen::Vector3d> from, to;
   for (const Joint& j : rig)
     if (const auto it = in_file.find(j.name); it != in_file.end()) {
@@ -252,7 +248,7 @@ std::optional<std::vector<Mat4>> armature_placing(const std::vector<Joint>& rig,
     const bool a_ways = g.allFinite() && std::any_of(ways.begin(), ways.end(), [&](const std::vector<Mat4>& way) {
       return std::all_of(way.begin(), way.end(), [&](const Mat4& m) {
         const Eigen::Matrix3d w = m.topLeftCorner<3, 3>();
-        return (w - turn).norm() <= 1e-2 * w.norm();
+        return (w - turn).norm() <= 1e-2 * w.norm() && (w - Eigen::Matrix3d::Identity()).norm() > 1e-2 * w.norm();
       });
     });
     if (a_ways) {

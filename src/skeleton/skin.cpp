@@ -247,6 +247,23 @@ std::vector<Mat4> SkinnedMesh::rest_placing() const {
   return out;
 }
 
+std::vector<std::vector<Mat4>> SkinnedMesh::scene_placings() const {
+  Eigen::AlignedBox3d box;
+  for (const Joint& j : joints)
+    box.extend(Vec3(j.bind.block<3, 1>(0, 3)));
+  const double extent = joints.empty() ? 0.0 : box.diagonal().norm();
+  auto places = [&](const Mat4& m) {
+    return m.allFinite() && ((m.topLeftCorner<3, 3>() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6 ||
+                             m.block<3, 1>(0, 3).norm() > 1e-6 * extent);
+  };
+  std::vector<std::vector<Mat4>> ways;
+  if (const Mat4 a = armature(); places(a))
+    ways.emplace_back(joints.size(), a);
+  if (std::vector<Mat4> rest = rest_placing(); std::any_of(rest.begin(), rest.end(), places))
+    ways.push_back(std::move(rest));
+  return ways;
+}
+
 std::vector<Mat4> SkinnedMesh::skinning_matrices(int clip, double t) const {
   auto m = joint_world(clip, t);
   for (size_t j = 0; j < m.size(); ++j)
@@ -322,7 +339,8 @@ std::vector<Joint> load_skeleton(const std::string& path) {
 namespace {
 
 /// The share of a skeleton's joints and bones' middles that lie inside the
-/// mesh (winding number a half or more): at most 64 of them, evenly spread
+/// mesh (winding number a half or more, either way round: an inside-out
+/// mesh holds them too): at most 64 of them, evenly spread
 /// over the list (the same ones for every placing of one skeleton), in
 /// parallel, as each costs a pass over the faces.
 double share_inside(const std::vector<Joint>& joints, const SurfaceMesh& mesh) {
@@ -347,7 +365,7 @@ double share_inside(const std::vector<Joint>& joints, const SurfaceMesh& mesh) {
     points = std::move(some);
   }
   std::vector<char> inside(points.size(), 0);
-  tbb::parallel_for(size_t{0}, points.size(), [&](size_t k) { inside[k] = mesh.winding_number(points[k]) >= 0.5; });
+  tbb::parallel_for(size_t{0}, points.size(), [&](size_t k) { inside[k] = std::abs(mesh.winding_number(points[k])) >= 0.5; });
   return static_cast<double>(std::count(inside.begin(), inside.end(), 1)) / static_cast<double>(points.size());
 }
 
@@ -364,13 +382,7 @@ SkeletonFile read_skeleton_file(const std::string& path, const SurfaceMesh& mesh
   // that lies inside the mesh, by the share of its joints and bones'
   // middles the mesh winds round, is taken where it lies inside (half or
   // more) and the bound skeleton clearly less (by a quarter).
-  const std::vector<Mat4> rest = skin.rest_placing();
-  const Mat4 armature = skin.armature();
-  std::vector<std::vector<Mat4>> ways;
-  if (!armature.isIdentity(0) && armature.allFinite())
-    ways.emplace_back(file.joints.size(), armature);
-  if (!std::all_of(rest.begin(), rest.end(), [](const Mat4& m) { return m.isIdentity(0); }))
-    ways.push_back(rest);
+  const std::vector<std::vector<Mat4>> ways = skin.scene_placings();
   if (ways.empty())
     return file;
   const double bound = share_inside(file.joints, mesh);
