@@ -114,42 +114,31 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
   EXPECT_THROW(prepare_farm(farm_of(bad, dir / "job2", 20)), InputError);
   EXPECT_FALSE(fs::exists(dir / "job2"));
   // A clip file without clips is refused as animate refuses it (the farm had
-  // a check of its own, with other words).
+  // a check of its own, with other words): a glTF without animations, and a
+  // skinned FBX, whose skeleton is read and its animation not.
   AnimateJob still = walk(dir, 95);
-  still.clip_file = test::data("xr_tools_hand/hand_l.gltf"); // a skin, no animation
-  try {
-    (void)prepare_farm(farm_of(still, dir / "job3", 20));
-    ADD_FAILURE() << "a clip file without clips was planned";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.element(), "/animations");
-    std::string animate_says;
+  auto refused_as_animate_refuses = [&](const std::string& clip_file, const std::string& job, const char* element,
+                                        const char* words) {
+    still.clip_file = clip_file;
     try {
-      (void)run(still);
-    } catch (const InputError& a) {
-      animate_says = a.what();
+      (void)prepare_farm(farm_of(still, dir / job, 20));
+      ADD_FAILURE() << clip_file << " was planned";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.element(), element);
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+      std::string animate_says;
+      try {
+        (void)run(still);
+      } catch (const InputError& a) {
+        animate_says = a.what();
+      }
+      EXPECT_EQ(e.what(), animate_says);
     }
-    EXPECT_EQ(e.what(), animate_says);
-  }
-  EXPECT_FALSE(fs::exists(dir / "job3"));
-  // A skinned FBX as the clip file: its skeleton is read, its animation is
-  // not, and the farm says so in animate's words (it had said the file has
-  // no clips).
-  still.clip_file = std::string(CURVENET_SOURCE_DIR) + "/tests/data/good/fbx_skinned.fbx";
-  try {
-    (void)prepare_farm(farm_of(still, dir / "job4", 20));
-    ADD_FAILURE() << "an FBX clip file was planned";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.element(), "animation");
-    EXPECT_NE(std::string(e.what()).find("glTF or GLB files only"), std::string::npos) << e.what();
-    std::string animate_says;
-    try {
-      (void)run(still);
-    } catch (const InputError& a) {
-      animate_says = a.what();
-    }
-    EXPECT_EQ(e.what(), animate_says);
-  }
-  EXPECT_FALSE(fs::exists(dir / "job4"));
+    EXPECT_FALSE(fs::exists(dir / job));
+  };
+  refused_as_animate_refuses(test::data("xr_tools_hand/hand_l.gltf"), "job3", "/animations", "no animation clips");
+  refused_as_animate_refuses(std::string(CURVENET_SOURCE_DIR) + "/tests/data/good/fbx_skinned.fbx", "job4",
+                             "animation", "glTF or GLB files only");
 }
 
 TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {
