@@ -332,6 +332,22 @@ TEST(OutputFiles, AFailedSetLeavesNeitherFilesNorTheFoldersItMade) {
     out.commit();
   }
   EXPECT_EQ(slurp(dir / "new" / "deeper" / "b.txt"), "b");
+  // A file where a folder should be is named as such (an OBJ sequence given
+  // a file's name), the set and the file left as they were.
+  std::ofstream(dir / "a_file") << "mine";
+  for (const fs::path& into : {dir / "a_file" / "frame_0000.obj", dir / "a_file" / "sub" / "frame_0000.obj"}) {
+    OutputFiles out;
+    out.add((dir / "kept" / "c.txt").string(), "c");
+    try {
+      out.add(into.string(), "v 0 0 0\n");
+      ADD_FAILURE() << into << " was opened";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find((dir / "a_file").string() + " is a file, not a folder"), std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_EQ(slurp(dir / "a_file"), "mine");
+  EXPECT_FALSE(fs::exists(dir / "kept" / "c.txt"));
   fs::remove_all(dir);
 }
 
