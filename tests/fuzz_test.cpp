@@ -31,6 +31,7 @@
 #include <functional>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 
 using namespace curvenet;
 namespace fs = std::filesystem;
@@ -163,6 +164,10 @@ TEST(Fuzz, ReadersReadOrRefuseEveryMutatedFile) {
        [](const std::string& p) {
          load_mesh(p);
          const SkinnedMesh s = load_skinned_mesh(p);
+         for (const auto& way : s.scene_placings()) // where its scene places its joints: finite, one per joint
+           for (const Mat4& m : way)
+             if (way.size() != s.joints.size() || !m.allFinite())
+               throw std::logic_error("a scene placing that is not finite or not one per joint");
          for (int c = 0; c < s.num_clips(); ++c) {
            const auto [t0, t1] = s.clip_range(c);
            (void)s.joint_world(c, (t0 + t1) / 2);
