@@ -137,8 +137,8 @@ TEST(Farm, TheFolderHoldsAManifestWithChecksumsShardsAndAnArrayScript) {
     EXPECT_FALSE(fs::exists(dir / job));
   };
   refused_as_animate_refuses(test::data("xr_tools_hand/hand_l.gltf"), "job3", "/animations", "no animation clips");
-  refused_as_animate_refuses(std::string(CURVENET_SOURCE_DIR) + "/tests/data/good/fbx_skinned.fbx", "job4",
-                             "animation", "glTF or GLB files only");
+  refused_as_animate_refuses(std::string(CURVENET_SOURCE_DIR) + "/tests/data/good/fbx_skinned.fbx", "job4", "animation",
+                             "glTF or GLB files only");
 }
 
 TEST(Farm, MergedShardsAreBitForBitOneAnimateAsPc2AndAsObjSequence) {

@@ -453,7 +453,12 @@ TEST(OutputFiles, ASequenceOfMoreFilesThanTheProcessMayOpenIsWrittenAndItsStaleT
   try {
     OutputFiles files;
     for (int k = 0; k < 300; ++k)
-      files.add((dir / ("f_" + std::string(k < 10 ? "000" : k < 100 ? "00" : "0") + std::to_string(k) + ".obj")).string(),
+      files.add((dir / ("f_" +
+                        std::string(k < 10    ? "000"
+                                    : k < 100 ? "00"
+                                              : "0") +
+                        std::to_string(k) + ".obj"))
+                    .string(),
                 "v " + std::to_string(k) + " 0 0\n");
     files.commit();
     written = true;

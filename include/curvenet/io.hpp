@@ -71,7 +71,7 @@ private:
   struct File;
   struct Seen;
   std::vector<std::unique_ptr<File>> files_;
-  std::unique_ptr<Seen> seen_; ///< destinations and the folders' stale temporaries, looked up once
+  std::unique_ptr<Seen> seen_;         ///< destinations and the folders' stale temporaries, looked up once
   std::vector<std::string> made_dirs_; ///< folders this set created, outermost first
   bool committed_ = false;
 };

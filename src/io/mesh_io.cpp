@@ -26,9 +26,9 @@
 #include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <unistd.h>
 #include <unordered_map>
 #include <unordered_set>
-#include <unistd.h>
 
 namespace curvenet {
 

@@ -245,12 +245,13 @@ std::optional<std::vector<Mat4>> armature_placing(const std::vector<Joint>& rig,
     }
     const Mat4 g = Eigen::umeyama(P, Q, true);
     const Eigen::Matrix3d turn = g.topLeftCorner<3, 3>();
-    const bool a_ways = g.allFinite() && std::any_of(ways.begin(), ways.end(), [&](const std::vector<Mat4>& way) {
-      return std::all_of(way.begin(), way.end(), [&](const Mat4& m) {
-        const Eigen::Matrix3d w = m.topLeftCorner<3, 3>();
-        return (w - turn).norm() <= 1e-2 * w.norm() && (w - Eigen::Matrix3d::Identity()).norm() > 1e-2 * w.norm();
-      });
-    });
+    const bool a_ways =
+        g.allFinite() && std::any_of(ways.begin(), ways.end(), [&](const std::vector<Mat4>& way) {
+          return std::all_of(way.begin(), way.end(), [&](const Mat4& m) {
+            const Eigen::Matrix3d w = m.topLeftCorner<3, 3>();
+            return (w - turn).norm() <= 1e-2 * w.norm() && (w - Eigen::Matrix3d::Identity()).norm() > 1e-2 * w.norm();
+          });
+        });
     if (a_ways) {
       const std::vector<Mat4> moved(clips.joints.size(), g);
       if (apart(&moved) <= tol)

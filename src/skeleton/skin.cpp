@@ -340,9 +340,9 @@ namespace {
 
 /// The share of a skeleton's joints and bones' middles that lie inside the
 /// mesh (winding number a half or more, either way round: an inside-out
-/// mesh holds them too): at most 64 of them, evenly spread
-/// over the list (the same ones for every placing of one skeleton), in
-/// parallel, as each costs a pass over the faces.
+/// mesh holds them too): at most 64 of them, evenly spread over the list
+/// (the same ones for every placing of one skeleton), in parallel, as each
+/// costs a pass over the faces.
 double share_inside(const std::vector<Joint>& joints, const SurfaceMesh& mesh) {
   std::map<std::string, Vec3> at;
   for (const Joint& j : joints)
@@ -365,7 +365,8 @@ double share_inside(const std::vector<Joint>& joints, const SurfaceMesh& mesh) {
     points = std::move(some);
   }
   std::vector<char> inside(points.size(), 0);
-  tbb::parallel_for(size_t{0}, points.size(), [&](size_t k) { inside[k] = std::abs(mesh.winding_number(points[k])) >= 0.5; });
+  tbb::parallel_for(size_t{0}, points.size(),
+                    [&](size_t k) { inside[k] = std::abs(mesh.winding_number(points[k])) >= 0.5; });
   return static_cast<double>(std::count(inside.begin(), inside.end(), 1)) / static_cast<double>(points.size());
 }
 
