@@ -254,24 +254,19 @@ std::ostream& OutputFiles::stream(const std::string& path) {
       if (!ec)
         target = resolved;
     }
-    // A file where a folder should be (`--obj-sequence` given a file's
-    // name) says so, not just that the frame cannot be opened.
-    for (fs::path p = target.parent_path(); !p.empty(); p = p.parent_path()) {
-      if (fs::exists(p, ec)) { // the nearest folder there is
-        if (!fs::is_directory(p, ec))
-          throw Error(path + ": " + p.string() + " is a file, not a folder to write into");
-        break;
-      }
-      if (p == p.parent_path())
+    // The folders to make, up to the nearest one there is. A file there
+    // (`--obj-sequence` given a file's name) says so, not just that the
+    // frame cannot be opened.
+    std::vector<fs::path> missing;
+    fs::path there = target.parent_path();
+    for (; !there.empty() && !fs::exists(there, ec); there = there.parent_path()) {
+      missing.push_back(there);
+      if (there == there.parent_path())
         break;
     }
-    if (target.has_parent_path() && !fs::exists(target.parent_path(), ec)) {
-      std::vector<fs::path> missing;
-      for (fs::path p = target.parent_path(); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
-        missing.push_back(p);
-        if (p == p.parent_path())
-          break;
-      }
+    if (!there.empty() && fs::exists(there, ec) && !fs::is_directory(there, ec))
+      throw Error(path + ": " + there.string() + " is a file, not a folder to write into");
+    if (!missing.empty()) {
       fs::create_directories(target.parent_path(), ec);
       made_dirs_.insert(made_dirs_.end(), missing.rbegin(), missing.rend());
     }

@@ -11,6 +11,7 @@
 #include "io/file_bytes.hpp"
 #include "io/frames_part.hpp"
 #include "io/json_text.hpp"
+#include "skeleton/skeleton_fit.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -109,23 +110,10 @@ std::string armature_twice(const std::vector<Joint>& rig, const SkinnedMesh& cli
     }
   if (!(armature > 1.05 || armature < 1 / 1.05))
     return "";
-  std::map<std::string, Vec3> in_clip;
-  for (const Joint& j : clips.joints)
-    in_clip[j.name] = j.bind.block<3, 1>(0, 3);
-  std::vector<Vec3> from, to;
-  for (const Joint& j : rig)
-    if (const auto it = in_clip.find(j.name); it != in_clip.end()) {
-      from.push_back(it->second);
-      to.push_back(j.bind.block<3, 1>(0, 3));
-    }
-  if (from.size() < 3)
+  const auto fitted = detail::skeleton_similarity(rig, clips);
+  if (!fitted)
     return "";
-  Eigen::Matrix3Xd P(3, from.size()), Q(3, to.size());
-  for (size_t k = 0; k < from.size(); ++k) {
-    P.col(static_cast<Eigen::Index>(k)) = from[k];
-    Q.col(static_cast<Eigen::Index>(k)) = to[k];
-  }
-  const Mat4 g = Eigen::umeyama(P, Q, true);
+  const Mat4& g = *fitted;
   const double scale = std::cbrt(std::abs(g.topLeftCorner<3, 3>().determinant()));
   if (!std::isfinite(scale) || (scale < 1.05 && scale > 1 / 1.05))
     return "";

@@ -2,6 +2,7 @@
 
 #include "curvenet/errors.hpp"
 #include "io/file_bytes.hpp"
+#include "skeleton/skeleton_fit.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -187,6 +188,26 @@ Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
   return pose;
 }
 
+std::optional<Mat4> detail::skeleton_similarity(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  std::map<std::string, Eigen::Vector3d> in_file;
+  for (const Joint& j : clips.joints)
+    in_file[j.name] = j.bind.block<3, 1>(0, 3);
+  std::vector<Eigen::Vector3d> from, to;
+  for (const Joint& j : rig)
+    if (const auto it = in_file.find(j.name); it != in_file.end()) {
+      from.push_back(it->second);
+      to.push_back(j.bind.block<3, 1>(0, 3));
+    }
+  if (from.size() < 3)
+    return std::nullopt;
+  Eigen::Matrix3Xd P(3, from.size()), Q(3, to.size());
+  for (size_t k = 0; k < from.size(); ++k) {
+    P.col(static_cast<Eigen::Index>(k)) = from[k];
+    Q.col(static_cast<Eigen::Index>(k)) = to[k];
+  }
+  return Mat4(Eigen::umeyama(P, Q, true));
+}
+
 namespace {
 
 /// The placing, per joint of the file, under which the file's joints lie
@@ -231,19 +252,8 @@ std::optional<std::vector<Mat4>> armature_placing(const std::vector<Joint>& rig,
   // and turn are a way's, whatever its translation, and are a scale or a
   // turn (a way that only moves the skeleton says nothing of a rig moved
   // by its user).
-  std::vector<Eigen::Vector3d> from, to;
-  for (const Joint& j : rig)
-    if (const auto it = in_file.find(j.name); it != in_file.end()) {
-      from.push_back(clips.joints[it->second].bind.block<3, 1>(0, 3));
-      to.push_back(j.bind.block<3, 1>(0, 3));
-    }
-  if (from.size() >= 3) {
-    Eigen::Matrix3Xd P(3, from.size()), Q(3, to.size());
-    for (size_t k = 0; k < from.size(); ++k) {
-      P.col(static_cast<Eigen::Index>(k)) = from[k];
-      Q.col(static_cast<Eigen::Index>(k)) = to[k];
-    }
-    const Mat4 g = Eigen::umeyama(P, Q, true);
+  if (const auto fitted = detail::skeleton_similarity(rig, clips)) {
+    const Mat4& g = *fitted;
     const Eigen::Matrix3d turn = g.topLeftCorner<3, 3>();
     const bool a_ways =
         g.allFinite() && std::any_of(ways.begin(), ways.end(), [&](const std::vector<Mat4>& way) {
