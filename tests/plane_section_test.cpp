@@ -3,6 +3,7 @@
 
 #include "core/plane_section.hpp"
 #include "core/polyline_distance.hpp"
+#include "core/predicates.hpp"
 #include "curvenet/io.hpp"
 #include "curvenet/surface_mesh.hpp"
 #include "generate/tube.hpp"
@@ -142,5 +143,52 @@ TEST(PlaneSection, PolylineDistancesSkipOnlyPairsThatCannotBeNearer) {
     EXPECT_EQ(d, brute);
     for (const double f : {0.5, 0.99, 1.01, 2.0})
       EXPECT_EQ(curvenet::detail::polylines_within(a, ca, b, cb, f * brute), f * brute > brute) << trial << " " << f;
+  }
+}
+
+TEST(PlaneSection, ASectionVisitsOnlyTheTrianglesNearItsPlaneAndEveryOneItCrosses) {
+  // A starter on a dense mesh asks for thousands of sections, and each
+  // decided the side of every vertex (33 s at 280k faces). The tree of
+  // boxes passes over the triangles far from the plane; it must never pass
+  // over one the plane crosses, not even through a vertex, at any scale.
+  for (const double scale : {1e-30, 1.0, 1e17}) {
+    RawMesh raw = make_capped_tube(TubeSpec{1.0, 4.0, 96, 192, 8, true});
+    for (Vec3& p : raw.positions)
+      p = (p + Vec3(3, 0, 5)) * scale;
+    const SurfaceMesh m = make_surface_mesh(raw, "tube");
+    const detail::SectionMesh sm(m);
+    ASSERT_GT(sm.num_triangles(), 30000);
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<size_t> vertex(0, m.positions.size() - 1);
+    std::normal_distribution<double> gauss;
+    std::vector<int> near;
+    for (int k = 0; k < 60; ++k) {
+      // Through a vertex (and so through whole rings when across the axis),
+      // or through a point off every vertex; across the tube, or any way.
+      const Vec3 at =
+          k % 2 == 0 ? m.positions[vertex(rng)] : Vec3(m.positions[vertex(rng)] + scale * Vec3(1e-3, 2e-3, -3e-3));
+      const Vec3 n = k % 3 == 0 ? Vec3(0, 1, 0) : Vec3(gauss(rng), gauss(rng), gauss(rng)).normalized();
+      sm.triangles_near_plane(at, n, near);
+      std::vector<char> in(sm.num_triangles(), 0);
+      for (int t : near)
+        in[t] = 1;
+      // Sides as plane_sections decides them: exactly, a vertex on the plane above.
+      const auto [u, v] = detail::plane_basis(n);
+      const double step = std::max(1.0, at.cwiseAbs().maxCoeff());
+      const Vec3 o1 = at + step * u, o2 = at + step * v;
+      int crossed = 0;
+      for (int t = 0; t < sm.num_triangles(); ++t) {
+        int above = 0;
+        for (int c : sm.tri(t))
+          above += detail::orient3d(at, o1, o2, m.positions[c]) >= 0;
+        if (above == 1 || above == 2) {
+          ++crossed;
+          EXPECT_TRUE(in[t]) << "scale " << scale << ", plane " << k << ": triangle " << t << " passed over";
+        }
+      }
+      EXPECT_GT(crossed, 0);
+      if (n == Vec3(0, 1, 0)) // a section across the tube: one ring of its triangles, a few more
+        EXPECT_LT(near.size(), sm.num_triangles() / 20) << "plane " << k;
+    }
   }
 }

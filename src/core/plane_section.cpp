@@ -1,11 +1,13 @@
 #include "core/plane_section.hpp"
 
 #include "core/predicates.hpp"
+#include "core/tolerances.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <vector>
 
 namespace curvenet::detail {
 
@@ -42,6 +44,68 @@ SectionMesh::SectionMesh(const SurfaceMesh& mesh) : mesh_(mesh) {
       before = last;
     }
   }
+  if (tri_.empty())
+    return;
+  std::vector<Vec3> centre(tri_.size());
+  order_.resize(tri_.size());
+  for (size_t t = 0; t < tri_.size(); ++t) {
+    const auto& c = tri_[t];
+    centre[t] = (mesh.positions[c[0]] + mesh.positions[c[1]] + mesh.positions[c[2]]) / 3;
+    order_[t] = static_cast<int>(t);
+  }
+  node_.reserve(2 * tri_.size() / 4 + 1);
+  build(0, static_cast<int>(tri_.size()), centre);
+}
+
+// A node over order_[begin, end): a leaf of at most four triangles, or two
+// halves split at the median centre along the box's longest side.
+int SectionMesh::build(int begin, int end, std::vector<Vec3>& centre) {
+  const int id = static_cast<int>(node_.size());
+  node_.emplace_back();
+  Eigen::AlignedBox3d box;
+  for (int i = begin; i < end; ++i)
+    for (int v : tri_[order_[i]])
+      box.extend(mesh_.positions[v]);
+  node_[id].box = box;
+  node_[id].begin = begin;
+  node_[id].end = end;
+  if (end - begin <= 4)
+    return id;
+  Eigen::Index axis = 0;
+  box.sizes().maxCoeff(&axis);
+  const int mid = begin + (end - begin) / 2;
+  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
+                   [&](int a, int b) { return centre[a][axis] < centre[b][axis]; });
+  build(begin, mid, centre);
+  const int second = build(mid, end, centre);
+  node_[id].second = second;
+  return id;
+}
+
+void SectionMesh::triangles_near_plane(const Vec3& origin, const Vec3& n, std::vector<int>& out) const {
+  out.clear();
+  if (node_.empty())
+    return;
+  std::vector<int> stack{0};
+  while (!stack.empty()) {
+    const Node& node = node_[stack.back()];
+    stack.pop_back();
+    // The box's points lie at signed distances d +- r from the plane.
+    // Rounding in d (and in the plane the exact test uses, made from the
+    // same unit vectors) is far below the slack; a box that is not clearly
+    // off (NaN included) is visited.
+    const Vec3 c = node.box.center(), h = node.box.sizes() / 2;
+    const double d = (c - origin).dot(n), r = n.cwiseAbs().dot(h);
+    const double slack = Tolerances::plane_prune_rel * ((c - origin).norm() + h.norm());
+    if (std::abs(d) - r > slack)
+      continue;
+    if (node.second < 0) {
+      out.insert(out.end(), order_.begin() + node.begin, order_.begin() + node.end);
+    } else {
+      stack.push_back(node.second);
+      stack.push_back(static_cast<int>(&node - node_.data()) + 1);
+    }
+  }
 }
 
 double Section::length() const {
@@ -70,11 +134,51 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
   const double reach = std::max(origin.cwiseAbs().maxCoeff(), pos.empty() ? 0.0 : pos.front().cwiseAbs().maxCoeff());
   const double step = std::min(reach > 1 ? reach : 1.0, 1e300); // (past 1e300 the sum would overflow)
   const Vec3 o1 = origin + step * u, o2 = origin + step * v;
-  std::vector<signed char> side(pos.size());
-  for (size_t i = 0; i < pos.size(); ++i)
-    side[i] = orient3d(origin, o1, o2, pos[i]) >= 0 ? 1 : -1; // on the plane counts as above
   const Vec3 n = u.cross(v);
-  auto crosses = [&](int e) { return side[m.edge(e)[0]] != side[m.edge(e)[1]]; };
+  // Only the triangles near the plane are visited. Each vertex's side and
+  // each crossed edge's place are kept in this thread's tables, stamped
+  // with this call, so that no table of the whole mesh is cleared per call.
+  thread_local std::vector<int> near;
+  m.triangles_near_plane(origin, n.normalized(), near);
+  struct Scratch {
+    std::vector<unsigned> vertex_stamp, edge_stamp;
+    std::vector<signed char> side;
+    std::vector<int> slot;
+    unsigned call = 0;
+  };
+  thread_local Scratch w;
+  if (w.vertex_stamp.size() < pos.size()) {
+    w.vertex_stamp.resize(pos.size(), 0);
+    w.side.resize(pos.size());
+  }
+  if (w.edge_stamp.size() < static_cast<size_t>(m.num_edges())) {
+    w.edge_stamp.resize(m.num_edges(), 0);
+    w.slot.resize(m.num_edges());
+  }
+  if (++w.call == 0) { // the stamps wrapped round: forget them all
+    std::fill(w.vertex_stamp.begin(), w.vertex_stamp.end(), 0);
+    std::fill(w.edge_stamp.begin(), w.edge_stamp.end(), 0);
+    w.call = 1;
+  }
+  const unsigned call = w.call;
+  auto side = [&](int i) {
+    if (w.vertex_stamp[i] != call) {
+      w.vertex_stamp[i] = call;
+      w.side[i] = orient3d(origin, o1, o2, pos[i]) >= 0 ? 1 : -1; // on the plane counts as above
+    }
+    return w.side[i];
+  };
+  auto crosses = [&](int e) { return side(m.edge(e)[0]) != side(m.edge(e)[1]); };
+  std::vector<int> cut; // the crossed edges, in increasing order
+  for (int t : near)
+    for (int e : m.tri_edges(t))
+      if (w.edge_stamp[e] != call && crosses(e)) {
+        w.edge_stamp[e] = call;
+        cut.push_back(e);
+      }
+  std::sort(cut.begin(), cut.end());
+  for (size_t k = 0; k < cut.size(); ++k)
+    w.slot[cut[k]] = static_cast<int>(k);
   auto point_on = [&](int e) {
     const Vec3 &a = pos[m.edge(e)[0]], &b = pos[m.edge(e)[1]];
     const double da = (a - origin).dot(n), db = (b - origin).dot(n);
@@ -88,8 +192,11 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
         return f;
     return -1;
   };
-  std::vector<char> used(m.num_edges(), 0);
-  std::vector<int> walked(m.num_edges(), -1); // the walk that last crossed each edge
+  // An edge's place in `cut`. Every edge a walk crosses is in it (its
+  // triangles straddle the plane); one more slot stands for any other.
+  auto slot = [&](int e) { return w.edge_stamp[e] == call ? static_cast<size_t>(w.slot[e]) : cut.size(); };
+  std::vector<char> used(cut.size() + 1, 0);
+  std::vector<int> walked(cut.size() + 1, -1); // the walk that last crossed each edge
   int walks = 0;
   std::vector<Section> out;
   // From crossed edge `start` through triangle `tri`: the crossed edges in
@@ -101,7 +208,7 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
     std::vector<int> edges{start};
     closed = false;
     const int walk = walks++;
-    walked[start] = walk;
+    walked[slot(start)] = walk;
     int e = start, t = tri;
     while (t >= 0) {
       const int next = other_edge(t, e);
@@ -111,9 +218,9 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
         closed = true;
         break;
       }
-      if (walked[next] == walk)
+      if (walked[slot(next)] == walk)
         break;
-      walked[next] = walk;
+      walked[slot(next)] = walk;
       edges.push_back(next);
       const auto& tt = m.edge_tris(next);
       t = tt[0] == t ? tt[1] : tt[0];
@@ -121,8 +228,9 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
     }
     return edges;
   };
-  for (int e0 = 0; e0 < m.num_edges(); ++e0) {
-    if (!crosses(e0) || used[e0])
+  for (size_t k = 0; k < cut.size(); ++k) {
+    const int e0 = cut[k];
+    if (used[k])
       continue;
     const auto& tt = m.edge_tris(e0);
     bool closed = false;
@@ -138,7 +246,7 @@ std::vector<Section> plane_sections(const SectionMesh& m, const Vec3& origin, co
     Section s;
     s.closed = closed;
     for (int e : edges) {
-      used[e] = 1;
+      used[slot(e)] = 1;
       s.points.push_back(point_on(e));
     }
     if (s.points.size() >= 2)

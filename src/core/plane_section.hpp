@@ -16,7 +16,10 @@ namespace curvenet::detail {
 
 using Vec3 = Eigen::Vector3d;
 
-/// The mesh triangulated (polygons as fans) with an edge table, for sections.
+/// The mesh triangulated (polygons as fans) with an edge table, for sections,
+/// and a tree of boxes over the triangles, so that a section visits the
+/// triangles near its plane rather than every vertex (a starter on a dense
+/// mesh asks for thousands of sections).
 class SectionMesh {
 public:
   explicit SectionMesh(const SurfaceMesh& mesh);
@@ -27,11 +30,24 @@ public:
   [[nodiscard]] const std::array<int, 2>& edge(int e) const { return edge_[e]; }
   [[nodiscard]] const std::array<int, 2>& edge_tris(int e) const { return edge_tri_[e]; }
   [[nodiscard]] int num_edges() const { return static_cast<int>(edge_.size()); }
+  /// Every triangle that may hold a point on each side of the plane through
+  /// `origin` with unit normal `n` (and perhaps a few more), in no order.
+  /// Conservative: the boxes passed over lie off the plane by far more than
+  /// rounding; the side of each vertex is left to the exact predicate.
+  void triangles_near_plane(const Vec3& origin, const Vec3& n, std::vector<int>& out) const;
 
 private:
+  struct Node {
+    Eigen::AlignedBox3d box;
+    int begin = 0, end = 0; ///< its triangles: order_[begin, end)
+    int second = -1;        ///< the second child (the first is the next node); -1 for a leaf
+  };
+  int build(int begin, int end, std::vector<Vec3>& centre);
   const SurfaceMesh& mesh_;
   std::vector<std::array<int, 3>> tri_, tri_edge_;
   std::vector<std::array<int, 2>> edge_, edge_tri_;
+  std::vector<int> order_;
+  std::vector<Node> node_;
 };
 
 struct Section {

@@ -90,6 +90,12 @@ struct Tolerances {
   /// or a skeleton posed away from its bind, is refused.
   static constexpr double skeleton_fit_rel = 1e-3;
 
+  /// A plane section passes over a box of triangles only when the box lies
+  /// off the plane by more than this fraction of its reach from the plane's
+  /// origin: a bound on rounding, a million times over, so no triangle the
+  /// plane crosses is missed; each vertex's side is still decided exactly.
+  static constexpr double plane_prune_rel = 1e-9;
+
   double diagonal = 1.0;
   [[nodiscard]] double node_snap() const { return node_snap_rel * diagonal; }
   [[nodiscard]] double fidelity() const { return fidelity_rel * diagonal; }

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -105,17 +106,22 @@ double SurfaceMesh::enclosed_volume(const std::vector<Vec3>& welded_positions) c
 }
 
 double SurfaceMesh::winding_number(const Vec3& p) const {
-  double sum = 0;
-  for (int f = 0; f < num_faces(); ++f) {
-    const auto c = face(f);
-    for (size_t k = 1; k + 1 < c.size(); ++k) {
-      const Vec3 a = positions[c[0]] - p, b = positions[c[k]] - p, d = positions[c[k + 1]] - p;
-      const double la = a.norm(), lb = b.norm(), ld = d.norm();
-      const double num = a.dot(b.cross(d));
-      const double den = la * lb * ld + a.dot(b) * ld + b.dot(d) * la + d.dot(a) * lb;
-      sum += 2 * std::atan2(num, den); // the solid angle of the triangle (Van Oosterom and Strackee)
+  // Over blocks of faces, summed in a fixed order whatever the threads.
+  auto part = [&](const tbb::blocked_range<int>& r, double sum) {
+    for (int f = r.begin(); f < r.end(); ++f) {
+      const auto c = face(f);
+      for (size_t k = 1; k + 1 < c.size(); ++k) {
+        const Vec3 a = positions[c[0]] - p, b = positions[c[k]] - p, d = positions[c[k + 1]] - p;
+        const double la = a.norm(), lb = b.norm(), ld = d.norm();
+        const double num = a.dot(b.cross(d));
+        const double den = la * lb * ld + a.dot(b) * ld + b.dot(d) * la + d.dot(a) * lb;
+        sum += 2 * std::atan2(num, den); // the solid angle of the triangle (Van Oosterom and Strackee)
+      }
     }
-  }
+    return sum;
+  };
+  const double sum =
+      tbb::parallel_deterministic_reduce(tbb::blocked_range<int>(0, num_faces(), 4096), 0.0, part, std::plus<>());
   return sum / (4 * std::numbers::pi);
 }
 

@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -178,28 +179,40 @@ std::vector<Vec3> edge_path_join(const StarterContext& c, const NetOptions& no, 
   const int nv = c.mesh.num_vertices();
   const Ring &pr = rings[parent], &cr = rings[child];
   const double cl = no.profile_clearance(c.diag, std::min(cr.radius(), pr.radius()));
+  // Each ring's box, and how far its loop strays from its plane (none, or
+  // rounding, for a plane section): a point further than that plus d from
+  // the plane is no nearer than d to the loop.
   std::vector<Eigen::AlignedBox3d> box(rings.size());
+  std::vector<double> slab(rings.size(), 0);
   for (int o : active)
-    for (const Vec3& q : rings[o].loop)
+    for (const Vec3& q : rings[o].loop) {
       box[o].extend(q);
+      slab[o] = std::max(slab[o], std::abs((q - rings[o].centre).dot(rings[o].axis)));
+    }
   auto near_ring = [&](int o, const Vec3& x, double d) {
     Eigen::AlignedBox3d b = box[o];
     b.extend(b.min() - Vec3::Constant(d)).extend(b.max() + Vec3::Constant(d));
-    if (!b.contains(x))
+    if (!b.contains(x) || std::abs((x - rings[o].centre).dot(rings[o].axis)) - slab[o] > d)
       return false;
     double dist = 0;
     closest_on_loop(rings[o], x, &dist);
     return dist < d;
   };
+  std::vector<signed char> known(nv, -1); // blocked(v), once found
   auto blocked = [&](int v) {
+    if (known[v] >= 0)
+      return known[v] != 0;
+    known[v] = 0;
     const Vec3& x = P[v];
     for (int o : active) {
       if (o == parent)
         continue;
       if (o == child && (x - from).norm() < 3 * cl)
         continue;
-      if (near_ring(o, x, cl))
+      if (near_ring(o, x, cl)) {
+        known[v] = 1;
         return true;
+      }
     }
     return false;
   };
@@ -212,15 +225,21 @@ std::vector<Vec3> edge_path_join(const StarterContext& c, const NetOptions& no, 
   std::vector<int> prev(nv, -1);
   using Item = std::pair<double, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  std::vector<std::pair<double, int>> nearest;
-  for (int v = 0; v < nv; ++v)
-    nearest.emplace_back((P[v] - from).norm(), v);
-  std::partial_sort(nearest.begin(), nearest.begin() + std::min<size_t>(2, nearest.size()), nearest.end());
-  for (size_t k = 0; k < std::min<size_t>(2, nearest.size()); ++k) {
-    const int v = nearest[k].second;
-    dist[v] = nearest[k].first;
-    queue.push({dist[v], v});
+  std::array<std::pair<double, int>, 2> nearest{{{INFINITY, -1}, {INFINITY, -1}}}; // in order
+  for (int v = 0; v < nv; ++v) {
+    const std::pair<double, int> dv((P[v] - from).norm(), v);
+    if (dv < nearest[0]) {
+      nearest[1] = nearest[0];
+      nearest[0] = dv;
+    } else if (dv < nearest[1]) {
+      nearest[1] = dv;
+    }
   }
+  for (const auto& [d, v] : nearest)
+    if (v >= 0) {
+      dist[v] = d;
+      queue.push({d, v});
+    }
   int end = -1;
   while (!queue.empty()) {
     const auto [d, v] = queue.top();
@@ -268,14 +287,36 @@ void route_join(const StarterContext& c, const NetOptions& no, const std::vector
   Vec3 out = jn.to - pr.centre;
   out -= out.dot(pr.axis) * pr.axis;
   double best_sin = -1;
+  // The parent ring's segments as balls (middle, half length): a segment
+  // of a path further from a ball than twice the tolerance cannot meet it.
+  // And a segment with both ends off the ring's plane, on one side, by more
+  // than the loop strays from it plus twice the tolerance, meets none.
+  const size_t nq = pr.loop.size();
+  std::vector<Vec3> mid(nq);
+  std::vector<double> rad(nq);
+  double slab = 0;
+  for (size_t q = 0; q < nq; ++q) {
+    mid[q] = (pr.loop[q] + pr.loop[(q + 1) % nq]) / 2;
+    rad[q] = (pr.loop[(q + 1) % nq] - pr.loop[q]).norm() / 2;
+    slab = std::max(slab, std::abs((pr.loop[q] - pr.centre).dot(pr.axis)));
+  }
+  auto off_plane = [&](const Vec3& a, const Vec3& b) {
+    const double da = (a - pr.centre).dot(pr.axis), db = (b - pr.centre).dot(pr.axis);
+    return std::min(da, db) > slab + 2 * c.tol || std::max(da, db) < -slab - 2 * c.tol;
+  };
   for (std::vector<Vec3> path :
        surface_paths(c, from, jn.to, {from - cr.radius() * cr.axis, jn.to + out, (pr.centre + cr.centre) / 2})) {
     double s_hit = -1;
     size_t cut = path.size() - 1;
     for (size_t i = 0; i + 1 < path.size() && s_hit < 0; ++i) {
       Vec3 hit = Vec3::Zero();
-      for (size_t q = 0; q < pr.loop.size(); ++q)
-        if (segment_distance(path[i], path[i + 1], pr.loop[q], pr.loop[(q + 1) % pr.loop.size()], &hit) < c.tol) {
+      if (off_plane(path[i], path[i + 1]))
+        continue;
+      const Vec3 m = (path[i] + path[i + 1]) / 2;
+      const double r = (path[i + 1] - path[i]).norm() / 2;
+      for (size_t q = 0; q < nq; ++q)
+        if ((m - mid[q]).norm() - r - rad[q] < 2 * c.tol &&
+            segment_distance(path[i], path[i + 1], pr.loop[q], pr.loop[(q + 1) % nq], &hit) < c.tol) {
           s_hit = closest_on_loop(pr, hit);
           cut = i;
           break;
