@@ -618,6 +618,48 @@ TEST(SurfaceMesh, OrientationFollowsTheMajorityOfEachComponent) {
   }
 }
 
+TEST(SurfaceMesh, AClosedPartWoundInsideOutIsTurnedOutwardAndSaysSo) {
+  // A mirrored export (a negative scale applied) or flipped normals wind a
+  // closed mesh inward: every face consistent, the enclosed volume
+  // negative, the winding number -1 inside. Its curves' sides were the
+  // mirror of the same surface's wound outward (a transfer to it agreed 0 %
+  // by region, or was refused), and joints inside it were outside.
+  auto reversed = [](RawMesh r) {
+    for (size_t f = 0; f + 1 < r.face_offsets.size(); ++f)
+      std::reverse(r.face_vertices.begin() + r.face_offsets[f], r.face_vertices.begin() + r.face_offsets[f + 1]);
+    return r;
+  };
+  // A box inside out, with a sheet (open: it has no inside) inside out too,
+  // and a smaller box wound outward beside them.
+  RawMesh r = reversed(test::box(2));
+  test::add_part(r, reversed(test::grid(2, 2)), Vec3(5, 0, 0));
+  test::add_part(r, test::box(), Vec3(-3, 0, 0), 0.5);
+  const SurfaceMesh m = make_surface_mesh(r, "mirrored");
+  ASSERT_EQ(m.notes.size(), 1u);
+  EXPECT_NE(m.notes[0].find("turned 1 closed part outward (6 faces)"), std::string::npos) << m.notes[0];
+  EXPECT_NEAR(m.winding_number(Vec3(0.5, 0.5, 1)), 1.0, 0.01); // (the open sheet adds its solid angle)
+  EXPECT_NEAR(m.winding_number(Vec3(-2.75, 0.25, 0.25)), 1.0, 0.01);
+  std::vector<int> part;
+  const auto parts = mesh_components(m, &part);
+  ASSERT_EQ(parts.size(), 3u);
+  for (int f = 0; f < m.num_faces(); ++f) { // the sheet keeps its winding: -z
+    const auto c = m.face(f);
+    const Vec3 n = (m.positions[c[1]] - m.positions[c[0]]).cross(m.positions[c[2]] - m.positions[c[1]]);
+    if (!parts[part[f]].closed)
+      EXPECT_LT(n.z(), 0) << "face " << f;
+  }
+  // Nothing moves, and a mesh wound outward is left as it is, without a note.
+  EXPECT_EQ(m.positions.size(), 8u + 9u + 8u);
+  EXPECT_TRUE(make_surface_mesh(test::box(2), "box").notes.empty());
+  // Both boxes inside out: both turned.
+  RawMesh two = reversed(test::box(2));
+  test::add_part(two, reversed(test::box()), Vec3(-3, 0, 0), 0.5);
+  const SurfaceMesh both = make_surface_mesh(two, "two");
+  ASSERT_EQ(both.notes.size(), 1u);
+  EXPECT_NE(both.notes[0].find("turned 2 closed parts outward (12 faces)"), std::string::npos) << both.notes[0];
+  EXPECT_GT(both.enclosed_volume(both.positions), 0);
+}
+
 TEST(SurfaceMesh, RefusesASurfaceThatCannotBeOriented) {
   // A Moebius strip: 12 quads around, the last joined to the first with a
   // half twist.

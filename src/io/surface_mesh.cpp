@@ -482,6 +482,56 @@ int orient_consistently(SurfaceMesh& mesh, const EdgeTable& edges) {
   return flipped;
 }
 
+/// Turns outward every closed component wound inside out (its enclosed
+/// volume negative: a mirrored export, normals flipped in a modeller), so
+/// that a closed surface's winding number is 1 inside it and the sides of
+/// its curves are those of the same surface wound outward. Looked for only
+/// where the whole mesh encloses a negative volume: one pass over the faces
+/// otherwise. Returns the components and the faces turned.
+std::pair<int, int> turn_closed_parts_outward(SurfaceMesh& mesh) {
+  const int nf = mesh.num_faces();
+  if (nf == 0)
+    return {0, 0};
+  // Six times each face's signed volume from a corner of the mesh (near
+  // it, so that large coordinates do not swamp it).
+  const Vec3 o = mesh.positions[mesh.face(0)[0]];
+  auto volume = [&](int f) {
+    const auto c = mesh.face(f);
+    double v = 0;
+    for (size_t k = 1; k + 1 < c.size(); ++k)
+      v += (mesh.positions[c[0]] - o).dot((mesh.positions[c[k]] - o).cross(mesh.positions[c[k + 1]] - o));
+    return v;
+  };
+  const double total = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<int>(0, nf, 4096), 0.0,
+      [&](const tbb::blocked_range<int>& r, double sum) {
+        for (int f = r.begin(); f < r.end(); ++f)
+          sum += volume(f);
+        return sum;
+      },
+      std::plus<>());
+  if (!(total < 0))
+    return {0, 0};
+  std::vector<int> comp;
+  const std::vector<ComponentInfo> parts = mesh_components(mesh, &comp);
+  std::vector<double> part_vol(parts.size(), 0);
+  for (int f = 0; f < nf; ++f)
+    part_vol[comp[f]] += volume(f);
+  int turned = 0, faces = 0;
+  for (size_t c = 0; c < parts.size(); ++c)
+    if (parts[c].closed && part_vol[c] < 0) {
+      ++turned;
+      faces += parts[c].faces;
+    }
+  if (turned == 0)
+    return {0, 0};
+  for (int f = 0; f < nf; ++f)
+    if (parts[comp[f]].closed && part_vol[comp[f]] < 0)
+      std::reverse(mesh.face_vertices.begin() + mesh.face_offsets[f],
+                   mesh.face_vertices.begin() + mesh.face_offsets[f + 1]);
+  return {turned, faces};
+}
+
 } // namespace
 
 std::vector<ComponentInfo> mesh_components(const SurfaceMesh& mesh, std::vector<int>* face_component) {
@@ -1141,6 +1191,10 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
   const int flipped = orient_consistently(mesh, edges);
   if (flipped > 0)
     mesh.notes.push_back("repaired inconsistent orientation: reversed " + std::to_string(flipped) + " faces");
+  if (const auto [parts, faces] = turn_closed_parts_outward(mesh); parts > 0)
+    mesh.notes.push_back("turned " + std::to_string(parts) + (parts == 1 ? " closed part" : " closed parts") +
+                         " outward (" + std::to_string(faces) + " faces): " + (parts == 1 ? "it was" : "they were") +
+                         " wound inside out, normals pointing in (a mirrored export, or flipped normals)");
   return mesh;
 }
 } // namespace

@@ -22,7 +22,7 @@ std::vector<std::string> load_notes(const SurfaceMesh& mesh, const std::string& 
   std::vector<std::string> notes;
   for (const auto& n : mesh.notes)
     if (n.rfind("left out", 0) == 0 || n.rfind("repaired", 0) == 0 || n.rfind("closed open seams", 0) == 0 ||
-        n.rfind("kept ", 0) == 0)
+        n.rfind("kept ", 0) == 0 || n.rfind("turned ", 0) == 0)
       notes.push_back(std::filesystem::path(path).filename().string() + ": " + n);
   return notes;
 }
