@@ -100,11 +100,11 @@ int main(int argc, char** argv) {
       }
       const long faces = faces_of(mesh);
       if (against.empty()) {
-        std::printf("| %s, %d levels | %ld | %.0f ms |\n", name.c_str(), level, faces, median(a));
+        std::printf("| %s, level %d | %ld | %.0f ms |\n", name.c_str(), level, faces, median(a));
       } else {
         const bool same = slurp(ours) == slurp(theirs);
         differ = differ || !same;
-        std::printf("| %s, %d levels | %ld | %.0f ms | %.0f ms%s | %.2f |\n", name.c_str(), level, faces, median(a),
+        std::printf("| %s, level %d | %ld | %.0f ms | %.0f ms%s | %.2f |\n", name.c_str(), level, faces, median(a),
                     median(b), same ? "" : " (another rig)", median(b) / median(a));
       }
       std::fflush(stdout);
