@@ -52,6 +52,13 @@ inline void add_part(RawMesh& to, const RawMesh& part, const Vec3& offset, doubl
   }
 }
 
+/// `r` with every face's corners in reverse order: wound the other way.
+inline RawMesh reversed(RawMesh r) {
+  for (size_t f = 0; f + 1 < r.face_offsets.size(); ++f)
+    std::reverse(r.face_vertices.begin() + r.face_offsets[f], r.face_vertices.begin() + r.face_offsets[f + 1]);
+  return r;
+}
+
 /// An n x m grid of unit quads in the plane z = 0, from (0,0) to (n,m).
 inline RawMesh grid(int n, int m, bool triangles = false) {
   RawMesh r;

@@ -624,15 +624,10 @@ TEST(SurfaceMesh, AClosedPartWoundInsideOutIsTurnedOutwardAndSaysSo) {
   // negative, the winding number -1 inside. Its curves' sides were the
   // mirror of the same surface's wound outward (a transfer to it agreed 0 %
   // by region, or was refused), and joints inside it were outside.
-  auto reversed = [](RawMesh r) {
-    for (size_t f = 0; f + 1 < r.face_offsets.size(); ++f)
-      std::reverse(r.face_vertices.begin() + r.face_offsets[f], r.face_vertices.begin() + r.face_offsets[f + 1]);
-    return r;
-  };
   // A box inside out, with a sheet (open: it has no inside) inside out too,
   // and a smaller box wound outward beside them.
-  RawMesh r = reversed(test::box(2));
-  test::add_part(r, reversed(test::grid(2, 2)), Vec3(5, 0, 0));
+  RawMesh r = test::reversed(test::box(2));
+  test::add_part(r, test::reversed(test::grid(2, 2)), Vec3(5, 0, 0));
   test::add_part(r, test::box(), Vec3(-3, 0, 0), 0.5);
   const SurfaceMesh m = make_surface_mesh(r, "mirrored");
   ASSERT_EQ(m.notes.size(), 1u);
@@ -652,8 +647,8 @@ TEST(SurfaceMesh, AClosedPartWoundInsideOutIsTurnedOutwardAndSaysSo) {
   EXPECT_EQ(m.positions.size(), 8u + 9u + 8u);
   EXPECT_TRUE(make_surface_mesh(test::box(2), "box").notes.empty());
   // Both boxes inside out: both turned.
-  RawMesh two = reversed(test::box(2));
-  test::add_part(two, reversed(test::box()), Vec3(-3, 0, 0), 0.5);
+  RawMesh two = test::reversed(test::box(2));
+  test::add_part(two, test::reversed(test::box()), Vec3(-3, 0, 0), 0.5);
   const SurfaceMesh both = make_surface_mesh(two, "two");
   ASSERT_EQ(both.notes.size(), 1u);
   EXPECT_NE(both.notes[0].find("turned 2 closed parts outward (12 faces)"), std::string::npos) << both.notes[0];

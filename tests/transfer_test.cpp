@@ -96,15 +96,8 @@ TEST(Transfer, ATargetWoundInsideOutGetsTheSameRegions) {
   // every curve's left was its right, and no region agreed (a mirrored
   // horse's transfer was refused at its tail, an inside-out wolf's agreed
   // 0 %). The loader turns it outward, with a note.
-  TubeSpec limb;
-  limb.around = 30;
-  limb.along = 24;
-  limb.cap_rings = 7;
-  limb.triangulate = true;
-  RawMesh raw = make_capped_tube(limb);
-  for (size_t f = 0; f + 1 < raw.face_offsets.size(); ++f)
-    std::reverse(raw.face_vertices.begin() + raw.face_offsets[f], raw.face_vertices.begin() + raw.face_offsets[f + 1]);
-  const SurfaceMesh inside_out = make_surface_mesh(raw, "inside out");
+  const SurfaceMesh inside_out =
+      make_surface_mesh(test::reversed(make_capped_tube(TubeSpec{1.0, 4.0, 30, 24, 7, true})), "inside out");
   ASSERT_EQ(inside_out.notes.size(), 1u);
   EXPECT_NE(inside_out.notes[0].find("turned 1 closed part outward"), std::string::npos) << inside_out.notes[0];
   const TransferResult r = transfer(make_tube_net(), test::tube(16, 16, 4, false), inside_out);
