@@ -188,24 +188,30 @@ Pose pose_from_clip(const SkinnedMesh& file, int clip, double t) {
   return pose;
 }
 
-std::optional<Mat4> detail::skeleton_similarity(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
-  std::map<std::string, Eigen::Vector3d> in_file;
-  for (const Joint& j : clips.joints)
-    in_file[j.name] = j.bind.block<3, 1>(0, 3);
-  std::vector<Eigen::Vector3d> from, to;
-  for (const Joint& j : rig)
-    if (const auto it = in_file.find(j.name); it != in_file.end()) {
-      from.push_back(it->second);
-      to.push_back(j.bind.block<3, 1>(0, 3));
+std::pair<Eigen::Matrix3Xd, Eigen::Matrix3Xd> detail::matched_bind_positions(const std::vector<Joint>& by,
+                                                                             const std::vector<Joint>& other) {
+  std::map<std::string, Eigen::Vector3d> in_other;
+  for (const Joint& j : other)
+    in_other[j.name] = j.bind.block<3, 1>(0, 3);
+  std::vector<Eigen::Vector3d> mine, theirs;
+  for (const Joint& j : by)
+    if (const auto it = in_other.find(j.name); it != in_other.end()) {
+      mine.push_back(j.bind.block<3, 1>(0, 3));
+      theirs.push_back(it->second);
     }
-  if (from.size() < 3)
-    return std::nullopt;
-  Eigen::Matrix3Xd P(3, from.size()), Q(3, to.size());
-  for (size_t k = 0; k < from.size(); ++k) {
-    P.col(static_cast<Eigen::Index>(k)) = from[k];
-    Q.col(static_cast<Eigen::Index>(k)) = to[k];
+  Eigen::Matrix3Xd P(3, mine.size()), Q(3, theirs.size());
+  for (size_t k = 0; k < mine.size(); ++k) {
+    P.col(static_cast<Eigen::Index>(k)) = mine[k];
+    Q.col(static_cast<Eigen::Index>(k)) = theirs[k];
   }
-  return Mat4(Eigen::umeyama(P, Q, true));
+  return {P, Q};
+}
+
+std::optional<Mat4> detail::skeleton_similarity(const std::vector<Joint>& rig, const SkinnedMesh& clips) {
+  const auto [to, from] = matched_bind_positions(rig, clips.joints);
+  if (to.cols() < 3)
+    return std::nullopt;
+  return Mat4(Eigen::umeyama(from, to, true));
 }
 
 namespace {

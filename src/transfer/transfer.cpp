@@ -14,6 +14,7 @@
 #include "core/quoted.hpp"
 #include "curvenet/errors.hpp"
 #include "embed/embedding_impl.hpp"
+#include "skeleton/skeleton_fit.hpp"
 #include "trace/trace_mesh.hpp"
 #include "transfer/cage_map.hpp"
 
@@ -586,23 +587,10 @@ std::optional<SkeletonFit> fit_skeletons(const std::vector<Joint>& source, const
       *why = reason;
     return std::optional<SkeletonFit>();
   };
-  std::map<std::string, Vec3> at_target;
-  for (const Joint& j : target)
-    at_target[j.name] = j.bind.block<3, 1>(0, 3);
-  std::vector<Vec3> from, to;
-  for (const Joint& j : source)
-    if (auto it = at_target.find(j.name); it != at_target.end()) {
-      from.push_back(j.bind.block<3, 1>(0, 3));
-      to.push_back(it->second);
-    }
-  const int n = static_cast<int>(from.size());
+  const auto [P, Q] = detail::matched_bind_positions(source, target);
+  const int n = static_cast<int>(P.cols());
   if (n < 3)
     return refuse(std::to_string(n) + " joints match by name (3 are needed)");
-  Eigen::Matrix3Xd P(3, n), Q(3, n);
-  for (int k = 0; k < n; ++k) {
-    P.col(k) = from[k];
-    Q.col(k) = to[k];
-  }
   if (!P.allFinite() || !Q.allFinite())
     return refuse("a joint's position is not finite");
   // On one line (or one point), no rotation about it is determined.
@@ -616,7 +604,7 @@ std::optional<SkeletonFit> fit_skeletons(const std::vector<Joint>& source, const
   fit.joints = n;
   fit.scale = std::cbrt(std::abs(fit.source_to_target.topLeftCorner<3, 3>().determinant()));
   for (int k = 0; k < n; ++k) {
-    const double d = (apply(fit.source_to_target, from[k]) - to[k]).norm() / diagonal;
+    const double d = (apply(fit.source_to_target, P.col(k)) - Q.col(k)).norm() / diagonal;
     if (!(d <= fit.worst)) // the larger, or not a number
       fit.worst = d;
   }
@@ -761,7 +749,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     throw EmbedError("transfer: the rig does not embed on the source " + source.source + ": " +
                      (rep.source.problems.empty() ? std::string("not ok") : rep.source.problems[0]));
   std::string unplaced; // the target's embedding's last refusal, when the placing gives up
-  int placings = 0;      // how many times the rig was placed
+  int placings = 0;     // how many times the rig was placed
   tbb::parallel_invoke(
       [&] {
         const Embedding& src = *source_embedding;
@@ -878,9 +866,9 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   const auto [source_parts, source_part_faces] = parts(a);
   const auto [target_parts, target_part_faces] = parts(b);
   if (source_parts != target_parts)
-    rep.notes.push_back("the target has " + std::to_string(target_parts) +
-                        (target_parts == 1 ? " part" : " parts") + " that no curve touches (" +
-                        std::to_string(target_part_faces) + " cut faces), the source " + std::to_string(source_parts) +
+    rep.notes.push_back("the target has " + std::to_string(target_parts) + (target_parts == 1 ? " part" : " parts") +
+                        " that no curve touches (" + std::to_string(target_part_faces) + " cut faces), the source " +
+                        std::to_string(source_parts) +
                         ": left out of the region comparison; bound, each follows its nearest joint rigidly");
   if (a.regions - source_parts != b.regions - target_parts)
     rep.problems.push_back("the region counts differ: " + std::to_string(a.regions) + " on the source, " +
