@@ -413,6 +413,39 @@ TEST(Transfer, GameAnimalsGoToTheirLODsExportedInOtherAxesAndUnits) {
   }
 }
 
+TEST(Transfer, ANodeMovedToItsClosestPointGoesBackWhereItsCurvesKeepTheirAngles) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // The wolf at a quarter and a ninth of its faces (490 and 214
+  // triangles): its ear tip is a few faces round. Placed along the
+  // normals, a ring's arc there strays, and goes to the target's closest
+  // points with its end nodes; one of them lands past the ring's next
+  // node, so the ring's nodes no longer run in order and a line into the
+  // ring crosses it (490), or the neck's ring and the line to the head meet
+  // (214). Such a node goes back along the normal where its curves keep
+  // their angles better there, and both transfer.
+  const std::string from = test::data("quaternius/Wolf.glb");
+  const SurfaceMesh source_mesh = load_mesh(from);
+  const Rig rig = test::skinned_starter(from);
+  for (const std::string lod : {"_decimated_25", "_decimated_11"}) {
+    SCOPED_TRACE(lod);
+    const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Wolf" + lod + ".glb";
+    const SurfaceMesh target_mesh = load_mesh(to);
+    TransferOptions opt;
+    opt.alignment = Alignment::Auto;
+    opt.source_skeleton = load_skinned_mesh(from).joints;
+    opt.target_skeleton = load_skinned_mesh(to).joints;
+    try {
+      const TransferResult r = transfer(rig, source_mesh, target_mesh, opt);
+      EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
+      EXPECT_EQ(r.report.target.regions, r.report.source.regions);
+      EXPECT_GT(r.report.agreement, 0.99);
+    } catch (const EmbedError& e) {
+      ADD_FAILURE() << e.what();
+    }
+  }
+}
+
 TEST(Transfer, ACoarseTargetWhoseThinPartCannotHoldTheCurvesIsRefusedWithWhatToDo) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -381,7 +381,12 @@ private:
 /// target surface (see Projector). Curves that leave a node keep their
 /// angles there: where the projection puts a node on a ridge of a coarse
 /// target and folds two of its curves together, the node goes to the
-/// target's closest point instead, if that keeps them apart better.
+/// target's closest point instead, if that keeps them apart better. The
+/// other way round too: a node sent to its closest point as the end of a
+/// profile placed by closest points goes back along the normal if its
+/// curves keep their angles better there (on a coarse ear tip, a ring's
+/// node whose closest point lay past the next node of its ring, turning
+/// the ring's order, so that a line into the ring crossed it).
 /// `source` and `target` are the surfaces placed from and onto: a cage's
 /// limit surface where the mesh is a cage, and then the rig is carried up
 /// from the source cage (`source_cage`) and down to the target cage.
@@ -420,11 +425,13 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
                        " (the frames do not line the meshes up, or the target is another shape)");
   }
   // The ends of the profiles placed by closest points (see transfer()) go to the target's closest points too.
+  std::vector<char> at_closest(out.nodes.size(), 0);
   for (const Profile& p : rig.profiles)
     if (by_closest.count(p.id))
       for (const std::string& id : {p.from, p.to}) {
         const int k = node_index.at(id);
         out.nodes[k].position = placer.place_node(rig.nodes[k], true, offsets[k]);
+        at_closest[k] = 1;
       }
   std::vector<std::vector<Vec3>> mapped(out.profiles.size());
   std::vector<std::pair<std::string, std::string>> jumps; // (profile, refusal)
@@ -527,16 +534,16 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
     const double ratio = worst_ratio(k);
     if (ratio >= kKeptAngle)
       continue;
-    const Vec3 along_normal = out.nodes[k].position;
+    const Vec3 placed = out.nodes[k].position; // along the normal, or at the closest point
     std::vector<std::vector<Vec3>> before;
     for (const auto& [i, start] : at_node[k])
       before.push_back(out.profiles[i].curve.points);
     double offset = 0;
-    out.nodes[k].position = placer.place_node(rig.nodes[k], true, offset);
+    out.nodes[k].position = placer.place_node(rig.nodes[k], !at_closest[k], offset);
     for (const auto& [i, start] : at_node[k])
       place(i);
     if (worst_ratio(k) <= ratio) { // no better: as it was
-      out.nodes[k].position = along_normal;
+      out.nodes[k].position = placed;
       for (size_t m = 0; m < at_node[k].size(); ++m)
         out.profiles[at_node[k][m].first].curve.points = before[m];
     } else {
