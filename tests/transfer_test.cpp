@@ -446,6 +446,42 @@ TEST(Transfer, ANodeMovedToItsClosestPointGoesBackWhereItsCurvesKeepTheirAngles)
   }
 }
 
+TEST(Transfer, TwoCurvesThatMeetAwayFromTheirNodeOnACoarseTargetGetTheNodeAtAFacesCorner) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // The apatosaurus at a fifth of its faces (300 triangles): its tail is a
+  // flat blade of long slivers, and a tail ring's node is placed a tenth of
+  // an edge from the corner where the blade's edge runs. The ring's arc
+  // and the line into that node both pass between the node and the corner,
+  // and meet there however they are placed. Placed every other way, the
+  // node goes to the corner, and the transfer succeeds.
+  const std::string from = test::data("quaternius/Apatosaurus.glb");
+  const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Apatosaurus_decimated_21.glb";
+  const SurfaceMesh source_mesh = load_mesh(from), target_mesh = load_mesh(to);
+  TransferOptions opt;
+  opt.alignment = Alignment::Auto;
+  opt.source_skeleton = load_skinned_mesh(from).joints;
+  opt.target_skeleton = load_skinned_mesh(to).joints;
+  try {
+    const TransferResult r = transfer(test::skinned_starter(from), source_mesh, target_mesh, opt);
+    EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
+    EXPECT_EQ(r.report.target.regions, r.report.source.regions);
+    EXPECT_GT(r.report.agreement, 0.99);
+    // The node is at a corner of the target.
+    const Node* node = nullptr;
+    for (const Node& n : r.rig.nodes)
+      if (n.id == "Tail5_2")
+        node = &n;
+    ASSERT_NE(node, nullptr);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vec3& p : target_mesh.positions)
+      nearest = std::min(nearest, (p - node->position).norm());
+    EXPECT_LT(nearest, 1e-12 * target_mesh.bbox_diagonal());
+  } catch (const EmbedError& e) {
+    ADD_FAILURE() << e.what();
+  }
+}
+
 TEST(Transfer, ACoarseTargetWhoseThinPartCannotHoldTheCurvesIsRefusedWithWhatToDo) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

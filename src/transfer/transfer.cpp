@@ -386,14 +386,17 @@ private:
 /// profile placed by closest points goes back along the normal if its
 /// curves keep their angles better there (on a coarse ear tip, a ring's
 /// node whose closest point lay past the next node of its ring, turning
-/// the ring's order, so that a line into the ring crossed it).
+/// the ring's order, so that a line into the ring crossed it). Nodes in
+/// `at_corner` go to the nearest corner of the target triangle they lie on
+/// (see transfer()).
 /// `source` and `target` are the surfaces placed from and onto: a cage's
 /// limit surface where the mesh is a cage, and then the rig is carried up
 /// from the source cage (`source_cage`) and down to the target cage.
 Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& source, const TraceMesh& target,
                     const TransferOptions& opt, const CageMap* source_cage, const CageMap* target_cage,
                     const std::set<std::string>& by_closest, const std::set<std::string>& by_section,
-                    const std::set<std::string>& by_ends, const SectionMesh* target_sections, double& max_node_offset) {
+                    const std::set<std::string>& by_ends, const std::set<std::string>& at_corner,
+                    const SectionMesh* target_sections, double& max_node_offset) {
   // The profiles as the source's embedding traced them, on its surface,
   // without the steps smaller than half the fidelity tolerance (a chain
   // zigzags across the edges near its nodes).
@@ -433,6 +436,17 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         out.nodes[k].position = placer.place_node(rig.nodes[k], true, offsets[k]);
         at_closest[k] = 1;
       }
+  // Nodes at which two of their curves met (see transfer()) go to the
+  // nearest corner of the target's triangle they lie on, and stay there.
+  for (size_t k = 0; k < out.nodes.size(); ++k)
+    if (at_corner.count(out.nodes[k].id)) {
+      const TraceMesh::Nearest near = target.nearest(out.nodes[k].position);
+      const auto& corners = target.tri(near.tri);
+      const int i = static_cast<int>(std::max_element(near.bary.begin(), near.bary.end()) - near.bary.begin());
+      const Vec3 corner = target.position(corners[i]);
+      offsets[k] += (corner - out.nodes[k].position).norm();
+      out.nodes[k].position = corner;
+    }
   std::vector<std::vector<Vec3>> mapped(out.profiles.size());
   std::vector<std::pair<std::string, std::string>> jumps; // (profile, refusal)
   auto place = [&](size_t i) {
@@ -532,7 +546,7 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
   };
   for (size_t k = 0; k < out.nodes.size(); ++k) {
     const double ratio = worst_ratio(k);
-    if (ratio >= kKeptAngle)
+    if (ratio >= kKeptAngle || at_corner.count(out.nodes[k].id))
       continue;
     const Vec3 placed = out.nodes[k].position; // along the normal, or at the closest point
     std::vector<std::vector<Vec3>> before;
@@ -767,16 +781,20 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
         // points instead, a few times over.
         // Then, for those named again, the plane section through their
         // placed ends and middle; then their ends alone.
-        std::set<std::string> by_closest, by_section, by_ends, ids;
+        std::set<std::string> by_closest, by_section, by_ends, at_corner, ids;
+        std::map<std::string, std::pair<std::string, std::string>> ends; // of each profile
+        for (const Profile& p : rig.profiles)
+          ends[p.id] = {p.from, p.to};
         std::optional<SectionMesh> sections;
         for (const Profile& p : rig.profiles)
           ids.insert(p.id);
         for (int attempt = 0;; ++attempt) {
           try {
             double offset = 0;
-            result.rig = place_on_target(rig, src, source_placed, target_placed, opt,
-                                         source_cage ? &*source_cage : nullptr, target_cage ? &*target_cage : nullptr,
-                                         by_closest, by_section, by_ends, sections ? &*sections : nullptr, offset);
+            result.rig =
+                place_on_target(rig, src, source_placed, target_placed, opt, source_cage ? &*source_cage : nullptr,
+                                target_cage ? &*target_cage : nullptr, by_closest, by_section, by_ends, at_corner,
+                                sections ? &*sections : nullptr, offset);
             rep.max_node_offset = offset;
             placed.emplace(target_cage ? embed(target, result.rig, target_embed)
                                        : embed_on(target, *target_trace, result.rig, target_embed,
@@ -802,6 +820,23 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
                   more = true;
                 }
               }
+            // Last, two named profiles that meet or cross away from a node
+            // they share, placed every way: a node a few hundredths of an
+            // edge off a corner of a coarse target (a flat tail's edge)
+            // leaves its curves only the sliver between it and the corner
+            // to pass through. The node goes to the corner.
+            if (!more && attempt < kReplacements) {
+              const std::vector<std::string> named = quoted(what);
+              for (size_t a = 0; a < named.size(); ++a)
+                for (size_t b = a + 1; b < named.size(); ++b) {
+                  const auto pa = ends.find(named[a]), pb = ends.find(named[b]);
+                  if (pa == ends.end() || pb == ends.end())
+                    continue;
+                  for (const std::string& node : {pa->second.first, pa->second.second})
+                    if ((node == pb->second.first || node == pb->second.second) && at_corner.insert(node).second)
+                      more = true;
+                }
+            }
             if (!more) {
               unplaced = what;
               placings = attempt + 1;
