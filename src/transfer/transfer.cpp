@@ -820,12 +820,13 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
                   more = true;
                 }
               }
-            // Last, two named profiles that meet or cross away from a node
-            // they share, placed every way: a node a few hundredths of an
-            // edge off a corner of a coarse target (a flat tail's edge)
-            // leaves its curves only the sliver between it and the corner
-            // to pass through. The node goes to the corner.
-            if (!more && attempt < kReplacements) {
+            // Last, two profiles that the target's embedding names as
+            // meeting or crossing away from a node they share, placed every
+            // way: a node a tenth of an edge off a corner of a coarse target
+            // (where a flat tail's edge runs) leaves its curves only the
+            // sliver between it and the corner to pass through. The node
+            // goes to the corner.
+            if (!more && attempt < kReplacements && what.rfind("transfer:", 0) != 0) {
               const std::vector<std::string> named = quoted(what);
               for (size_t a = 0; a < named.size(); ++a)
                 for (size_t b = a + 1; b < named.size(); ++b) {
