@@ -25,6 +25,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -387,8 +388,8 @@ private:
 /// curves keep their angles better there (on a coarse ear tip, a ring's
 /// node whose closest point lay past the next node of its ring, turning
 /// the ring's order, so that a line into the ring crossed it). Nodes in
-/// `at_corner` go to the nearest corner of the target triangle they lie on
-/// (see transfer()).
+/// `at_corner` go to the nearest free corner of the target triangle they
+/// lie on (see transfer()).
 /// `source` and `target` are the surfaces placed from and onto: a cage's
 /// limit surface where the mesh is a cage, and then the rig is carried up
 /// from the source cage (`source_cage`) and down to the target cage.
@@ -436,17 +437,37 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
         out.nodes[k].position = placer.place_node(rig.nodes[k], true, offsets[k]);
         at_closest[k] = 1;
       }
-  // Nodes at which two of their curves met (see transfer()) go to the
-  // nearest corner of the target's triangle they lie on, and stay there.
-  for (size_t k = 0; k < out.nodes.size(); ++k)
-    if (at_corner.count(out.nodes[k].id)) {
-      const TraceMesh::Nearest near = target.nearest(out.nodes[k].position);
-      const auto& corners = target.tri(near.tri);
-      const int i = static_cast<int>(std::max_element(near.bary.begin(), near.bary.end()) - near.bary.begin());
-      const Vec3 corner = target.position(corners[i]);
-      offsets[k] += (corner - out.nodes[k].position).norm();
-      out.nodes[k].position = corner;
+  // Nodes that two of their curves met near (see transfer()) go to the
+  // nearest corner of the target's triangle they lie on, and stay there;
+  // a corner that another node is at, or goes to, is passed over (two
+  // nodes on one vertex are refused), and a node whose three corners are
+  // all taken stays where it is.
+  std::vector<char> cornered(out.nodes.size(), 0);
+  if (!at_corner.empty()) {
+    const double snap = detail::Tolerances::node_snap_rel * diag;
+    for (size_t k = 0; k < out.nodes.size(); ++k) {
+      if (!at_corner.count(out.nodes[k].id))
+        continue;
+      const Vec3 at = out.nodes[k].position;
+      const auto& tri = target.tri(target.nearest(at).tri);
+      std::array<int, 3> corners = tri;
+      std::sort(corners.begin(), corners.end(), [&](int a, int b) {
+        return std::pair((target.position(a) - at).norm(), a) < std::pair((target.position(b) - at).norm(), b);
+      });
+      for (const int c : corners) {
+        const Vec3& corner = target.position(c);
+        bool taken = false;
+        for (size_t m = 0; m < out.nodes.size() && !taken; ++m)
+          taken = m != k && (out.nodes[m].position - corner).norm() <= snap;
+        if (taken)
+          continue;
+        out.nodes[k].position = corner;
+        offsets[k] = (corner - placer.mapped(rig.nodes[k].position)).norm();
+        cornered[k] = 1;
+        break;
+      }
     }
+  }
   std::vector<std::vector<Vec3>> mapped(out.profiles.size());
   std::vector<std::pair<std::string, std::string>> jumps; // (profile, refusal)
   auto place = [&](size_t i) {
@@ -546,7 +567,7 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
   };
   for (size_t k = 0; k < out.nodes.size(); ++k) {
     const double ratio = worst_ratio(k);
-    if (ratio >= kKeptAngle || at_corner.count(out.nodes[k].id))
+    if (ratio >= kKeptAngle || cornered[k])
       continue;
     const Vec3 placed = out.nodes[k].position; // along the normal, or at the closest point
     std::vector<std::vector<Vec3>> before;
@@ -554,9 +575,13 @@ Rig place_on_target(const Rig& rig, const Embedding& traced, const TraceMesh& so
       before.push_back(out.profiles[i].curve.points);
     double offset = 0;
     out.nodes[k].position = placer.place_node(rig.nodes[k], !at_closest[k], offset);
+    const size_t jumped = jumps.size();
     for (const auto& [i, start] : at_node[k])
       place(i);
-    if (worst_ratio(k) <= ratio) { // no better: as it was
+    // No better, or one of its curves now jumps (which the refusal above
+    // would not see): as it was.
+    if (jumps.size() > jumped || worst_ratio(k) <= ratio) {
+      jumps.resize(jumped);
       out.nodes[k].position = placed;
       for (size_t m = 0; m < at_node[k].size(); ++m)
         out.profiles[at_node[k][m].first].curve.points = before[m];
@@ -820,13 +845,14 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
                   more = true;
                 }
               }
-            // Last, two profiles that the target's embedding names as
-            // meeting or crossing away from a node they share, placed every
-            // way: a node a tenth of an edge off a corner of a coarse target
+            // Last, where the target's embedding still names two profiles
+            // that share a node, each placed every way (on a coarse target
+            // they meet near it): a node a tenth of an edge off a corner
             // (where a flat tail's edge runs) leaves its curves only the
             // sliver between it and the corner to pass through. The node
-            // goes to the corner.
-            if (!more && attempt < kReplacements && what.rfind("transfer:", 0) != 0) {
+            // goes to the corner. (Not on a cage, whose limit surface the
+            // rig is placed on: a corner there is not the cage's.)
+            if (!more && attempt < kReplacements && what.rfind("transfer:", 0) != 0 && !target_cage) {
               const std::vector<std::string> named = quoted(what);
               for (size_t a = 0; a < named.size(); ++a)
                 for (size_t b = a + 1; b < named.size(); ++b) {
