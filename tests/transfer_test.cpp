@@ -413,6 +413,29 @@ TEST(Transfer, GameAnimalsGoToTheirLODsExportedInOtherAxesAndUnits) {
   }
 }
 
+namespace {
+
+/// The shared animal `name`'s rig transferred to its decimation
+/// tests/data/quaternius/`file`, lined up by the two files' skeletons.
+TransferResult transfer_to_decimation(const Rig& rig, const std::string& name, const std::string& file) {
+  const std::string from = test::data("quaternius/" + name + ".glb");
+  const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/" + file;
+  TransferOptions opt;
+  opt.alignment = Alignment::Auto;
+  opt.source_skeleton = load_skinned_mesh(from).joints;
+  opt.target_skeleton = load_skinned_mesh(to).joints;
+  return transfer(rig, load_mesh(from), load_mesh(to), opt);
+}
+
+/// Every region found on the target, and most of its area agreeing.
+void expect_transferred(const TransferResult& r) {
+  EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
+  EXPECT_EQ(r.report.target.regions, r.report.source.regions);
+  EXPECT_GT(r.report.agreement, 0.99);
+}
+
+} // namespace
+
 TEST(Transfer, ANodeMovedToItsClosestPointGoesBackWhereItsCurvesKeepTheirAngles) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";
@@ -424,22 +447,11 @@ TEST(Transfer, ANodeMovedToItsClosestPointGoesBackWhereItsCurvesKeepTheirAngles)
   // ring crosses it (490), or the neck's ring and the line to the head meet
   // (214). Such a node goes back along the normal where its curves keep
   // their angles better there, and both transfer.
-  const std::string from = test::data("quaternius/Wolf.glb");
-  const SurfaceMesh source_mesh = load_mesh(from);
-  const Rig rig = test::skinned_starter(from);
+  const Rig rig = test::skinned_starter(test::data("quaternius/Wolf.glb"));
   for (const std::string lod : {"_decimated_25", "_decimated_11"}) {
     SCOPED_TRACE(lod);
-    const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Wolf" + lod + ".glb";
-    const SurfaceMesh target_mesh = load_mesh(to);
-    TransferOptions opt;
-    opt.alignment = Alignment::Auto;
-    opt.source_skeleton = load_skinned_mesh(from).joints;
-    opt.target_skeleton = load_skinned_mesh(to).joints;
     try {
-      const TransferResult r = transfer(rig, source_mesh, target_mesh, opt);
-      EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
-      EXPECT_EQ(r.report.target.regions, r.report.source.regions);
-      EXPECT_GT(r.report.agreement, 0.99);
+      expect_transferred(transfer_to_decimation(rig, "Wolf", "Wolf" + lod + ".glb"));
     } catch (const EmbedError& e) {
       ADD_FAILURE() << e.what();
     }
@@ -455,18 +467,12 @@ TEST(Transfer, TwoCurvesThatMeetAwayFromTheirNodeOnACoarseTargetGetTheNodeAtAFac
   // and the line into that node both pass between the node and the corner,
   // and meet there however they are placed. Placed every other way, the
   // node goes to the corner, and the transfer succeeds.
-  const std::string from = test::data("quaternius/Apatosaurus.glb");
-  const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Apatosaurus_decimated_21.glb";
-  const SurfaceMesh source_mesh = load_mesh(from), target_mesh = load_mesh(to);
-  TransferOptions opt;
-  opt.alignment = Alignment::Auto;
-  opt.source_skeleton = load_skinned_mesh(from).joints;
-  opt.target_skeleton = load_skinned_mesh(to).joints;
+  const SurfaceMesh target_mesh =
+      load_mesh(std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Apatosaurus_decimated_21.glb");
   try {
-    const TransferResult r = transfer(test::skinned_starter(from), source_mesh, target_mesh, opt);
-    EXPECT_TRUE(r.report.ok) << (r.report.problems.empty() ? "" : r.report.problems[0]);
-    EXPECT_EQ(r.report.target.regions, r.report.source.regions);
-    EXPECT_GT(r.report.agreement, 0.99);
+    const TransferResult r = transfer_to_decimation(test::skinned_starter(test::data("quaternius/Apatosaurus.glb")),
+                                                    "Apatosaurus", "Apatosaurus_decimated_21.glb");
+    expect_transferred(r);
     // The node is at a corner of the target.
     const Node* node = nullptr;
     for (const Node& n : r.rig.nodes)
@@ -492,13 +498,8 @@ TEST(Transfer, ACoarseTargetWhoseThinPartCannotHoldTheCurvesIsRefusedWithWhatToD
   // net, which embeds there.
   const std::string from = test::data("quaternius/Trex.glb");
   const std::string to = std::string(CURVENET_SOURCE_DIR) + "/tests/data/quaternius/Trex_decimated_12.glb";
-  const SurfaceMesh source_mesh = load_mesh(from), target_mesh = load_mesh(to);
-  TransferOptions opt;
-  opt.alignment = Alignment::Auto;
-  opt.source_skeleton = load_skinned_mesh(from).joints;
-  opt.target_skeleton = load_skinned_mesh(to).joints;
   try {
-    (void)transfer(test::skinned_starter(from), source_mesh, target_mesh, opt);
+    (void)transfer_to_decimation(test::skinned_starter(from), "Trex", "Trex_decimated_12.glb");
     ADD_FAILURE() << "the transfer onto the 226-triangle T-rex is not refused";
   } catch (const EmbedError& e) {
     const std::string what = e.what();
@@ -510,7 +511,7 @@ TEST(Transfer, ACoarseTargetWhoseThinPartCannotHoldTheCurvesIsRefusedWithWhatToD
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;
   }
   const Rig own = test::skinned_starter(to);
-  EXPECT_TRUE(embed(target_mesh, own).report().ok);
+  EXPECT_TRUE(embed(load_mesh(to), own).report().ok);
 }
 
 TEST(Transfer, HandAuthoredOnceAgreesWhenPosedOnEveryTessellation) {
