@@ -806,13 +806,11 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
         // points instead, a few times over.
         // Then, for those named again, the plane section through their
         // placed ends and middle; then their ends alone.
-        std::set<std::string> by_closest, by_section, by_ends, at_corner, ids;
-        std::map<std::string, std::pair<std::string, std::string>> ends; // of each profile
+        std::set<std::string> by_closest, by_section, by_ends, at_corner;
+        std::map<std::string, std::pair<std::string, std::string>> ends; // of each profile, by id
         for (const Profile& p : rig.profiles)
           ends[p.id] = {p.from, p.to};
         std::optional<SectionMesh> sections;
-        for (const Profile& p : rig.profiles)
-          ids.insert(p.id);
         for (int attempt = 0;; ++attempt) {
           try {
             double offset = 0;
@@ -833,7 +831,7 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
             const bool jumped = what.rfind("transfer: profile '", 0) == 0 && what.find(" jump") != std::string::npos;
             if (attempt < kReplacements && (what.rfind("transfer:", 0) != 0 || jumped))
               for (const std::string& id : quoted(what)) {
-                if (!ids.count(id))
+                if (!ends.count(id))
                   continue;
                 if (by_closest.insert(id).second) {
                   more = true;
