@@ -458,6 +458,27 @@ TEST(Transfer, ANodeMovedToItsClosestPointGoesBackWhereItsCurvesKeepTheirAngles)
   }
 }
 
+TEST(Transfer, ARegionOfAThinPartIsLocatedOnItsOwnSide) {
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  // The wolf at a ninth of its faces (214 triangles): its ear is a flat
+  // blade a few faces round, thinner than the source's. A panel of the ear
+  // tip, on the ear's front, lies nearer to the back of the source's ear
+  // than to its front, and located by closest points alone it agreed 0 %.
+  // Located on the side its faces face, every region of the transfer
+  // agrees over most of its area.
+  try {
+    const TransferResult r = transfer_to_decimation(test::skinned_starter(test::data("quaternius/Wolf.glb")), "Wolf",
+                                                    "Wolf_decimated_11.glb");
+    expect_transferred(r);
+    ASSERT_FALSE(r.report.regions.empty());
+    for (const auto& region : r.report.regions)
+      EXPECT_GT(region.agree, 0.5) << region.key;
+  } catch (const EmbedError& e) {
+    ADD_FAILURE() << e.what();
+  }
+}
+
 TEST(Transfer, TwoCurvesThatMeetAwayFromTheirNodeOnACoarseTargetGetTheNodeAtAFacesCorner) {
   if (!test::have_data())
     GTEST_SKIP() << "no shared data";

@@ -51,6 +51,12 @@ std::string percent(double x) {
   return s.str();
 }
 
+/// Rays that look for the surface along a normal reach no farther than
+/// kRayReach times the distance to the closest point, plus kRaySlack mean
+/// edge lengths of the mesh they look for: farther, they graze it.
+constexpr double kRayReach = 3;
+constexpr double kRaySlack = 0.5;
+
 /// Which region of an embedding holds a point of its input mesh.
 class RegionLocator {
 public:
@@ -70,9 +76,29 @@ public:
   }
 
   /// The region (an index into the embedding's region list) at the surface
-  /// point nearest to p; -1 outside a local net.
-  int region_at(const Vec3& p) const {
-    const auto n = tm_.nearest(p);
+  /// point nearest to p; -1 outside a local net. With `facing` (the normal
+  /// of the surface p lies on), a nearest point on a triangle that faces the
+  /// other way is on the far side of a thin part (a flat ear or foot, nearer
+  /// to p's other side than its own where the two surfaces differ): the
+  /// nearest point along the normal, either way, on a triangle facing the
+  /// same way is taken instead, where there is one. `facing` is a unit
+  /// vector.
+  int region_at(const Vec3& p, const Vec3* facing = nullptr) const {
+    auto n = tm_.nearest(p);
+    if (facing) {
+      const auto& c = tm_.tri(n.tri);
+      const Vec3 normal = (tm_.position(c[1]) - tm_.position(c[0])).cross(tm_.position(c[2]) - tm_.position(c[0]));
+      if (normal.dot(*facing) < 0) {
+        const double reach = kRayReach * n.distance(p) + kRaySlack * tm_.mean_edge_length();
+        std::optional<TraceMesh::Nearest> best;
+        for (const double sign : {1.0, -1.0})
+          if (const auto hit = tm_.ray_hit(p, sign * *facing, reach, *facing))
+            if (!best || hit->distance(p) < best->distance(p))
+              best = hit;
+        if (best)
+          n = *best;
+      }
+    }
     const int f = tm_.tri_face(n.tri);
     const CutMesh& cm = emb_.impl().cut;
     const int* begin = pieces_.data() + first_[f];
@@ -153,8 +179,6 @@ public:
   }
 
 private:
-  static constexpr double kRayReach = 3;   ///< rays up to this many times the closest distance...
-  static constexpr double kRaySlack = 0.5; ///< ...plus this many target mean edge lengths
   const TraceMesh& stm_;
   SmoothNormals normals_;
   const TraceMesh& ttm_;
@@ -960,8 +984,8 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
     target_identity[r] = identity_of(keys[r]);
   for (size_t r = 0; r < source_identity.size(); ++r)
     source_identity[r] = identity_of(a.region_list[r].key());
-  auto source_identity_at = [&](const Vec3& p) {
-    const int r = locate.region_at(p);
+  auto source_identity_at = [&](const Vec3& p, const Vec3* facing) {
+    const int r = locate.region_at(p, facing);
     return r < 0 ? 0 : source_identity[r];
   };
   // Per cut face, in parallel: its area, and the part of it whose source
@@ -990,6 +1014,10 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
   for (size_t r = 0; r < keys.size(); ++r)
     stride[r] = std::max(1, region_faces[r] / kRegionSamples);
   std::vector<std::pair<double, double>> face_area(cm.num_faces(), {0.0, 0.0});
+  // A target triangle's outward normal (its sides' cross product) as a
+  // direction in the source's space: by the inverse transpose, as the
+  // projector maps the source's normals the other way.
+  const Eigen::Matrix3d facing_map = to_source.topLeftCorner<3, 3>().inverse().transpose();
   tbb::parallel_for(0, cm.num_faces(), [&](int f) {
     const int r = tgt.face_regions()[f];
     if (r < 0 || (!border[f] && nth[f] % stride[r] != 0))
@@ -1015,7 +1043,13 @@ TransferResult transfer(const Rig& rig, const SurfaceMesh& source, const Surface
       if (source_cage)
         at = source_cage->to_cage(at);
       face_area[f].first += weight * area;
-      face_area[f].second += source_identity_at(at) == target_identity[r] ? weight * area : 0;
+      // Looked up on the side of the source the triangle faces (not through
+      // a cage's limit surface, whose triangles are not the located mesh's).
+      const Vec3 facing =
+          (facing_map * (corners[t[1]] - corners[t[0]]).cross(corners[t[2]] - corners[t[0]])).normalized();
+      const bool sided = !target_cage && !source_cage;
+      face_area[f].second +=
+          source_identity_at(at, sided ? &facing : nullptr) == target_identity[r] ? weight * area : 0;
     }
   });
   double total = 0, agreeing = 0; // summed in face order: the same on any thread count
