@@ -1033,11 +1033,26 @@ PYBIND11_MODULE(_curvenet, m) {
       py::arg("path"));
   m.def(
       "load_skeleton",
-      [](const std::string& path) {
-        py::gil_scoped_release release;
-        return load_skeleton(path);
+      [](const std::string& path, const py::object& mesh) {
+        if (mesh.is_none()) {
+          py::gil_scoped_release release;
+          return load_skeleton(path);
+        }
+        const SurfaceMesh& for_mesh = mesh.cast<const SurfaceMesh&>();
+        SkeletonFile file;
+        {
+          py::gil_scoped_release release;
+          file = read_skeleton_file(path, for_mesh);
+        }
+        // The note `curvenet --skeleton` prints when it takes the scene's placing.
+        if (!file.note.empty() && PyErr_WarnEx(PyExc_UserWarning, file.note.c_str(), 1) != 0)
+          throw py::error_already_set(); // warnings turned into errors
+        return file.joints;
       },
-      py::arg("path"));
+      py::arg("path"), py::arg("mesh") = py::none(),
+      "The joints of a rig or skinned file, as bound; with `mesh`, placed for it as the CLI's --skeleton places "
+      "them (a Blender glTF whose scene places its skeleton, for a mesh in the scene's space), with a "
+      "UserWarning saying so when the scene's placing is taken");
   m.def(
       "with_skeleton",
       [](const Rig& rig, const py::object& skeleton, const std::string& source) {

@@ -22,7 +22,8 @@ struct SceneFiles {
 };
 
 /// The rig of `files`, with its skeleton replaced by `files.skeleton`'s when
-/// given.
+/// given, as bound: with no mesh read, the skeleton file's joints are not
+/// placed for one (read_scene() places them; read_skeleton_file()).
 /// \throw InputError naming the rig when it has no skeleton either way.
 Rig read_scene_rig(const SceneFiles& files);
 

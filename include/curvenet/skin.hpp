@@ -110,9 +110,9 @@ struct SkeletonFile {
 /// \throw InputError as load_skeleton() does.
 SkeletonFile read_skeleton_file(const std::string& path);
 /// The skeleton of `path` for `mesh`: where `path` is a skinned glTF whose
-/// armature places its skeleton (Blender's exports scale it by 100 and turn
-/// it to Y up), and the joints as bound lie outside the mesh (under half in
-/// its box grown by a tenth) while the placed ones lie inside (nine in ten),
+/// scene places its skeleton (Blender's exports scale it by 100 and turn it
+/// to Y up), and the mesh winds round half or more of the placed joints and
+/// bones' middles, and a quarter more of them than of the joints as bound,
 /// the placed joints, with a note: an OBJ exported from Blender is in the
 /// scene's space, not the skin's.
 SkeletonFile read_skeleton_file(const std::string& path, const SurfaceMesh& mesh);

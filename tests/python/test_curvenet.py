@@ -487,6 +487,32 @@ def test_starter_transfer_and_compare_on_the_hand():
 
 
 @needs_data
+def test_a_skeleton_loaded_for_a_mesh_is_placed_as_the_clis_skeleton_option_places_it():
+    # Blender's re-export of the horse is in its scene's space (100 times
+    # the skin's size, Y up). load_skeleton(path) gives the horse's joints
+    # as bound, a hundredth of that mesh's size; load_skeleton(path, mesh)
+    # places them for the mesh as `--skeleton` does, and warns with the
+    # CLI's note. For the horse's own mesh, the joints as bound, silently.
+    horse = os.path.join(DATA, "quaternius", "Horse.glb")
+    again = os.path.join(os.path.dirname(__file__), "..", "data", "quaternius", "Horse_decimated.glb")
+    bound = curvenet.load_skeleton(horse)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # none for its own mesh
+        own = curvenet.load_skeleton(horse, curvenet.load_mesh(horse))
+    assert [j.name for j in own] == [j.name for j in bound]
+    assert all(np.array_equal(a.bind, b.bind) for a, b in zip(own, bound))
+    with pytest.warns(UserWarning, match="taken as placed"):
+        placed = curvenet.load_skeleton(horse, curvenet.load_mesh(again))
+    # The placed joints land on the re-export's own joints.
+    there = {j.name: np.asarray(j.bind)[:3, 3] for j in curvenet.load_skinned_mesh(again).joints}
+    size = np.ptp(np.asarray(curvenet.load_mesh(again).vertices), axis=0).max()
+    worst = max(np.linalg.norm(np.asarray(j.bind)[:3, 3] - there[j.name]) for j in placed if j.name in there)
+    assert worst < 0.01 * size
+    unplaced = max(np.linalg.norm(np.asarray(j.bind)[:3, 3] - there[j.name]) for j in bound if j.name in there)
+    assert unplaced > 0.1 * size
+
+
+@needs_data
 def test_transfer_to_a_game_lod_lines_up_by_the_skeletons():
     # Blender's decimation of the wolf: Y up, the armature's scale of 100
     wolf = os.path.join(DATA, "quaternius", "Wolf.glb")
