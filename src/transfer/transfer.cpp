@@ -57,6 +57,17 @@ std::string percent(double x) {
 constexpr double kRayReach = 3;
 constexpr double kRaySlack = 0.5;
 
+/// The nearest point of `tm` on the line through p along the unit vector n,
+/// either way and within `reach`, on a triangle facing along n.
+std::optional<TraceMesh::Nearest> hit_along(const TraceMesh& tm, const Vec3& p, const Vec3& n, double reach) {
+  std::optional<TraceMesh::Nearest> best;
+  for (const double sign : {1.0, -1.0})
+    if (const auto hit = tm.ray_hit(p, sign * n, reach, n))
+      if (!best || hit->distance(p) < best->distance(p))
+        best = hit;
+  return best;
+}
+
 /// Which region of an embedding holds a point of its input mesh.
 class RegionLocator {
 public:
@@ -89,14 +100,8 @@ public:
       const auto& c = tm_.tri(n.tri);
       const Vec3 normal = (tm_.position(c[1]) - tm_.position(c[0])).cross(tm_.position(c[2]) - tm_.position(c[0]));
       if (normal.dot(*facing) < 0) {
-        const double reach = kRayReach * n.distance(p) + kRaySlack * tm_.mean_edge_length();
-        std::optional<TraceMesh::Nearest> best;
-        for (const double sign : {1.0, -1.0})
-          if (const auto hit = tm_.ray_hit(p, sign * *facing, reach, *facing))
-            if (!best || hit->distance(p) < best->distance(p))
-              best = hit;
-        if (best)
-          n = *best;
+        if (const auto hit = hit_along(tm_, p, *facing, kRayReach * n.distance(p) + kRaySlack * tm_.mean_edge_length()))
+          n = *hit;
       }
     }
     const int f = tm_.tri_face(n.tri);
@@ -170,12 +175,8 @@ public:
     // never lands on the far side of a thin fin or finger. A ray much longer
     // than the closest distance grazes the surface: keep the closest point.
     const double reach = std::min(kRayReach * d0 + kRaySlack * h_, max_reach_);
-    std::optional<Vec3> best;
-    for (const double sign : {1.0, -1.0})
-      if (const auto hit = ttm_.ray_hit(q, sign * n, reach, n))
-        if (!best || hit->distance(q) < (*best - q).norm())
-          best = hit->point;
-    return best ? std::pair{*best, (*best - q).norm()} : std::pair{near.point, d0};
+    const auto hit = hit_along(ttm_, q, n, reach);
+    return hit ? std::pair{hit->point, hit->distance(q)} : std::pair{near.point, d0};
   }
 
 private:

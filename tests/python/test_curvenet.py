@@ -501,11 +501,12 @@ def test_a_skeleton_loaded_for_a_mesh_is_placed_as_the_clis_skeleton_option_plac
         own = curvenet.load_skeleton(horse, curvenet.load_mesh(horse))
     assert [j.name for j in own] == [j.name for j in bound]
     assert all(np.array_equal(a.bind, b.bind) for a, b in zip(own, bound))
+    again_mesh = curvenet.load_mesh(again)
     with pytest.warns(UserWarning, match="taken as placed"):
-        placed = curvenet.load_skeleton(horse, curvenet.load_mesh(again))
+        placed = curvenet.load_skeleton(horse, again_mesh)
     # The placed joints land on the re-export's own joints.
     there = {j.name: np.asarray(j.bind)[:3, 3] for j in curvenet.load_skinned_mesh(again).joints}
-    size = np.ptp(np.asarray(curvenet.load_mesh(again).vertices), axis=0).max()
+    size = np.ptp(np.asarray(again_mesh.vertices), axis=0).max()
     worst = max(np.linalg.norm(np.asarray(j.bind)[:3, 3] - there[j.name]) for j in placed if j.name in there)
     assert worst < 0.01 * size
     unplaced = max(np.linalg.norm(np.asarray(j.bind)[:3, 3] - there[j.name]) for j in bound if j.name in there)
