@@ -180,22 +180,44 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
     for (size_t f = 0; f < nf; ++f)
       std::fill(t.corner_face.begin() + offsets[f], t.corner_face.begin() + offsets[f + 1], static_cast<int>(f));
   }
+  // The counting sort in parallel over blocks of faces: each block counts
+  // its sides per bucket, and fills each bucket after the blocks before it,
+  // so that a bucket holds its sides in corner order as a serial pass would.
+  const int blocks = static_cast<int>(std::clamp<size_t>(nf / 65536, 1, 4));
+  auto block_faces = [&](int block) {
+    return std::pair<size_t, size_t>{nf * block / blocks, nf * (block + 1) / blocks};
+  };
+  auto side_end = [&](size_t f, int k) { return verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]; };
+  std::vector<std::vector<int>> counts(static_cast<size_t>(blocks));
+  tbb::parallel_for(0, blocks, [&](int block) {
+    std::vector<int>& c = counts[block];
+    c.assign(static_cast<size_t>(nv), 0);
+    const auto [f0, f1] = block_faces(block);
+    for (size_t f = f0; f < f1; ++f)
+      for (int k = offsets[f]; k < offsets[f + 1]; ++k)
+        ++c[std::min(verts[k], side_end(f, k))];
+  });
   std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
-  for (size_t f = 0; f < nf; ++f)
-    for (int k = offsets[f]; k < offsets[f + 1]; ++k)
-      ++bucket[std::min(verts[k], verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]) + 1];
-  for (int v = 0; v < nv; ++v)
-    bucket[v + 1] += bucket[v];
+  for (int v = 0, at = 0; v < nv; ++v) {
+    bucket[v] = at;
+    for (int block = 0; block < blocks; ++block) { // each block's count becomes where it starts filling
+      const int c = counts[block][v];
+      counts[block][v] = at;
+      at += c;
+    }
+    bucket[v + 1] = at;
+  }
   std::vector<Use>& all = t.use;
   all.resize(verts.size());
-  {
-    std::vector<int> fill(bucket.begin(), bucket.end() - 1);
-    for (size_t f = 0; f < nf; ++f)
+  tbb::parallel_for(0, blocks, [&](int block) {
+    std::vector<int>& fill = counts[block];
+    const auto [f0, f1] = block_faces(block);
+    for (size_t f = f0; f < f1; ++f)
       for (int k = offsets[f]; k < offsets[f + 1]; ++k) {
-        const int a = verts[k], b = verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]];
+        const int a = verts[k], b = side_end(f, k);
         all[fill[std::min(a, b)]++] = {std::max(a, b), k};
       }
-  }
+  });
   // Each bucket ordered and its edges counted, then written at its offset:
   // both in parallel over the buckets (each bucket is a vertex's own).
   std::vector<int> edges_before(static_cast<size_t>(nv) + 1, 0);
@@ -233,43 +255,63 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
 }
 
 /// Vertices whose incident faces form more than one fan (non-manifold
-/// vertices), given manifold edges and no face that repeats a vertex: a
-/// union-find over the corners (a corner is one vertex of one face), joined
-/// across every edge two faces share.
+/// vertices), given manifold edges and no face that repeats a vertex. Around
+/// a vertex each of its corners (one vertex of one face) has two sides, and
+/// each side that two faces share links it to one corner of the other face
+/// there: the corners of a vertex form paths and cycles, one per fan.
 std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, const std::vector<int>& verts,
                                        const EdgeTable& edges) {
-  std::vector<int> parent(verts.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int x) {
-    while (parent[x] != x)
-      x = parent[x] = parent[parent[x]];
-    return x;
-  };
+  const int corners = static_cast<int>(verts.size());
+  auto next_corner = [&](int k, int f) { return k + 1 < offsets[f + 1] ? k + 1 : offsets[f]; };
   // The corner at vertex v of the side that starts at corner k of face f.
-  auto corner_at = [&](int k, int f, int v) {
-    return verts[k] == v ? k : (k + 1 < offsets[f + 1] ? k + 1 : offsets[f]);
-  };
-  // Unions join only corners of one vertex, so each fan's root is one of
-  // its own corners, and vertices can be split into blocks that share
-  // nothing: each block reads every edge and every corner, and joins and
-  // counts those of its own vertices (one block per thread; the counts do
-  // not depend on how many).
+  auto corner_at = [&](int k, int f, int v) { return verts[k] == v ? k : next_corner(k, f); };
+  // Each corner's two links: across the side that starts at it (2k), and
+  // the side that ends at it (2k + 1); -1 where that side is on a boundary.
+  // Each side is one use of one edge, so each link is written once.
+  std::vector<int> link(2 * static_cast<size_t>(corners), -1);
+  tbb::parallel_for(tbb::blocked_range<int>(0, edges.num_edges(), 16384), [&](const tbb::blocked_range<int>& r) {
+    for (int e = r.begin(); e < r.end(); ++e) {
+      if (edges.uses(e) != 2)
+        continue;
+      const int s = edges.start[e];
+      for (const int u : {s, s + 1}) {
+        const int o = u == s ? s + 1 : s;
+        const int k = edges.use_corner(u), f = edges.use_face(u), kn = next_corner(k, f);
+        const int ko = edges.use_corner(o), fo = edges.use_face(o);
+        link[2 * static_cast<size_t>(k)] = corner_at(ko, fo, verts[k]);
+        link[2 * static_cast<size_t>(kn) + 1] = corner_at(ko, fo, verts[kn]);
+      }
+    }
+  });
+  // Each fan walked once from one of its corners: first from the ends of
+  // paths, then what is left are cycles. Vertices are split into blocks
+  // that share nothing (a fan is one vertex's), one per thread, each
+  // reading every corner and walking those of its own vertices; the counts
+  // do not depend on how many blocks.
   std::vector<int> fans(static_cast<size_t>(nv), 0);
+  std::vector<char> seen(static_cast<size_t>(corners), 0);
   const int blocks = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), 8));
   tbb::parallel_for(0, blocks, [&](int block) {
     const int lo = static_cast<int>(static_cast<long long>(nv) * block / blocks),
               hi = static_cast<int>(static_cast<long long>(nv) * (block + 1) / blocks);
-    for (int e = 0; e < edges.num_edges(); ++e)
-      if (edges.uses(e) == 2) {
-        const int s = edges.start[e];
-        for (const int v : {edges.lo(e), edges.hi(e)})
-          if (v >= lo && v < hi)
-            parent[find(corner_at(edges.use_corner(s), edges.use_face(s), v))] =
-                find(corner_at(edges.use_corner(s + 1), edges.use_face(s + 1), v));
+    auto walk = [&](int k) {
+      while (k >= 0) {
+        seen[k] = 1;
+        const int a = link[2 * static_cast<size_t>(k)], b = link[2 * static_cast<size_t>(k) + 1];
+        k = a >= 0 && !seen[a] ? a : b >= 0 && !seen[b] ? b : -1;
       }
-    for (size_t k = 0; k < verts.size(); ++k)
-      if (const int v = verts[k]; v >= lo && v < hi)
-        fans[v] += find(static_cast<int>(k)) == static_cast<int>(k);
+    };
+    auto is_end = [&](int k) {
+      return link[2 * static_cast<size_t>(k)] < 0 || link[2 * static_cast<size_t>(k) + 1] < 0;
+    };
+    for (const bool ends : {true, false})
+      for (int k = 0; k < corners; ++k) {
+        const int v = verts[k];
+        if (v >= lo && v < hi && !seen[k] && (!ends || is_end(k))) {
+          ++fans[v];
+          walk(k);
+        }
+      }
   });
   std::vector<int> bad;
   for (int v = 0; v < nv; ++v)
@@ -286,7 +328,12 @@ std::string vec_str(const Vec3& p) {
 }
 
 /// For each position, the first vertex at exactly the same point (-0 and +0
-/// are one point): a flat hash table with linear probing (no node per entry).
+/// are one point): flat hash tables with linear probing (no node per
+/// entry). The positions are split by their hash's top bits into parts
+/// (a stable counting sort, so each part keeps file order), and each part
+/// is looked up in a table of its own, the parts in parallel: a part's
+/// table stays in cache, and its slots hold the hash's low bits beside the
+/// vertex, so a position is read again only where those agree.
 std::vector<int> first_at_same_position(const std::vector<Vec3>& positions) {
   const int n = static_cast<int>(positions.size());
   auto hash = [](const Vec3& p) {
@@ -300,18 +347,50 @@ std::vector<int> first_at_same_position(const std::vector<Vec3>& positions) {
     }
     return h;
   };
-  size_t size = 16;
-  while (size < 2 * static_cast<size_t>(n))
-    size *= 2;
-  std::vector<int> slot(size, -1), first(n);
-  for (int v = 0; v < n; ++v) {
-    size_t i = hash(positions[v]) & (size - 1);
-    while (slot[i] >= 0 && positions[slot[i]] != positions[v])
-      i = (i + 1) & (size - 1);
-    if (slot[i] < 0)
-      slot[i] = v;
-    first[v] = slot[i];
+  constexpr int kPartBits = 6, kParts = 1 << kPartBits;
+  std::vector<std::uint64_t> h(static_cast<size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 16384), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v)
+      h[v] = hash(positions[v]);
+  });
+  std::array<int, kParts + 1> part_start{};
+  for (int v = 0; v < n; ++v)
+    ++part_start[(h[v] >> (64 - kPartBits)) + 1];
+  for (int p = 0; p < kParts; ++p)
+    part_start[p + 1] += part_start[p];
+  std::vector<int> order(static_cast<size_t>(n));
+  {
+    std::array<int, kParts> fill{};
+    std::copy(part_start.begin(), part_start.end() - 1, fill.begin());
+    for (int v = 0; v < n; ++v)
+      order[fill[h[v] >> (64 - kPartBits)]++] = v;
   }
+  std::vector<int> first(static_cast<size_t>(n));
+  tbb::parallel_for(0, kParts, [&](int part) {
+    const int b = part_start[part], e = part_start[part + 1];
+    size_t size = 16;
+    while (size < 2 * static_cast<size_t>(e - b))
+      size *= 2;
+    // A slot: the vertex + 1 in the low 32 bits (0: empty), the hash's low 32 above.
+    std::vector<std::uint64_t> slot(size, 0);
+    for (int k = b; k < e; ++k) {
+      const int v = order[k];
+      const std::uint64_t tag = h[v] << 32;
+      size_t i = (h[v] >> 32) & (size - 1);
+      for (;; i = (i + 1) & (size - 1)) {
+        if (slot[i] == 0) {
+          slot[i] = tag | static_cast<std::uint32_t>(v + 1);
+          first[v] = v;
+          break;
+        }
+        const int u = static_cast<int>(slot[i] & 0xffffffffu) - 1;
+        if ((slot[i] & ~std::uint64_t{0xffffffffu}) == tag && positions[u] == positions[v]) {
+          first[v] = u;
+          break;
+        }
+      }
+    }
+  });
   return first;
 }
 
@@ -702,7 +781,16 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
       bool all_collinear = !degenerate;
       for (int i = 1; i + 1 < n && all_collinear; ++i)
         all_collinear = detail::collinear3d(at(0), at(i), at(i + 1));
-      if (n == 3 && !degenerate && !all_collinear && measure_thin)
+      // A triangle's least height is over its longest edge, where the corner
+      // opposite lies between the edge's ends: one higher than twice the
+      // bound there (an area against the longest edge) needs no test per edge.
+      auto surely_thick = [&] {
+        const Vec3 ab = (at(1) - at(0)) * inv_diag, ac = (at(2) - at(0)) * inv_diag, bc = ac - ab;
+        const double longest = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
+        const double bound = 2 * detail::Tolerances::node_snap_rel;
+        return ab.cross(ac).squaredNorm() > bound * bound * longest;
+      };
+      if (n == 3 && !degenerate && !all_collinear && measure_thin && !surely_thick())
         for (int m = 0; m < 3 && !all_collinear; ++m) {
           const Vec3 &a = at((m + 1) % 3), &c = at((m + 2) % 3), &x = at(m);
           const Vec3 ac = (c - a) * inv_diag, ax = (x - a) * inv_diag;
