@@ -180,44 +180,22 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
     for (size_t f = 0; f < nf; ++f)
       std::fill(t.corner_face.begin() + offsets[f], t.corner_face.begin() + offsets[f + 1], static_cast<int>(f));
   }
-  // The counting sort in parallel over blocks of faces: each block counts
-  // its sides per bucket, and fills each bucket after the blocks before it,
-  // so that a bucket holds its sides in corner order as a serial pass would.
-  const int blocks = static_cast<int>(std::clamp<size_t>(nf / 65536, 1, 4));
-  auto block_faces = [&](int block) {
-    return std::pair<size_t, size_t>{nf * block / blocks, nf * (block + 1) / blocks};
-  };
-  auto side_end = [&](size_t f, int k) { return verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]; };
-  std::vector<std::vector<int>> counts(static_cast<size_t>(blocks));
-  tbb::parallel_for(0, blocks, [&](int block) {
-    std::vector<int>& c = counts[block];
-    c.assign(static_cast<size_t>(nv), 0);
-    const auto [f0, f1] = block_faces(block);
-    for (size_t f = f0; f < f1; ++f)
-      for (int k = offsets[f]; k < offsets[f + 1]; ++k)
-        ++c[std::min(verts[k], side_end(f, k))];
-  });
   std::vector<int> bucket(static_cast<size_t>(nv) + 1, 0);
-  for (int v = 0, at = 0; v < nv; ++v) {
-    bucket[v] = at;
-    for (int block = 0; block < blocks; ++block) { // each block's count becomes where it starts filling
-      const int c = counts[block][v];
-      counts[block][v] = at;
-      at += c;
-    }
-    bucket[v + 1] = at;
-  }
+  for (size_t f = 0; f < nf; ++f)
+    for (int k = offsets[f]; k < offsets[f + 1]; ++k)
+      ++bucket[std::min(verts[k], verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]]) + 1];
+  for (int v = 0; v < nv; ++v)
+    bucket[v + 1] += bucket[v];
   std::vector<Use>& all = t.use;
   all.resize(verts.size());
-  tbb::parallel_for(0, blocks, [&](int block) {
-    std::vector<int>& fill = counts[block];
-    const auto [f0, f1] = block_faces(block);
-    for (size_t f = f0; f < f1; ++f)
+  {
+    std::vector<int> fill(bucket.begin(), bucket.end() - 1);
+    for (size_t f = 0; f < nf; ++f)
       for (int k = offsets[f]; k < offsets[f + 1]; ++k) {
-        const int a = verts[k], b = side_end(f, k);
+        const int a = verts[k], b = verts[k + 1 < offsets[f + 1] ? k + 1 : offsets[f]];
         all[fill[std::min(a, b)]++] = {std::max(a, b), k};
       }
-  });
+  }
   // Each bucket ordered and its edges counted, then written at its offset:
   // both in parallel over the buckets (each bucket is a vertex's own).
   std::vector<int> edges_before(static_cast<size_t>(nv) + 1, 0);
@@ -262,56 +240,68 @@ EdgeTable edge_table(const std::vector<int>& offsets, const std::vector<int>& ve
 std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, const std::vector<int>& verts,
                                        const EdgeTable& edges) {
   const int corners = static_cast<int>(verts.size());
-  auto next_corner = [&](int k, int f) { return k + 1 < offsets[f + 1] ? k + 1 : offsets[f]; };
-  // The corner at vertex v of the side that starts at corner k of face f.
-  auto corner_at = [&](int k, int f, int v) { return verts[k] == v ? k : next_corner(k, f); };
   // Each corner's two links: across the side that starts at it (2k), and
   // the side that ends at it (2k + 1); -1 where that side is on a boundary.
   // Each side is one use of one edge, so each link is written once.
   std::vector<int> link(2 * static_cast<size_t>(corners), -1);
-  tbb::parallel_for(tbb::blocked_range<int>(0, edges.num_edges(), 16384), [&](const tbb::blocked_range<int>& r) {
-    for (int e = r.begin(); e < r.end(); ++e) {
-      if (edges.uses(e) != 2)
-        continue;
-      const int s = edges.start[e];
-      for (const int u : {s, s + 1}) {
-        const int o = u == s ? s + 1 : s;
-        const int k = edges.use_corner(u), f = edges.use_face(u), kn = next_corner(k, f);
-        const int ko = edges.use_corner(o), fo = edges.use_face(o);
-        link[2 * static_cast<size_t>(k)] = corner_at(ko, fo, verts[k]);
-        link[2 * static_cast<size_t>(kn) + 1] = corner_at(ko, fo, verts[kn]);
+  // N: corners per face where every face has as many (a constant for
+  // triangles and quads, so that a corner's face is a shift or a multiply),
+  // or 0.
+  auto write_links = [&]<int N>(std::integral_constant<int, N>) {
+    const int n = N ? N : edges.uniform;
+    auto next_corner = [&](int k) {
+      if (n) {
+        const int first = k - k % n;
+        return k + 1 < first + n ? k + 1 : first;
       }
-    }
-  });
-  // Each fan walked once from one of its corners: first from the ends of
-  // paths, then what is left are cycles. Vertices are split into blocks
-  // that share nothing (a fan is one vertex's), one per thread, each
-  // reading every corner and walking those of its own vertices; the counts
-  // do not depend on how many blocks.
+      const int f = edges.corner_face[k];
+      return k + 1 < offsets[f + 1] ? k + 1 : offsets[f];
+    };
+    // The corner at vertex v of the side that starts at corner k.
+    auto corner_at = [&](int k, int v) { return verts[k] == v ? k : next_corner(k); };
+    tbb::parallel_for(tbb::blocked_range<int>(0, edges.num_edges(), 16384), [&](const tbb::blocked_range<int>& r) {
+      for (int e = r.begin(); e < r.end(); ++e) {
+        if (edges.uses(e) != 2)
+          continue;
+        const int s = edges.start[e];
+        for (const int u : {s, s + 1}) {
+          const int k = edges.use_corner(u), kn = next_corner(k), ko = edges.use_corner(u == s ? s + 1 : s);
+          link[2 * static_cast<size_t>(k)] = corner_at(ko, verts[k]);
+          link[2 * static_cast<size_t>(kn) + 1] = corner_at(ko, verts[kn]);
+        }
+      }
+    });
+  };
+  if (edges.uniform == 3)
+    write_links(std::integral_constant<int, 3>{});
+  else if (edges.uniform == 4)
+    write_links(std::integral_constant<int, 4>{});
+  else
+    write_links(std::integral_constant<int, 0>{});
+  // Each fan walked once, from the first of its corners met, both ways.
+  // Vertices are split into blocks that share nothing (a fan is one
+  // vertex's), one per thread, each reading every corner and walking those
+  // of its own vertices; the counts do not depend on how many blocks.
   std::vector<int> fans(static_cast<size_t>(nv), 0);
   std::vector<char> seen(static_cast<size_t>(corners), 0);
   const int blocks = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), 8));
   tbb::parallel_for(0, blocks, [&](int block) {
     const int lo = static_cast<int>(static_cast<long long>(nv) * block / blocks),
               hi = static_cast<int>(static_cast<long long>(nv) * (block + 1) / blocks);
-    auto walk = [&](int k) {
-      while (k >= 0) {
-        seen[k] = 1;
-        const int a = link[2 * static_cast<size_t>(k)], b = link[2 * static_cast<size_t>(k) + 1];
-        k = a >= 0 && !seen[a] ? a : b >= 0 && !seen[b] ? b : -1;
-      }
-    };
-    auto is_end = [&](int k) {
-      return link[2 * static_cast<size_t>(k)] < 0 || link[2 * static_cast<size_t>(k) + 1] < 0;
-    };
-    for (const bool ends : {true, false})
-      for (int k = 0; k < corners; ++k) {
-        const int v = verts[k];
-        if (v >= lo && v < hi && !seen[k] && (!ends || is_end(k))) {
-          ++fans[v];
-          walk(k);
+    auto unseen = [&](int k) { return k >= 0 && !seen[k]; };
+    for (int k = 0; k < corners; ++k) {
+      const int v = verts[k];
+      if (v < lo || v >= hi || seen[k])
+        continue;
+      ++fans[v];
+      seen[k] = 1;
+      for (int side = 0; side < 2; ++side) // away from k across each of its sides, to the fan's end or back to k
+        for (int at = link[2 * static_cast<size_t>(k) + side]; unseen(at);) {
+          seen[at] = 1;
+          const int a = link[2 * static_cast<size_t>(at)], b = link[2 * static_cast<size_t>(at) + 1];
+          at = unseen(a) ? a : b;
         }
-      }
+    }
   });
   std::vector<int> bad;
   for (int v = 0; v < nv; ++v)
