@@ -370,6 +370,47 @@ TEST(Skin, ARigPlacedByTheClipFilesArmatureTakesItsRootKeysOnce) {
   }
 }
 
+TEST(Skin, AClipPoserGivesTheClipsMatricesAtEveryFrameWithThePlacingFoundOnce) {
+  // The jobs pose frame after frame through a ClipPoser, which works out
+  // once how the file places the rig: its matrices are exactly
+  // clip_skinning_matrices' at every frame of every clip, for a rig the
+  // file's armature places (the horse's skeleton placed) and one it does
+  // not (the file's own, and the hand's).
+  if (!test::have_data())
+    GTEST_SKIP() << "no shared data";
+  const SkinnedMesh horse = load_skinned_mesh(test::data("quaternius/Horse.glb"));
+  const SkinnedMesh hand = load_skinned_mesh(test::data("xr_tools_hand/hand_l_poses.glb"));
+  auto placed = horse.joints;
+  const std::vector<Mat4> placing = horse.rest_placing();
+  for (size_t j = 0; j < placed.size(); ++j)
+    placed[j].bind = placing[j] * placed[j].bind;
+  ASSERT_TRUE(placed_by_armature(placed, horse));
+  struct Case {
+    const std::vector<Joint>* joints;
+    const SkinnedMesh* clips;
+  };
+  for (const Case& c : {Case{&placed, &horse}, Case{&horse.joints, &horse}, Case{&hand.joints, &hand}}) {
+    const ClipPoser poser(*c.joints, *c.clips);
+    int frames = 0;
+    for (int clip = 0; clip < c.clips->num_clips(); ++clip) {
+      const auto [first, last] = clip_frames(*c.clips, clip, 24);
+      for (int f = first; f <= last; f += 3, ++frames) {
+        const auto expected = clip_skinning_matrices(*c.joints, *c.clips, clip, f / 24.0);
+        const auto got = poser(clip, f / 24.0);
+        ASSERT_EQ(got.size(), expected.size());
+        for (size_t j = 0; j < got.size(); ++j)
+          ASSERT_EQ(got[j], expected[j]) << c.clips->source << " clip " << clip << " frame " << f << " joint " << j;
+      }
+    }
+    EXPECT_GT(frames, 10) << c.clips->source;
+  }
+  // And it refuses a skeleton the clips do not name, as each call does.
+  std::vector<Joint> strangers = hand.joints;
+  for (Joint& j : strangers)
+    j.name = "not_" + j.name;
+  EXPECT_THROW((void)ClipPoser(strangers, hand)(0, 0.0), InputError);
+}
+
 TEST(Skin, ASkeletonFileIsPlacedByItsArmatureForAMeshInTheScenesSpace) {
   // An OBJ exported from Blender is in the scene's space, where the horse's
   // armature puts its skeleton (100 times the skin's size, Y up); the

@@ -7,6 +7,7 @@
 #include "curvenet/skin.hpp"
 
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -74,6 +75,21 @@ Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int 
 /// \throw InputError when no joint of the clip matches one of `joints`.
 std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
                                          double t);
+
+/// clip_skinning_matrices() frame after frame: how the file places the
+/// rig (placed_by_armature) is worked out once, not at every frame. Holds
+/// references to `joints` and `clips`, which must outlive it.
+class ClipPoser {
+public:
+  ClipPoser(const std::vector<Joint>& joints, const SkinnedMesh& clips);
+  /// \throw InputError as clip_skinning_matrices() does.
+  [[nodiscard]] std::vector<Mat4> operator()(int clip, double t) const;
+
+private:
+  const std::vector<Joint>& joints_;
+  const SkinnedMesh& clips_;
+  std::optional<std::vector<Mat4>> placing_;
+};
 
 /// The whole frames a clip spans at `fps`, first and last: its start
 /// rounded down and its end rounded up.

@@ -398,7 +398,8 @@ AnimateSummary animate_layered(const AnimateJob& job, const Scene& scene, const 
   std::vector<FrameSink*> all;
   for (const auto& k : sinks)
     all.push_back(k.get());
-  auto pose = [&](int frame) { return clip_skinning_matrices(layer.joints(), clips, clip, range.time(frame)); };
+  const ClipPoser poser(layer.joints(), clips);
+  auto pose = [&](int frame) { return poser(clip, range.time(frame)); };
   const double envelope = job.layer.envelope;
   std::optional<NodeKeys> keys;
   if (!job.node_keys.empty()) {
@@ -484,8 +485,9 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
   if (!job.cut_mesh_sequence.empty()) {
     const CurveLayer layer = cut_layer(s, job.options);
     std::vector<Vec3> cut;
+    const ClipPoser poser(layer.joints(), clips);
     for (int f = range.first; f <= range.last; ++f) {
-      layer.deform_cut(clip_skinning_matrices(layer.joints(), clips, clip, range.time(f)), cut);
+      layer.deform_cut(poser(clip, range.time(f)), cut);
       for (size_t v = 0; v < cut.size(); ++v)
         if (!cut[v].allFinite())
           throw InputError(clips.source, "frame " + std::to_string(f),
@@ -507,13 +509,14 @@ AnimateSummary detail::run_animate(const AnimateJob& job, const Binder& binder) 
 std::vector<std::vector<Mat4>> clip_poses(const std::vector<Joint>& joints, const SkinnedMesh& clips, double fps,
                                           long long max_frames) {
   std::vector<std::vector<Mat4>> poses;
+  const ClipPoser poser(joints, clips);
   for (int c = 0; c < clips.num_clips(); ++c) {
     const auto [first, last] = clip_frames(clips, c, fps);
     for (int f = first; f <= last; ++f) {
       if (static_cast<long long>(poses.size()) >= max_frames)
         throw InputError(clips.source, "clip '" + clips.clip_names[c] + "'",
                          "more than " + std::to_string(max_frames) + " frames to fit over");
-      poses.push_back(clip_skinning_matrices(joints, clips, c, f / fps));
+      poses.push_back(poser(c, f / fps));
     }
   }
   return poses;
@@ -535,6 +538,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
     box.extend(p);
   const double diag = std::max(box.diagonal().norm(), 1e-300);
   std::vector<BakeClipFidelity> out;
+  const ClipPoser poser(b.joints(), clips);
   for (int c = 0; c < clips.num_clips(); ++c) {
     if (!carries(clips, names, c))
       continue;
@@ -547,7 +551,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
     double worst_scale = 1, worst_t = t0;
     for (int frame = first; frame <= last; ++frame) {
       const double t = std::max(t0, frame / fps);
-      const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, t);
+      const std::vector<Mat4> M = poser(c, t);
       deform(M, rig);
       const std::vector<Vec3> skin = skin_positions(w, rest, M);
       // A file's armature may scale the whole skeleton (Blender's exports by
@@ -584,7 +588,7 @@ bake_fidelity(const Binding& b, const SkinWeights& w, const SkinnedMesh& clips, 
       // The floor there: where the joints that move it in the rig carry it.
       std::vector<std::pair<int, double>> inf;
       joints_of(f.worst_vertex, inf);
-      const std::vector<Mat4> M = clip_skinning_matrices(b.joints(), clips, c, worst_t); // that very frame
+      const std::vector<Mat4> M = poser(c, worst_t); // that very frame
       std::vector<Vec3> carried;
       for (const auto& [k, x] : inf)
         carried.push_back((M[static_cast<size_t>(k)] * rest[v].homogeneous()).head<3>());

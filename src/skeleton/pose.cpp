@@ -292,12 +292,15 @@ bool placed_by_armature(const std::vector<Joint>& rig, const SkinnedMesh& clips)
   return armature_placing(rig, clips).has_value();
 }
 
-Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int clip, double t) {
+namespace {
+
+/// clip_pose_for() with the file's placing (armature_placing()) given.
+Pose clip_pose_placed(const std::vector<Joint>& rig, const SkinnedMesh& clips, int clip, double t,
+                      const std::optional<std::vector<Mat4>>& placing) {
   Pose all = pose_from_clip(clips, clip, t), pose;
   for (const auto& j : rig)
     if (auto it = all.find(j.name); it != all.end())
       pose.insert(*it);
-  const auto placing = armature_placing(rig, clips);
   if (!placing)
     return pose;
   // The rig's mesh is the file's placed: a point p of the file's is P p on
@@ -317,13 +320,31 @@ Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int 
   return pose;
 }
 
-std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
-                                         double t) {
+std::vector<Mat4> clip_matrices_placed(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip, double t,
+                                       const std::optional<std::vector<Mat4>>& placing) {
   // The clip's entries for the joints it shares with `joints`, by name.
-  const Pose pose = clip_pose_for(joints, clips, clip, t);
+  const Pose pose = clip_pose_placed(joints, clips, clip, t, placing);
   if (pose.empty() && !clips.joints.empty())
     throw InputError(clips.source, "skin", "no joint of the clip's skeleton matches a joint of the rig by name");
   return skinning_matrices(joints, pose, clips.source);
+}
+
+} // namespace
+
+Pose clip_pose_for(const std::vector<Joint>& rig, const SkinnedMesh& clips, int clip, double t) {
+  return clip_pose_placed(rig, clips, clip, t, armature_placing(rig, clips));
+}
+
+std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const SkinnedMesh& clips, int clip,
+                                         double t) {
+  return clip_matrices_placed(joints, clips, clip, t, armature_placing(joints, clips));
+}
+
+ClipPoser::ClipPoser(const std::vector<Joint>& joints, const SkinnedMesh& clips)
+    : joints_(joints), clips_(clips), placing_(armature_placing(joints, clips)) {}
+
+std::vector<Mat4> ClipPoser::operator()(int clip, double t) const {
+  return clip_matrices_placed(joints_, clips_, clip, t, placing_);
 }
 
 std::pair<int, int> clip_frames(const SkinnedMesh& clips, int clip, double fps) {
