@@ -76,7 +76,8 @@ void ObjSequenceSink::write(int frame, std::span<const Vec3> positions) {
 void animate(const Binding& binding, const SkinnedMesh& clips, int clip, const FrameRange& range,
              std::span<FrameSink* const> sinks) {
   const ClipPoser poser(binding.joints(), clips);
-  animate(binding, [&](int frame) { return poser(clip, range.time(frame)); }, range, sinks, clips.source);
+  animate(
+      binding, [&](int frame) { return poser(clip, range.time(frame)); }, range, sinks, clips.source);
 }
 
 void animate(const Binding& binding, const std::function<std::vector<Mat4>(int frame)>& pose, const FrameRange& range,
