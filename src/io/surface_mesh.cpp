@@ -244,9 +244,9 @@ std::vector<int> non_manifold_vertices(int nv, const std::vector<int>& offsets, 
   // the side that ends at it (2k + 1); -1 where that side is on a boundary.
   // Each side is one use of one edge, so each link is written once.
   std::vector<int> link(2 * static_cast<size_t>(corners), -1);
-  // N: corners per face where every face has as many (a constant for
-  // triangles and quads, so that a corner's face is a shift or a multiply),
-  // or 0.
+  // N: corners per face where every face has as many, or 0. A constant for
+  // triangles and quads, so that a corner's next in its face is found by a
+  // remainder by a constant, without reading the face offsets.
   auto write_links = [&]<int N>(std::integral_constant<int, N>) {
     const int n = N ? N : edges.uniform;
     auto next_corner = [&](int k) {
@@ -771,9 +771,9 @@ SurfaceMesh surface_mesh_of(const RawMesh& raw, RawMesh* steal, const std::strin
       bool all_collinear = !degenerate;
       for (int i = 1; i + 1 < n && all_collinear; ++i)
         all_collinear = detail::collinear3d(at(0), at(i), at(i + 1));
-      // A triangle's least height is over its longest edge, where the corner
-      // opposite lies between the edge's ends: one higher than twice the
-      // bound there (an area against the longest edge) needs no test per edge.
+      // A triangle's least height is over its longest edge (where the corner
+      // opposite lies between the edge's ends): one whose height there is
+      // over twice the bound (a margin for rounding) needs no test per edge.
       auto surely_thick = [&] {
         const Vec3 ab = (at(1) - at(0)) * inv_diag, ac = (at(2) - at(0)) * inv_diag, bc = ac - ab;
         const double longest = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
