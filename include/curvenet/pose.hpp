@@ -82,6 +82,8 @@ std::vector<Mat4> clip_skinning_matrices(const std::vector<Joint>& joints, const
 class ClipPoser {
 public:
   ClipPoser(const std::vector<Joint>& joints, const SkinnedMesh& clips);
+  ClipPoser(std::vector<Joint>&&, const SkinnedMesh&) = delete; // it would hold a temporary
+  ClipPoser(const std::vector<Joint>&, SkinnedMesh&&) = delete;
   /// \throw InputError as clip_skinning_matrices() does.
   [[nodiscard]] std::vector<Mat4> operator()(int clip, double t) const;
 
